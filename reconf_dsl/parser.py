@@ -1,0 +1,355 @@
+"""Text → `Document`: the Lark parser and the transformer to IR.
+
+Only syntax and what can be judged from one token (units, rate values) is decided here;
+names are resolved in `resolve`.
+"""
+from __future__ import annotations
+
+from fractions import Fraction
+from functools import lru_cache
+from importlib import resources
+from typing import Any, Optional
+
+from lark import Lark, Token, Transformer, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
+
+from . import ir
+from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, error
+from .span import Span
+
+TERMINAL_NAMES = {
+    "NAME": "a name", "ROS_NAME": "a ROS name like /ns/topic", "ROS_TYPE": "a message type like std_msgs/msg/String",
+    "NUMBER": "a number", "STRING": 'a "string"', "LBRACE": "'{'", "RBRACE": "'}'", "LPAR": "'('",
+    "RPAR": "')'", "COLON": "':'", "COMMA": "','", "DOT": "'.'", "EQUAL": "'='", "AT": "'@'",
+    "ARROW": "'->'", "MODE_KIND": "'normal' or 'degraded'", "NOTHING": "'nothing'", "SINGLE": "'single'",
+    "$END": "end of file",
+}
+
+
+def _describe(terminal: str) -> str:
+    if terminal in TERMINAL_NAMES:
+        return TERMINAL_NAMES[terminal]
+    if terminal.startswith("__ANON") or terminal.isupper():
+        return terminal.lower()
+    return terminal
+
+
+class _ToIR(Transformer[Token, Any]):
+    """Builds IR nodes bottom-up while the LALR parser runs."""
+
+    def __init__(self) -> None:
+        super().__init__(visit_tokens=False)
+        self.file = "<input>"
+        self.sink = DiagnosticSink()
+
+    def span_of(self, meta: Any) -> Span:
+        if getattr(meta, "empty", True):
+            return Span(self.file, 1, 1, 1, 1)
+        return Span(self.file, meta.line, meta.column, meta.end_line, meta.end_column)
+
+    def tok(self, t: Token) -> Span:
+        return Span(self.file, t.line or 1, t.column or 1, t.end_line or t.line or 1,
+                    t.end_column or t.column or 1)
+
+    @v_args(meta=True)
+    def start(self, meta: Any, items: list[Any]) -> list[Any]:
+        return items
+
+    @v_args(meta=True)
+    def system_decl(self, meta: Any, c: list[Token]) -> tuple[str, str, Span]:
+        return ("system", str(c[0]), self.span_of(meta))
+
+    @v_args(meta=True)
+    def include_decl(self, meta: Any, c: list[Token]) -> ir.Include:
+        return ir.Include(unquote(c[0]), self.span_of(meta))
+
+    @v_args(meta=True)
+    def message_decl(self, meta: Any, c: list[Token]) -> ir.MessageType:
+        return ir.MessageType(str(c[0]), str(c[1]), self.span_of(meta))
+
+    @v_args(meta=True)
+    def environment_decl(self, meta: Any, c: list[Any]) -> ir.EnvGuarantee:
+        return ir.EnvGuarantee(str(c[0]), c[1], self.span_of(meta))
+
+    @v_args(meta=True)
+    def host_decl(self, meta: Any, c: list[Any]) -> ir.Host:
+        return ir.Host(str(c[0]), tuple(c[1:]), self.span_of(meta))
+
+    @v_args(meta=True)
+    def resource_item(self, meta: Any, c: list[Token]) -> ir.ResourceSetting:
+        return ir.ResourceSetting(str(c[0]), str(c[1]), self.span_of(meta))
+
+    @v_args(meta=True)
+    def component_decl(self, meta: Any, c: list[Any]) -> ir.Component:
+        name = str(c[0])
+        fields: dict[str, Any] = {"ports": [], "functionalities": [], "resources": []}
+        for stmt in c[1:]:
+            kind, value = stmt
+            if kind in ("ports", "functionalities", "resources"):
+                fields[kind].extend(value if isinstance(value, list) else [value])
+            elif kind in ("faults", "application"):
+                fields[kind] = tuple(fields.get(kind, ())) + tuple(value)
+            else:
+                fields[kind] = value
+        for key in ("ports", "functionalities", "resources"):
+            fields[key] = tuple(fields[key])
+        return ir.Component(name=name, span=self.span_of(meta), **fields)
+
+    def replaces(self, c: list[Token]) -> tuple[str, str]:
+        return ("replaces", str(c[0]))
+
+    def run_stmt(self, c: list[Token]) -> tuple[str, str]:
+        return ("run", unquote(c[0]))
+
+    def host_stmt(self, c: list[Token]) -> tuple[str, str]:
+        return ("host", str(c[0]))
+
+    @v_args(meta=True)
+    def input_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.Port]:
+        pred: ir.Predicate = c[1]
+        return ("ports", ir.Port(str(c[0]), "input", pred.message or "", pred, self.span_of(meta)))
+
+    @v_args(meta=True)
+    def output_stmt(self, meta: Any, c: list[Token]) -> tuple[str, ir.Port]:
+        return ("ports", ir.Port(str(c[0]), "output", str(c[1]), None, self.span_of(meta)))
+
+    def faults_stmt(self, c: list[Any]) -> tuple[str, tuple[str, ...]]:
+        return ("faults", c[0])
+
+    def application_stmt(self, c: list[Any]) -> tuple[str, tuple[str, ...]]:
+        return ("application", c[0])
+
+    def resources_stmt(self, c: list[Any]) -> tuple[str, list[ir.ResourceSetting]]:
+        return ("resources", list(c))
+
+    @v_args(meta=True)
+    def ftm_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.FtmDecl]:
+        hosts = c[1] if len(c) > 1 else ()
+        return ("ftm", ir.FtmDecl(c[0], hosts, self.span_of(meta)))
+
+    def ftm_hosts(self, c: list[Any]) -> tuple[str, ...]:
+        return tuple(c[0])
+
+    @v_args(meta=True)
+    def ftm_expr(self, meta: Any, c: list[Any]) -> ir.FtmExpr:
+        return ir.FtmExpr(str(c[0]), c[1] if len(c) > 1 else None, self.span_of(meta))
+
+    @v_args(meta=True)
+    def functionality(self, meta: Any, c: list[Any]) -> tuple[str, ir.Functionality]:
+        name = str(c[0])
+        ports: tuple[str, ...] = ()
+        criticality = 1
+        modes: dict[str, ir.Mode] = {}
+        span = self.span_of(meta)
+        for x in c[1:]:
+            if x is None:
+                continue
+            if isinstance(x, tuple) and x and x[0] == "criticality":
+                criticality = x[1]
+            elif isinstance(x, ir.Mode):
+                if x.kind in modes:
+                    self.sink.add(error("RC110", f"functionality '{name}' has two {x.kind} modes", x.span))
+                modes[x.kind] = x
+            else:
+                ports = tuple(x)
+        return ("functionalities", ir.Functionality(name, ports, modes.get("normal"), modes.get("degraded"),
+                                                    criticality, span))
+
+    def criticality(self, c: list[Token]) -> tuple[str, int]:
+        tok = c[0]
+        try:
+            value = Fraction(str(tok))
+        except (ValueError, ZeroDivisionError):
+            value = Fraction(0)
+        if value.denominator != 1 or value < 0:
+            self.sink.add(error("RC119", f"criticality must be a whole number ≥ 0, not {tok}", self.tok(tok)))
+            return ("criticality", 1)
+        return ("criticality", int(value))
+
+    @v_args(meta=True)
+    def mode(self, meta: Any, c: list[Any]) -> ir.Mode:
+        kind = str(c[0])
+        asms = tuple(x for x in c[1:] if isinstance(x, ir.Predicate))
+        guars = tuple(x for x in c[1:] if isinstance(x, ir.Guarantee))
+        return ir.Mode(kind, asms, guars, self.span_of(meta))  # type: ignore[arg-type]
+
+    def assume_stmt(self, c: list[Any]) -> ir.Predicate:
+        return c[0]  # type: ignore[no-any-return]
+
+    @v_args(meta=True)
+    def guarantee_stmt(self, meta: Any, c: list[Any]) -> ir.Guarantee:
+        return ir.Guarantee(str(c[0]), c[1], self.span_of(meta))
+
+    @v_args(meta=True)
+    def nothing(self, meta: Any, c: list[Any]) -> ir.Predicate:
+        return ir.Predicate(None, None, self.span_of(meta))
+
+    @v_args(meta=True)
+    def data(self, meta: Any, c: list[Any]) -> ir.Predicate:
+        rate = c[1] if len(c) > 1 else None
+        return ir.Predicate(str(c[0]), rate, self.span_of(meta))
+
+    @v_args(meta=True)
+    def rate(self, meta: Any, c: list[Token]) -> Optional[ir.Rate]:
+        number, unit = c
+        span = self.span_of(meta)
+        try:
+            value = Fraction(str(number))
+        except (ValueError, ZeroDivisionError):
+            self.sink.add(error("RC113", f"'{number}' is not a rate", self.tok(number)))
+            return ir.Rate(Fraction(1), "Hz", span)
+        if str(unit) not in ir.UNITS:
+            self.sink.add(error("RC114", f"unknown unit '{unit}'", self.tok(unit),
+                                notes=("rates are in Hz, kHz or MHz, or a period in s, ms or us",)))
+            return ir.Rate(value if value > 0 else Fraction(1), "Hz", span)
+        if value <= 0:
+            self.sink.add(error("RC113", f"a rate must be positive, not {number} {unit}", self.tok(number)))
+            return ir.Rate(Fraction(1), str(unit), span)
+        return ir.Rate(value, str(unit), span)
+
+    @v_args(meta=True)
+    def topic_decl(self, meta: Any, c: list[Any]) -> ir.Connector:
+        return self._connector("topic", meta, c)
+
+    @v_args(meta=True)
+    def service_decl(self, meta: Any, c: list[Any]) -> ir.Connector:
+        return self._connector("service", meta, c)
+
+    def _connector(self, kind: str, meta: Any, c: list[Any]) -> ir.Connector:
+        name, pred = c[0], c[1]
+        single = False
+        pubs: list[ir.PortRef] = []
+        subs: list[ir.PortRef] = []
+        for x in c[2:]:
+            if isinstance(x, Token) and x.type == "SINGLE":
+                single = True
+            else:
+                pubs.extend(x[0])
+                subs.extend(x[1])
+        return ir.Connector(name, kind, pred, single, tuple(pubs), tuple(subs), self.span_of(meta))  # type: ignore[arg-type]
+
+    def conn_name(self, c: list[Token]) -> str:
+        return str(c[0])
+
+    def attachment(self, c: list[Any]) -> tuple[list[ir.PortRef], list[ir.PortRef]]:
+        left: list[ir.PortRef] = []
+        right: list[ir.PortRef] = []
+        seen_arrow = False
+        for x in c:
+            if isinstance(x, Token):
+                seen_arrow = True
+            elif x is not None:
+                (right if seen_arrow else left).extend(x)
+        return left, right
+
+    def portref_list(self, c: list[ir.PortRef]) -> list[ir.PortRef]:
+        return list(c)
+
+    @v_args(meta=True)
+    def portref(self, meta: Any, c: list[Token]) -> ir.PortRef:
+        return ir.PortRef(str(c[0]), str(c[1]), self.span_of(meta))
+
+    def name_list(self, c: list[Token]) -> tuple[str, ...]:
+        return tuple(str(t) for t in c)
+
+
+def unquote(tok: Token) -> str:
+    body = str(tok)[1:-1]
+    return body.encode("latin-1", "backslashreplace").decode("unicode_escape") if "\\" in body else body
+
+
+class Parser:
+    """One Lark LALR parser, built once; `parse` is not re-entrant."""
+
+    def __init__(self) -> None:
+        grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
+        self._ir = _ToIR()
+        self._comments: list[Token] = []
+        self._lark = Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True,
+                          maybe_placeholders=True,
+                          lexer_callbacks={"LINE_COMMENT": self._comments.append,
+                                           "BLOCK_COMMENT": self._comments.append})
+
+    def parse(self, text: str, file: str) -> ir.Document:
+        """Parse one file. Raises DiagnosticError on any error."""
+        self._ir.file = file
+        self._ir.sink = DiagnosticSink()
+        self._comments.clear()
+        try:
+            items = self._ir.transform(self._lark.parse(text))
+        except UnexpectedInput as e:
+            raise DiagnosticError([syntax_diagnostic(e, text, file)]) from None
+        except VisitError as e:  # pragma: no cover - a transformer bug, reported not hidden
+            raise DiagnosticError([error("RC000", f"internal error while reading: {e.orig_exc!r}",
+                                         Span(file, 1, 1, 1, 1))]) from None
+        self._ir.sink.raise_if_errors()
+        system: Optional[str] = None
+        system_span = Span(file, 1, 1, 1, 1)
+        body: list[ir.Item] = []
+        sink = DiagnosticSink()
+        for item in items:
+            if isinstance(item, tuple) and item[0] == "system":
+                if system is not None:
+                    sink.add(error("RC115", f"a file declares one system; '{system}' is already declared here",
+                                   item[2], related=(_rel(system_span, "first declared here"),)))
+                system, system_span = item[1], item[2]
+            else:
+                body.append(item)
+        sink.raise_if_errors()
+        comments = tuple((t.line or 1, t.end_line or 1, str(t)) for t in self._comments)
+        return ir.Document(file, system, tuple(body), system_span, comments)
+
+
+def _rel(span: Span, msg: str) -> Any:
+    from .diagnostics import Related
+    return Related(span, msg)
+
+
+def syntax_diagnostic(e: UnexpectedInput, text: str, file: str) -> Diagnostic:
+    line, col = e.line if e.line > 0 else 1, e.column if e.column > 0 else 1
+    if isinstance(e, UnexpectedCharacters):
+        rest = text[e.pos_in_stream:e.pos_in_stream + 2]
+        span = Span(file, line, col, line, col + 1)
+        if rest.startswith('"'):
+            return error("RC003", "unterminated string", span, notes=("a string ends with \" on the same line",))
+        if rest.startswith("/*"):
+            return error("RC004", "unterminated comment", span, notes=("a /* comment */ needs its closing */",))
+        char = text[e.pos_in_stream] if e.pos_in_stream < len(text) else ""
+        expected = sorted(_describe(t) for t in (e.allowed or ()))
+        return error("RC002", f"unexpected character {char!r}", span,
+                     notes=(f"expected {_one_of(expected)}",) if expected else ())
+    if isinstance(e, UnexpectedToken):
+        tok = e.token
+        expected = sorted({_describe(t) for t in e.expected if not t.startswith("_")})
+        if tok.type == "$END":
+            end = _end_position(text)
+            return error("RC001", "unexpected end of file", Span(file, *end, *end),
+                         notes=(f"expected {_one_of(expected)}",) if expected else ())
+        span = Span(file, tok.line or line, tok.column or col, tok.end_line or line,
+                    tok.end_column or col + 1)
+        return error("RC001", f"unexpected {str(tok)!r}", span,
+                     notes=(f"expected {_one_of(expected)}",) if expected else ())
+    if isinstance(e, UnexpectedEOF):
+        end = _end_position(text)
+        return error("RC001", "unexpected end of file", Span(file, *end, *end))
+    return error("RC001", str(e), Span(file, line, col, line, col))  # pragma: no cover
+
+
+def _end_position(text: str) -> tuple[int, int]:
+    lines = text.split("\n")
+    return len(lines), len(lines[-1]) + 1
+
+
+def _one_of(names: list[str]) -> str:
+    if len(names) > 8:
+        names = names[:8] + ["…"]
+    return names[0] if len(names) == 1 else "one of " + ", ".join(names)
+
+
+@lru_cache(maxsize=1)
+def parser() -> Parser:
+    return Parser()
+
+
+def parse_text(text: str, file: str = "<input>") -> ir.Document:
+    return parser().parse(text, file)
