@@ -1,0 +1,244 @@
+/*
+ * reconf meta-model: the semantic model of event-driven systems (DESIGN.md §3), the six
+ * reconfiguration actions with their pre/post-conditions (paper 001 §4.3), and the
+ * assertions that each action takes a valid configuration to a valid one.
+ *
+ * Generated from codegen/templates/alloy/ by `python -m codegen.alloy --regenerate`;
+ * edit the templates, not this file.
+ *
+ * Encoding notes (for speed): rates are ordered atoms (util/ordering), a check compares
+ * exactly two configurations (Pre and Post), the current mode of a functionality is the
+ * set `degraded` of its configuration, and roles are one ternary relation.
+ *
+ * Lines tagged "--@pre <action>.<name>" are precondition clauses; the mutation tests
+ * delete them one at a time to show each is needed.
+ */
+module reconf
+
+open util/ordering[Rate] as ro
+
+-- Data predicates --------------------------------------------------------------------
+
+sig MType {}
+sig Rate {}
+abstract sig Data {}
+one sig Nothing extends Data {}
+sig Msg extends Data {
+  mtype: one MType,
+  rate: lone Rate
+}
+fun rate_next: Rate -> Rate { ro/next }
+
+-- Architecture (static) --------------------------------------------------------------
+
+sig Component {
+  inputs: set Input,
+  outputs: set Output,
+  funcs: set Functionality
+}
+abstract sig Port {}
+sig Input extends Port {
+  iasm: one Data
+}
+sig Output extends Port {}
+
+sig Functionality {
+  assoc_in: set Input,
+  assoc_out: set Output,
+  nasms: set Data,
+  nguar: Output -> lone Data,
+  dguar: Output -> lone Data
+}
+
+sig Connector {
+  cguar: one Data
+}
+
+one sig Env {
+  guars: set Data
+}
+fun envg: set Data { Env.guars }
+
+fact architecture {
+  all p: Input | one inputs.p
+  all p: Output | one outputs.p
+  all f: Functionality | one funcs.f
+  all c: Component | c.funcs.assoc_in in c.inputs and c.funcs.assoc_out in c.outputs
+  -- a guarantee per associated output, in each mode
+  all f: Functionality | f.nguar.Data = f.assoc_out and f.dguar.Data = f.assoc_out
+}
+
+-- Rules on modes: (i) every functionality has both modes (by construction); (ii) the
+-- degraded mode assumes nothing (it has no assumptions); (iii) whatever a degraded
+-- guarantee satisfies, the normal guarantee of the same output satisfies too.
+fact degraded_weaker {
+  all f: Functionality, o: f.assoc_out, x: Data |
+    satisfy[o.(f.dguar), x] implies satisfy[o.(f.nguar), x]
+}
+
+-- Configurations ---------------------------------------------------------------------
+
+abstract sig System {
+  comps: set Component,
+  degraded: set Functionality,
+  roles: Connector -> Port
+}
+one sig Pre, Post extends System {}
+
+-- Semantics (shared with instance modules) -------------------------------------------
+
+-- p satisfies q: both nothing, or the same message type and (q has no rate, or p has a
+-- rate at least q's).
+pred satisfy[p, q: Data] {
+  (p = Nothing and q = Nothing)
+  or
+  (p + q in Msg and p.mtype = q.mtype and (no q.rate or (some p.rate and p.rate in q.rate.*rate_next)))
+}
+
+-- The functionalities of the present components.
+fun present_funcs[s: System]: set Functionality {
+  (s.comps).funcs
+}
+
+-- The guarantee on output o of f in f's current mode.
+fun cur_guar[s: System, f: Functionality, o: Output]: lone Data {
+  f in (s.degraded) implies o.(f.dguar) else o.(f.nguar)
+}
+
+-- The assumptions of f's current mode (the degraded mode assumes nothing).
+fun cur_asms[s: System, f: Functionality]: set Data {
+  f in (s.degraded) implies none else f.nasms
+}
+
+-- Connector k is satisfied by an attached output other than those in no_o.
+pred conn_satisfied_no_out[s: System, k: Connector, no_o: set Output] {
+  some f: present_funcs[s], o: f.assoc_out - no_o |
+    o in k.(s.roles) and satisfy[cur_guar[s, f, o], k.cguar]
+}
+
+pred conn_satisfied[s: System, k: Connector] {
+  conn_satisfied_no_out[s, k, none]
+}
+
+-- Input i is attached to a satisfied connector whose guarantee satisfies i's assumption.
+pred input_satisfied[s: System, i: Input] {
+  some k: (s.roles).i | conn_satisfied[s, k] and satisfy[k.cguar, i.iasm]
+}
+
+-- Assumption a of f holds without the inputs no_i: by an associated satisfied input
+-- whose assumption satisfies a, or by an environment guarantee.
+pred asm_holds_no_input[s: System, f: Functionality, a: Data, no_i: set Input] {
+  (some i: f.assoc_in - no_i | satisfy[i.iasm, a] and input_satisfied[s, i])
+  or
+  (some g: envg | satisfy[g, a])
+}
+
+pred asm_holds[s: System, f: Functionality, a: Data] {
+  asm_holds_no_input[s, f, a, none]
+}
+
+-- Component c stays safe without the inputs no_i.
+pred safe_no_input[s: System, c: Component, no_i: set Input] {
+  all f: c.funcs, a: cur_asms[s, f] | asm_holds_no_input[s, f, a, no_i]
+}
+
+-- The safety property: every assumption of every present functionality's current mode holds.
+pred valid[s: System] {
+  all f: present_funcs[s], a: cur_asms[s, f] | asm_holds[s, f, a]
+}
+
+-- Actions ----------------------------------------------------------------------------
+
+-- Remove an isolated component.
+pred remove[s, s2: System, c: Component] {
+  c in s.comps                                             --@pre remove.present
+  no s.roles.(c.inputs + c.outputs)                        --@pre remove.isolated
+  s2.comps = s.comps - c
+  s2.degraded = s.degraded
+  s2.roles = s.roles
+}
+
+-- Create a component with all its functionalities degraded.
+pred create[s, s2: System, c: Component] {
+  c not in s.comps                                         --@pre create.absent
+  c.funcs in s.degraded                                    --@pre create.degraded
+  s2.comps = s.comps + c
+  s2.degraded = s.degraded
+  s2.roles = s.roles
+}
+
+-- Detach port p from connector k.
+pred detach[s, s2: System, k: Connector, p: Port] {
+  p in k.(s.roles)                                         --@pre detach.attached
+  p in Input implies (some c: s.comps | p in c.inputs and safe_no_input[s, c, p])  --@pre detach.input
+  (p in Output and not conn_satisfied_no_out[s, k, p]) implies (all c: s.comps | safe_no_input[s, c, k.(s.roles) & Input])  --@pre detach.output
+  s2.comps = s.comps
+  s2.degraded = s.degraded
+  s2.roles = s.roles - k -> p
+}
+
+-- Attach port p of a present component to connector k.
+pred attach[s, s2: System, k: Connector, p: Port] {
+  p in s.comps.(inputs + outputs)                          --@pre attach.present
+  p not in k.(s.roles)                                     --@pre attach.detached
+  p in Output implies (some f: present_funcs[s] | p in f.assoc_out and satisfy[cur_guar[s, f, p], k.cguar])  --@pre attach.output
+  p in Input implies satisfy[k.cguar, p.iasm]              --@pre attach.input
+  s2.comps = s.comps
+  s2.degraded = s.degraded
+  s2.roles = s.roles + k -> p
+}
+
+-- Degrade functionality f of a present component.
+pred degrade[s, s2: System, f: Functionality] {
+  f in present_funcs[s]                                    --@pre degrade.present
+  f not in s.degraded                                      --@pre degrade.normal
+  let aff = { k: Connector | not conn_satisfied_no_out[s, k, f.assoc_out]
+                             and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(f.dguar), k.cguar] } |
+    all c: s.comps | safe_no_input[s, c, aff.(s.roles) & Input]  --@pre degrade.safe
+  s2.comps = s.comps
+  s2.degraded = s.degraded + f
+  s2.roles = s.roles
+}
+
+-- Upgrade functionality f of a present component to its normal mode.
+pred upgrade[s, s2: System, f: Functionality] {
+  f in present_funcs[s]                                    --@pre upgrade.present
+  f in s.degraded                                          --@pre upgrade.degraded
+  all a: f.nasms | asm_holds[s, f, a]                      --@pre upgrade.assumptions
+  s2.comps = s.comps
+  s2.degraded = s.degraded - f
+  s2.roles = s.roles
+}
+
+-- Attaching only adds satisfaction, so SafeAttach holds whatever attach requires; its
+-- preconditions serve well-typed connections, which this assertion checks.
+pred well_typed[s: System, k: Connector, p: Port] {
+  p in Output implies (some f: present_funcs[s] | p in f.assoc_out and satisfy[cur_guar[s, f, p], k.cguar])
+  p in Input implies satisfy[k.cguar, p.iasm]
+}
+
+-- Safety of the actions --------------------------------------------------------------
+
+assert SafeRemove  { all c: Component | valid[Pre] and remove[Pre, Post, c] implies valid[Post] }
+assert SafeCreate  { all c: Component | valid[Pre] and create[Pre, Post, c] implies valid[Post] }
+assert SafeDetach  { all k: Connector, p: Port | valid[Pre] and detach[Pre, Post, k, p] implies valid[Post] }
+assert SafeAttach  { all k: Connector, p: Port | valid[Pre] and attach[Pre, Post, k, p] implies valid[Post] }
+assert SafeDegrade { all f: Functionality | valid[Pre] and degrade[Pre, Post, f] implies valid[Post] }
+assert SafeUpgrade { all f: Functionality | valid[Pre] and upgrade[Pre, Post, f] implies valid[Post] }
+assert AttachWellTyped { all k: Connector, p: Port | attach[Pre, Post, k, p] implies well_typed[Post, k, p] }
+
+check SafeRemove  for 5 expect 0
+check SafeCreate  for 5 expect 0
+check SafeDetach  for 5 expect 0
+check SafeAttach  for 5 expect 0
+check SafeDegrade for 5 expect 0
+check SafeUpgrade for 5 expect 0
+check AttachWellTyped for 5 expect 0
+
+-- Each action's preconditions can hold between two valid configurations.
+run Remove  { some c: Component | valid[Pre] and remove[Pre, Post, c] and valid[Post] } for 3 expect 1
+run Create  { some c: Component | valid[Pre] and create[Pre, Post, c] and valid[Post] } for 3 expect 1
+run Detach  { some k: Connector, p: Port | valid[Pre] and detach[Pre, Post, k, p] and valid[Post] } for 3 expect 1
+run Attach  { some k: Connector, p: Port | valid[Pre] and attach[Pre, Post, k, p] and valid[Post] } for 3 expect 1
+run Degrade { some f: Functionality | valid[Pre] and degrade[Pre, Post, f] and valid[Post] } for 3 expect 1
+run Upgrade { some f: Functionality | valid[Pre] and upgrade[Pre, Post, f] and valid[Post] } for 3 expect 1

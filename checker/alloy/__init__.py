@@ -1,0 +1,15 @@
+"""The Alloy bridge: the Alloy 6 jar driven through JPype.
+
+    from checker.alloy import AlloyBridge
+    outcomes = AlloyBridge.get().run({"main.als": text}, "main.als")
+"""
+from .bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
+from .errors import AlloyError, AlloyTimeout, AlloyUnavailable
+from .jvm import find_jar, find_jvm
+from .metamodel import metamodel_modules
+from .worker import run_with_timeout
+
+__all__ = [
+    "DEFAULT_SOLVER", "AlloyBridge", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend",
+    "CommandOutcome", "find_jar", "find_jvm", "get_backend", "metamodel_modules", "run_with_timeout",
+]

@@ -1,0 +1,253 @@
+"""Run Alloy modules through the Alloy 6 jar in-process (JPype).
+
+Every module is passed in memory under /alloyvfs/ (this Alloy build mis-resolves `open`
+when a directory on the path contains a dot), so `modules` maps names such as
+"main.als" and "reconf/x.als" to their text and `open reconf/x` finds the latter.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Protocol
+
+from .errors import AlloyError, AlloyUnavailable
+from .jvm import ensure_jvm
+
+VFS = "/alloyvfs/"
+DEFAULT_SOLVER = "glucose"
+FALLBACK_SOLVER = "sat4j"
+
+# Friendly names for A4Options.SatSolver; the jar's own ids work too.
+SOLVER_ALIASES = {
+    "glucose": "glucose(jni)",
+    "glucose41": "glucose 4.1(jni)",
+    "minisat": "minisat(jni)",
+    "minisatprover": "minisatprover(jni)",
+    "lingeling": "lingeling(jni)",
+    "plingeling": "plingeling(jni)",
+    "cryptominisat": "cryptominisat(jni)",
+    "sat4j": "sat4j",
+}
+
+Tuples = set[tuple[str, ...]]
+
+
+@dataclass
+class CommandOutcome:
+    """The result of one Alloy command.
+
+    For a check, `satisfiable` means a counterexample was found; for a run, an instance.
+    `as_expected` compares with the command's `expect` (None when it has none).
+    """
+
+    label: str
+    is_check: bool
+    expects: int | None
+    satisfiable: bool
+    elapsed: float
+    solver: str
+    scope: str = ""
+    evaluated: dict[str, Tuples] = field(default_factory=dict)
+    _evaluator: Callable[[str], Tuples] | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def outcome(self) -> str:
+        if self.is_check:
+            return "counterexample" if self.satisfiable else "no counterexample"
+        return "instance" if self.satisfiable else "no instance"
+
+    @property
+    def as_expected(self) -> bool | None:
+        if self.expects is None or self.expects < 0:
+            return None
+        return (1 if self.satisfiable else 0) == self.expects
+
+    def eval(self, expr: str) -> Tuples:
+        """The value of an Alloy expression in the instance/counterexample, as tuples of
+        atom names (e.g. {("Component$0",)})."""
+        if expr in self.evaluated:
+            return self.evaluated[expr]
+        if self._evaluator is None:
+            raise AlloyError(f"no solution to evaluate {expr!r} in ({self.outcome})")
+        value = self._evaluator(expr)
+        self.evaluated[expr] = value
+        return value
+
+
+class Backend(Protocol):
+    """What reconf needs of an Alloy backend."""
+
+    name: str
+
+    def run(self, modules: Mapping[str, str], main: str, command: str | None = None,
+            solver: str = DEFAULT_SOLVER) -> list[CommandOutcome]: ...
+
+    def commands(self, modules: Mapping[str, str], main: str) -> list[str]: ...
+
+
+class AlloyBridge:
+    """The in-process backend: the Alloy jar through JPype. Use `AlloyBridge.get()`."""
+
+    name = "alloy-jpype"
+    _instance: "AlloyBridge | None" = None
+    _instance_lock = threading.Lock()
+
+    @classmethod
+    def get(cls) -> "AlloyBridge":
+        """The bridge, starting the JVM on first use; raises AlloyUnavailable."""
+        with cls._instance_lock:
+            if cls._instance is None:
+                ensure_jvm()
+                cls._instance = cls()
+            return cls._instance
+
+    def __init__(self) -> None:
+        from edu.mit.csail.sdg.alloy4 import A4Reporter, Err  # type: ignore[import-not-found]
+        from edu.mit.csail.sdg.parser import CompUtil  # type: ignore[import-not-found]
+        from edu.mit.csail.sdg.translator import (  # type: ignore[import-not-found]
+            A4Options,
+            TranslateAlloyToKodkod,
+        )
+
+        self._A4Reporter = A4Reporter
+        self._Err = Err
+        self._CompUtil = CompUtil
+        self._A4Options = A4Options
+        self._Translate = TranslateAlloyToKodkod
+        self._usable: dict[str, bool] = {}
+        self._lock = threading.RLock()
+
+    # -- solvers -------------------------------------------------------------------
+
+    def solver_ids(self) -> list[str]:
+        return [str(s.id()) for s in self._A4Options.SatSolver.values()]
+
+    def _solver(self, name: str) -> Any:
+        wanted = SOLVER_ALIASES.get(name.lower(), name)
+        for s in self._A4Options.SatSolver.values():
+            if wanted in (str(s.id()), str(s)) or name.lower() == str(s).lower():
+                return s
+        known = ", ".join(SOLVER_ALIASES)
+        raise AlloyError(f"unknown SAT solver {name!r}; known: {known}")
+
+    def usable_solver(self, name: str) -> str:
+        """`name` if its native library loads here, else the pure-Java fallback."""
+        with self._lock:
+            key = str(self._solver(name).id())
+            if key not in self._usable:
+                self._usable[key] = self._probe(key)
+            return key if self._usable[key] else FALLBACK_SOLVER
+
+    def _probe(self, solver_id: str) -> bool:
+        if solver_id == FALLBACK_SOLVER:
+            return True
+        try:
+            probe = "sig A {}\nrun { some A } for 2 expect 1\n"
+            outcomes = self._run_checked({"probe.als": probe}, "probe.als", None, solver_id)
+            return bool(outcomes and outcomes[0].satisfiable)
+        except Exception:
+            return False
+
+    # -- running ---------------------------------------------------------------------
+
+    def _world(self, modules: Mapping[str, str], main: str) -> Any:
+        from java.util import HashMap  # type: ignore[import-not-found]
+
+        files = HashMap()
+        for name, text in modules.items():
+            files.put(VFS + name, text)
+        if main not in modules:
+            raise AlloyError(f"main module {main!r} not among the modules given")
+        try:
+            return self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main)
+        except self._Err as err:
+            raise self._error(err) from None
+
+    def _error(self, err: Any) -> AlloyError:
+        pos = err.pos
+        module = None
+        line = column = 0
+        if pos is not None:
+            filename = str(pos.filename or "")
+            module = filename[len(VFS):] if filename.startswith(VFS) else (filename or None)
+            line, column = int(pos.y), int(pos.x)
+        return AlloyError(str(err.msg), module, line, column)
+
+    def commands(self, modules: Mapping[str, str], main: str) -> list[str]:
+        with self._lock:
+            world = self._world(modules, main)
+            return [str(c.label) for c in world.getAllCommands()]
+
+    def run(self, modules: Mapping[str, str], main: str, command: str | None = None,
+            solver: str = DEFAULT_SOLVER,
+            progress: Callable[[CommandOutcome], None] | None = None) -> list[CommandOutcome]:
+        """Run every command of `main` (or only the one labelled `command`).
+
+        Falls back to SAT4J when the requested solver's native library does not load.
+        """
+        with self._lock:
+            solver_id = self.usable_solver(solver)
+            return self._run_checked(modules, main, command, solver_id, progress)
+
+    def _run_checked(self, modules: Mapping[str, str], main: str, command: str | None,
+                     solver_id: str,
+                     progress: Callable[[CommandOutcome], None] | None = None) -> list[CommandOutcome]:
+        world = self._world(modules, main)
+        commands = list(world.getAllCommands())
+        if command is not None:
+            commands = [c for c in commands if str(c.label) == command]
+            if not commands:
+                raise AlloyError(f"no command {command!r} in {main}")
+        opts = self._A4Options()
+        opts.solver = self._solver(solver_id)
+        opts.skolemDepth = 1
+        opts.noOverflow = True
+        outcomes = []
+        for cmd in commands:
+            outcome = self._execute(world, cmd, opts, solver_id)
+            if progress is not None:
+                progress(outcome)
+            outcomes.append(outcome)
+        return outcomes
+
+    def _execute(self, world: Any, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
+        start = time.perf_counter()
+        try:
+            sol = self._Translate.execute_command(self._A4Reporter(), world.getAllReachableSigs(), cmd, opts)
+        except self._Err as err:
+            raise self._error(err) from None
+        elapsed = time.perf_counter() - start
+        satisfiable = bool(sol.satisfiable())
+        text = str(cmd.toString())
+        scope = text.split(" for ", 1)[1] if " for " in text else ""
+        if " expect " in scope:
+            scope = scope.split(" expect ")[0]
+        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
+        return CommandOutcome(
+            label=str(cmd.label), is_check=bool(cmd.check), expects=int(cmd.expects),
+            satisfiable=satisfiable, elapsed=elapsed, solver=solver_id, scope=scope,
+            _evaluator=evaluator,
+        )
+
+    def _eval(self, world: Any, sol: Any, expr: str) -> Tuples:
+        with self._lock:
+            try:
+                parsed = self._CompUtil.parseOneExpression_fromString(world, expr)
+                value = sol.eval(parsed)
+            except self._Err as err:
+                raise self._error(err) from None
+            if isinstance(value, bool) or str(type(value)).endswith("Boolean'>"):
+                return {("true",)} if bool(value) else set()
+            result: Tuples = set()
+            for t in value:
+                result.add(tuple(str(t.atom(i)) for i in range(t.arity())))
+            return result
+
+
+def get_backend() -> Backend:
+    """The default backend; raises AlloyUnavailable with what to install."""
+    return AlloyBridge.get()
+
+
+__all__ = ["AlloyBridge", "AlloyUnavailable", "Backend", "CommandOutcome", "get_backend"]
