@@ -12,7 +12,7 @@ from typing import Iterable, Optional
 
 import networkx as nx
 
-from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, satisfies
+from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, format_number, satisfies
 from reconf_dsl.span import Span
 
 from .config import Configuration, FuncId
@@ -35,7 +35,11 @@ def shortfall(p: Predicate, q: Predicate) -> Optional[str]:
 
 
 def _rate(p: Predicate) -> str:
-    return str(p).split(" @ ", 1)[1]
+    assert p.rate is not None
+    text = str(p).split(" @ ", 1)[1]
+    if p.rate.unit in ("Hz", "kHz", "MHz"):
+        return text
+    return f"{format_number(p.rate.hz)} Hz (every {text})"
 
 
 @dataclass(frozen=True)

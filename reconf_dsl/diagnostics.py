@@ -17,6 +17,7 @@ class Severity(str, enum.Enum):
 class Related:
     span: Span
     message: str
+    depth: int = 0  # nesting when related spans form a chain (an explanation)
 
 
 @dataclass(frozen=True)

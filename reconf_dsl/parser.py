@@ -253,9 +253,30 @@ class _ToIR(Transformer[Token, Any]):
         return tuple(str(t) for t in c)
 
 
+_ESCAPES = {"n": "\n", "t": "\t", '"': '"', "\\": "\\"}
+
+
 def unquote(tok: Token) -> str:
+    """The text of a "string": \\n, \\t, \\" and \\\\ are escapes; any other backslash stays."""
     body = str(tok)[1:-1]
-    return body.encode("latin-1", "backslashreplace").decode("unicode_escape") if "\\" in body else body
+    if "\\" not in body:
+        return body
+    out: list[str] = []
+    i = 0
+    while i < len(body):
+        ch = body[i]
+        if ch == "\\" and i + 1 < len(body) and body[i + 1] in _ESCAPES:
+            out.append(_ESCAPES[body[i + 1]])
+            i += 2
+        else:
+            out.append(ch)
+            i += 1
+    return "".join(out)
+
+
+def quote(text: str) -> str:
+    """The inverse of `unquote`."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t") + '"'
 
 
 class Parser:

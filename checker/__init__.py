@@ -1,0 +1,1 @@
+"""Everything that decides: satisfaction, actions, planning, FTM selection, the Alloy bridge, the CLI."""

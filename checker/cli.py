@@ -1,0 +1,201 @@
+"""The `reconf` command line. Human output goes to stderr through rich, machine output to stdout.
+
+Exit codes: 0 safe / done, 1 unsafe / no safe plan, 2 bad input, usage, missing dependency
+or internal error."""
+from __future__ import annotations
+
+import difflib
+import functools
+import os
+import sys
+import tempfile
+from typing import Any, Callable, Optional, TypeVar
+
+import click
+from rich.console import Console
+
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
+from reconf_dsl.formatter import format_document
+from reconf_dsl.loader import Sources, load, read_source
+from reconf_dsl.parser import parse_text
+
+from . import report
+from .config import Configuration
+from .report import OutputFormat
+from .semantics import evaluate
+
+EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def console() -> Console:
+    return Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+class Failure(Exception):
+    """Stop with these diagnostics and this exit code."""
+
+    def __init__(self, diagnostics: list[Diagnostic], code: int = EXIT_BAD_INPUT):
+        self.diagnostics, self.code = diagnostics, code
+
+
+def guarded(command: str) -> Callable[[F], F]:
+    """Turn every failure into rendered diagnostics and an exit code; never a traceback."""
+    def wrap(fn: F) -> F:
+        @functools.wraps(fn)
+        def inner(*args: Any, **kwargs: Any) -> Any:
+            fmt: OutputFormat = kwargs.get("output_format", OutputFormat.TEXT)
+            sources: Sources = kwargs.setdefault("sources", Sources())
+            try:
+                return fn(*args, **kwargs)
+            except DiagnosticError as e:
+                emit_failure(command, e.diagnostics, fmt, sources)
+                sys.exit(EXIT_BAD_INPUT)
+            except Failure as e:
+                emit_failure(command, e.diagnostics, fmt, sources)
+                sys.exit(e.code)
+            except KeyboardInterrupt:
+                console().print("interrupted")
+                sys.exit(130)
+            except (click.exceptions.Exit, click.ClickException, SystemExit):
+                raise
+            except Exception as e:  # an internal error is still a clear message, not a traceback
+                if os.environ.get("RECONF_DEBUG"):
+                    raise
+                emit_failure(command, [report.internal_error(f"internal error: {type(e).__name__}: {e}")],
+                             fmt, sources)
+                sys.exit(EXIT_BAD_INPUT)
+        return inner  # type: ignore[return-value]
+    return wrap
+
+
+def emit_failure(command: str, diags: list[Diagnostic], fmt: OutputFormat, sources: Sources) -> None:
+    if fmt is OutputFormat.JSON:
+        click.echo(report.document(command, "error", diags))
+    else:
+        report.render_text(diags, sources, sys.stderr)
+        n = sum(1 for d in diags if d.is_error)
+        console().print(f"[bold red]✗[/] {n} error{'s' if n != 1 else ''}")
+
+
+format_option = click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
+                             default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v),
+                             help="text for people (stderr), json for machines (stdout)")
+files_argument = click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(package_name="reconf")
+def main() -> None:
+    """reconf: check ROS 2 architectures and plan safe run-time reconfigurations.
+
+    \b
+    Exit codes: 0 safe or done, 1 unsafe or no safe plan,
+                2 bad input, usage, missing dependency or internal error.
+    """
+
+
+@main.command()
+@files_argument
+@format_option
+@guarded("check")
+def check(files: tuple[str, ...], output_format: OutputFormat, sources: Sources) -> None:
+    """Prove that every functionality's assumptions hold in FILES (one system; includes followed).
+
+    Lists each assumption that does not hold with its chain: functionality → assumption →
+    input → connector → each attached output and why it falls short.
+    """
+    system = load(list(files), sources)
+    ev = evaluate(system, Configuration.initial(system))
+    diags = [report.assumption_diagnostic(r) for r in ev.unsatisfied]
+    verdict = "safe" if ev.valid else "unsafe"
+    if output_format is OutputFormat.JSON:
+        click.echo(report.document("check", verdict, diags, system=system.name, files=list(system.files),
+                                   engines={"python": verdict}, assumptions=report.evaluation_json(ev)))
+    else:
+        report.render_text(diags, sources, sys.stderr)
+        n, bad = len(ev.results), len(ev.unsatisfied)
+        summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
+                                                        (len(system.connectors), "connector"), (n, "assumption")))
+        if ev.valid:
+            console().print(f"[bold green]✓ safe[/]: {system.name} — {summary}, all hold")
+        else:
+            console().print(f"[bold red]✗ unsafe[/]: {system.name} — {summary}, {bad} do not hold")
+    sys.exit(EXIT_OK if ev.valid else EXIT_UNSAFE)
+
+
+@main.command()
+@files_argument
+@click.option("--check", "check_only", is_flag=True, help="change nothing; exit 1 if a file is not formatted")
+@click.option("--diff", is_flag=True, help="print what would change as a unified diff")
+@click.option("--stdout", "to_stdout", is_flag=True, help="print the formatted text instead of writing the file")
+@guarded("fmt")
+def fmt(files: tuple[str, ...], check_only: bool, diff: bool, to_stdout: bool, sources: Sources,
+        output_format: OutputFormat = OutputFormat.TEXT) -> None:
+    """Rewrite FILES in the canonical layout (comments kept). Includes are not followed."""
+    unformatted = []
+    for path in files:
+        text = read_source(path, sources)
+        shown = next(reversed(sources.texts))
+        formatted = format_document(parse_text(text, shown))
+        if to_stdout:
+            click.echo(formatted, nl=False)
+            continue
+        if formatted == text:
+            continue
+        unformatted.append(shown)
+        if diff:
+            click.echo("".join(difflib.unified_diff(text.splitlines(True), formatted.splitlines(True),
+                                                    shown, shown + " (formatted)")), nl=False)
+        if not check_only and not diff:
+            write_atomically(path, formatted)
+            console().print(f"formatted {shown}")
+    if check_only or diff:
+        for f in unformatted:
+            console().print(f"[yellow]would reformat[/] {f}")
+        if unformatted:
+            sys.exit(EXIT_UNSAFE)
+
+
+def plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def write_atomically(path: str, text: str) -> None:
+    """Write next to the target, then rename: never a half-written file."""
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".reconf-", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+        if os.path.exists(path):
+            os.chmod(tmp, os.stat(path).st_mode & 0o777)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+@main.command()
+@files_argument
+@click.option("--format", "picture_format", type=click.Choice(["dot", "mermaid"]), default="dot", show_default=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to a file instead of stdout")
+@guarded("graph")
+def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], sources: Sources,
+          output_format: OutputFormat = OutputFormat.TEXT) -> None:
+    """Draw the architecture: DOT in the rqt_graph look (nodes ellipses, topics boxes), or Mermaid."""
+    from codegen.graph import to_dot, to_mermaid
+
+    from .pictures import picture
+    system = load(list(files), sources)
+    pic = picture(system)
+    text = to_dot(pic) if picture_format == "dot" else to_mermaid(pic)
+    if output:
+        write_atomically(output, text)
+    else:
+        click.echo(text, nl=False)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

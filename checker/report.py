@@ -1,0 +1,88 @@
+"""Renderers: diagnostics and check results as text (caret snippets) or JSON.
+
+Stages never print; the CLI hands their data to one of these."""
+from __future__ import annotations
+
+import enum
+import json
+from typing import Any, Optional, TextIO
+
+from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
+from reconf_dsl.loader import Sources
+from reconf_dsl.span import Span
+
+from .semantics import AssumptionResult, Evaluation
+
+FORMAT_VERSION = 1
+
+
+class OutputFormat(str, enum.Enum):
+    TEXT = "text"
+    JSON = "json"
+
+
+_DEPTH = {"functionality": 0, "assumption": 0, "input": 1, "environment": 1, "connector": 2, "output": 3}
+
+
+def assumption_diagnostic(r: AssumptionResult) -> Diagnostic:
+    """An unsatisfied assumption, with its explanation chain as related spans."""
+    related = tuple(Related(link.span, link.text, _DEPTH.get(link.kind, 1)) for link in r.chain
+                    if link.kind not in ("functionality", "assumption"))
+    return error("RC201", f"{r.component}.{r.functionality} assumes {r.assumption}, which does not hold",
+                 r.assumption.span, related=related)
+
+
+def snippet(sources: Sources, span: Span, gutter: int) -> list[str]:
+    line = sources.line(span.file, span.line)
+    if line is None:
+        return []
+    shown = line.expandtabs(4).rstrip()
+    start = len(line[: span.col - 1].expandtabs(4))
+    if span.end_line == span.line and span.end_col > span.col:
+        width = len(line[span.col - 1: span.end_col - 1].expandtabs(4))
+    else:
+        width = max(1, len(shown) - start)
+    pad = " " * gutter
+    return [f"{span.line:>{gutter}} | {shown}", f"{pad} | {' ' * start}{'^' * max(1, width)}"]
+
+
+def render_text(diags: list[Diagnostic], sources: Sources, out: TextIO) -> None:
+    for d in diags:
+        gutter = max(len(str(d.span.line)), 2)
+        out.write(f"{d.span}: {d.severity.value}[{d.code}]: {d.message}\n")
+        for line in snippet(sources, d.span, gutter):
+            out.write(line + "\n")
+        for r in d.related:
+            lead = " " * gutter + "   " + "   " * max(0, r.depth - 1)
+            out.write(f"{lead}{'└─ ' if r.depth else '= '}{r.message}  ({r.span})\n")
+        for n in d.notes:
+            out.write(f"{' ' * gutter} = note: {n}\n")
+
+
+def span_json(span: Span) -> dict[str, Any]:
+    return {"file": span.file, "line": span.line, "column": span.col, "end_line": span.end_line,
+            "end_column": span.end_col}
+
+
+def diagnostic_json(d: Diagnostic) -> dict[str, Any]:
+    return {"code": d.code, "severity": d.severity.value, "message": d.message, "span": span_json(d.span),
+            "related": [{"message": r.message, "span": span_json(r.span), "depth": r.depth} for r in d.related],
+            "notes": list(d.notes)}
+
+
+def evaluation_json(ev: Evaluation) -> list[dict[str, Any]]:
+    return [{"component": r.component, "functionality": r.functionality, "index": r.index,
+             "assumption": str(r.assumption), "holds": r.holds, "span": span_json(r.assumption.span),
+             "chain": [{"kind": ln.kind, "text": ln.text, "span": span_json(ln.span)} for ln in r.chain]}
+            for r in ev.results]
+
+
+def document(command: str, verdict: str, diags: list[Diagnostic], **extra: Any) -> str:
+    doc: dict[str, Any] = {"format_version": FORMAT_VERSION, "tool": "reconf", "command": command,
+                           "verdict": verdict, "diagnostics": [diagnostic_json(d) for d in diags]}
+    doc.update(extra)
+    return json.dumps(doc, indent=2, sort_keys=False)
+
+
+def internal_error(message: str, span: Optional[Span] = None) -> Diagnostic:
+    return Diagnostic("RC000", Severity.ERROR, message, span or Span.unknown("<reconf>"))

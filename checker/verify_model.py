@@ -1,0 +1,212 @@
+"""`reconf verify-model`: run every command of the Alloy meta-model and compare each
+outcome with its `expect`.
+
+Exit codes: 0 all as expected, 1 some outcome differs, 2 Alloy or Java unavailable.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+import click
+
+from checker.alloy import AlloyBridge, AlloyError, AlloyUnavailable, CommandOutcome, metamodel_modules
+from checker.alloy.metamodel import MAIN
+
+STATES = ("Pre", "Post")
+
+
+@dataclass
+class Configuration:
+    """One configuration of a counterexample, in atom names."""
+
+    components: list[str]
+    degraded: list[str]
+    roles: dict[str, list[str]]
+    unsatisfied: list[str] = field(default_factory=list)  # "Functionality$0 assumes Msg$1"
+
+
+@dataclass
+class Counterexample:
+    action: str
+    pre: Configuration
+    post: Configuration
+
+
+@dataclass
+class CommandRow:
+    command: str
+    kind: str  # "check" | "run"
+    scope: str
+    outcome: str
+    expected: str
+    as_expected: bool | None
+    seconds: float
+    solver: str
+    counterexample: Counterexample | None = None
+
+
+@dataclass
+class VerifyReport:
+    scope: int
+    solver: str
+    rows: list[CommandRow]
+
+    @property
+    def ok(self) -> bool:
+        return all(r.as_expected is not False for r in self.rows)
+
+    @property
+    def total_seconds(self) -> float:
+        return sum(r.seconds for r in self.rows)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"scope": self.scope, "solver": self.solver, "ok": self.ok,
+                "total_seconds": round(self.total_seconds, 3),
+                "commands": [asdict(r) for r in self.rows]}
+
+
+def _names(tuples: set[tuple[str, ...]]) -> list[str]:
+    return sorted(t[0] for t in tuples)
+
+
+def _configuration(o: CommandOutcome, state: str) -> Configuration:
+    roles: dict[str, list[str]] = {}
+    for k, p in sorted(o.eval(f"{state}.roles")):
+        roles.setdefault(k, []).append(p)
+    unsat = o.eval(f"{{ f: present_funcs[{state}], a: cur_asms[{state}, f] | not asm_holds[{state}, f, a] }}")
+    return Configuration(
+        components=_names(o.eval(f"{state}.comps")),
+        degraded=_names(o.eval(f"{state}.degraded")),
+        roles=roles,
+        unsatisfied=[f"{f} assumes {a}" for f, a in sorted(unsat)],
+    )
+
+
+def _action(pre: Configuration, post: Configuration) -> str:
+    steps = [f"remove {c}" for c in sorted(set(pre.components) - set(post.components))]
+    steps += [f"create {c}" for c in sorted(set(post.components) - set(pre.components))]
+    pre_roles = {(k, p) for k, ps in pre.roles.items() for p in ps}
+    post_roles = {(k, p) for k, ps in post.roles.items() for p in ps}
+    steps += [f"detach {p} from {k}" for k, p in sorted(pre_roles - post_roles)]
+    steps += [f"attach {p} to {k}" for k, p in sorted(post_roles - pre_roles)]
+    steps += [f"degrade {f}" for f in sorted(set(post.degraded) - set(pre.degraded))]
+    steps += [f"upgrade {f}" for f in sorted(set(pre.degraded) - set(post.degraded))]
+    return "; ".join(steps) or "(no change)"
+
+
+def counterexample(o: CommandOutcome) -> Counterexample:
+    pre, post = (_configuration(o, s) for s in STATES)
+    return Counterexample(_action(pre, post), pre, post)
+
+
+def _row(o: CommandOutcome) -> CommandRow:
+    expected = "-" if o.expects is None or o.expects < 0 else (
+        ("counterexample" if o.expects else "no counterexample") if o.is_check
+        else ("instance" if o.expects else "no instance"))
+    cex = counterexample(o) if o.is_check and o.satisfiable else None
+    return CommandRow(o.label, "check" if o.is_check else "run", o.scope, o.outcome, expected,
+                      o.as_expected, round(o.elapsed, 3), o.solver, cex)
+
+
+def verify_model(scope: int = 5, solver: str = "glucose",
+                 before: Callable[[str, int, int], None] | None = None,
+                 after: Callable[[CommandRow], None] | None = None,
+                 modules: dict[str, str] | None = None) -> VerifyReport:
+    """Run every command of the meta-model (checks at `scope`); raises AlloyUnavailable."""
+    bridge = AlloyBridge.get()
+    modules = modules or metamodel_modules(scope)
+    labels = bridge.commands(modules, MAIN)
+    rows = []
+    used = bridge.usable_solver(solver)
+    for n, label in enumerate(labels, 1):
+        if before:
+            before(label, n, len(labels))
+        (outcome,) = bridge.run(modules, MAIN, label, used)
+        row = _row(outcome)
+        rows.append(row)
+        if after:
+            after(row)
+    return VerifyReport(scope, used, rows)
+
+
+def _render_text(report: VerifyReport, console: Any) -> None:
+    from rich.table import Table
+
+    table = Table(title=f"reconf meta-model (solver {report.solver})")
+    for col in ("command", "scope", "outcome", "expected", "time"):
+        table.add_column(col, justify="right" if col == "time" else "left")
+    for r in report.rows:
+        style = "" if r.as_expected is not False else "bold red"
+        table.add_row(r.command, r.scope, r.outcome, r.expected, f"{r.seconds:.2f} s", style=style)
+    console.print(table)
+    for r in report.rows:
+        if r.counterexample:
+            _render_counterexample(r, console)
+    verdict = "all as expected" if report.ok else "SOME OUTCOMES DIFFER FROM THEIR EXPECTATION"
+    console.print(f"{len(report.rows)} commands, {report.total_seconds:.1f} s: {verdict}")
+
+
+def _render_counterexample(r: CommandRow, console: Any) -> None:
+    cex = r.counterexample
+    assert cex is not None
+    console.print(f"[bold]{r.command}[/bold] counterexample: action {cex.action}")
+    for name, conf in (("before", cex.pre), ("after", cex.post)):
+        console.print(f"  {name}:")
+        console.print(f"    components present: {', '.join(conf.components) or '(none)'}")
+        console.print(f"    degraded: {', '.join(conf.degraded) or '(none)'}")
+        roles = "; ".join(f"{k}: {', '.join(ps)}" for k, ps in conf.roles.items())
+        console.print(f"    roles: {roles or '(none)'}")
+        if conf.unsatisfied:
+            console.print(f"    unsatisfied: {', '.join(conf.unsatisfied)}")
+
+
+@click.command("verify-model")
+@click.option("--scope", type=click.IntRange(1, 12), default=5, show_default=True,
+              help="Scope of every check (runs use scope 3).")
+@click.option("--solver", default="glucose", show_default=True,
+              help="SAT solver: glucose, glucose41, minisat, sat4j (falls back to sat4j).")
+@click.option("--output-format", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+def verify_model_cmd(scope: int, solver: str, output_format: str) -> None:
+    """Prove the six reconfiguration actions safe in the Alloy meta-model."""
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    progress = console.is_terminal and output_format == "text"
+    status = console.status("") if progress else None
+
+    def before(label: str, n: int, total: int) -> None:
+        if status is not None:
+            status.update(f"[{n}/{total}] {label} (scope {scope})")
+
+    def after(row: CommandRow) -> None:
+        if progress:
+            mark = "[green]✓[/green]" if row.as_expected is not False else "[red]✗[/red]"
+            console.print(f"{mark} {row.command}: {row.outcome} in {row.seconds:.2f} s")
+
+    try:
+        if status is not None:
+            status.start()
+        try:
+            report = verify_model(scope, solver, before, after)
+        finally:
+            if status is not None:
+                status.stop()
+    except AlloyUnavailable as exc:
+        console.print(f"error: Alloy unavailable: {exc}")
+        sys.exit(2)
+    except AlloyError as exc:
+        console.print(f"error: {exc}")
+        sys.exit(2)
+    if output_format == "json":
+        click.echo(json.dumps(report.to_json(), indent=2))
+    else:
+        _render_text(report, console)
+    sys.exit(0 if report.ok else 1)
+
+
+if __name__ == "__main__":
+    verify_model_cmd()

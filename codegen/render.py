@@ -1,0 +1,18 @@
+"""The Jinja environment shared by every generator: templates are package data."""
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import jinja2
+
+
+@lru_cache(maxsize=1)
+def environment() -> jinja2.Environment:
+    return jinja2.Environment(loader=jinja2.PackageLoader("codegen", "templates"), autoescape=False,
+                              keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True,
+                              undefined=jinja2.StrictUndefined)
+
+
+def render(template: str, **context: Any) -> str:
+    return environment().get_template(template).render(**context)
