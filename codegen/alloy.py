@@ -35,6 +35,8 @@ class StateAccess:
     var: str | None = "s"
     sig: str = "System"
     prefix: str = ""
+    materialized: bool = False
+    sat: str = "sat"
 
     def head(self, name: str, params: str) -> str:
         decls = [p for p in ((f"{self.var}: {self.sig}" if self.var else ""), params) if p]
@@ -47,9 +49,17 @@ class StateAccess:
     def rel(self, name: str) -> str:
         return f"({self.var}.{name})" if self.var else f"{self.prefix}{name}"
 
+    def cached(self, field: str, definition: str) -> str:
+        """A derived set of the configuration: the stored relation `field` when
+        materialized, else a call of its definition."""
+        return self.rel(field) if self.materialized else self.call(definition, "")
 
-META_STATE = StateAccess("s", "System")
-FIXED_STATE = StateAccess(None)
+
+# The meta-model: configurations are System atoms; the satisfaction relation and the
+# satisfied connectors/inputs are relations fixed by facts.
+META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
+# An instance module: one fixed configuration given by constants.
+FIXED_STATE = StateAccess(None, sat="sat")
 
 
 def environment() -> jinja2.Environment:
