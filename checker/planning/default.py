@@ -1,0 +1,165 @@
+"""The `default` strategy: make before break, degrade only what really loses its inputs.
+
+A loop over the current configuration. Each turn takes the first *free* action, one that
+moves towards the goal without degrading anything, in this order:
+
+1. upgrade a degraded functionality whose normal assumptions hold (most critical first);
+2. attach a wanted input of a component that has degraded functionalities;
+3. attach a wanted output (a `single` connector refuses it while the old publisher is on);
+4. attach any other wanted input;
+5. detach an unwanted attachment that nothing needs any more, remove an isolated leaving
+   component;
+6. create an arriving component (one whose inputs are already served first).
+
+So a new version is created, wired, upgraded and publishing before the old one is detached,
+and nobody is degraded where the connector allows two publishers. When no free action is
+left, some unwanted attachment must go although something still needs it (a `single`
+topic, a leaving component's input). For each such detach the closure of functionalities
+that would lose an assumption is computed on the configuration after it — redundant
+publishers and degraded guarantees that still satisfy are taken into account, and the
+closure grows monotonically, so cycles terminate. The detach whose closure has the least
+criticality is chosen; its closure is degraded least critical first, in an order each
+degrade's preconditions accept, then the detach runs. Free actions then repair the damage.
+
+Every turn either makes progress that is never undone (attach a wanted role, detach an
+unwanted one, create, remove) or upgrades, so the loop terminates.
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+from reconf_dsl.ir import System
+
+from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
+                       effect)
+from ..config import Configuration, FuncId
+from .plan import Goal, NoSafePlan
+
+__all__ = ["default_steps"]
+
+
+def default_steps(system: System, start: Configuration, goal: Goal) -> list[Action]:
+    cat = catalogue(system)
+    config = start
+    steps: list[Action] = []
+    limit = 10 * (len(start.roles | goal.roles) + len(start.components | goal.components)
+                  + len(cat.funcs)) + 20
+    for _ in range(limit):
+        if goal.reached(config):
+            return steps
+        action = _free(system, config, goal)
+        macro = [action] if action is not None else _unblock(system, config, goal)
+        for a in macro:
+            reasons = check(Snapshot(cat, config), a)
+            assert not reasons, (a, reasons)
+            steps.append(a)
+            config = effect(system, config, a)
+    raise NoSafePlan(["default: no progress (internal limit reached)"])
+
+
+def _weight(system: System, fid: FuncId) -> int:
+    return catalogue(system).funcs[fid].criticality
+
+
+def _free(system: System, config: Configuration, goal: Goal) -> Optional[Action]:
+    cat = catalogue(system)
+    st = Snapshot(cat, config)
+    ups = sorted(config.degraded, key=lambda d: (-_weight(system, d), d))
+    for c, f in ups:
+        if c in config.components and not check(st, Upgrade(c, f)):
+            return Upgrade(c, f)
+    wanted = sorted(r for r in goal.roles - config.roles if r[1] in config.components)
+    hurting = {c for c, _ in config.degraded}
+    groups = [[r for r in wanted if not st.is_output(r[1], r[2]) and r[1] in hurting],
+              [r for r in wanted if st.is_output(r[1], r[2])],
+              [r for r in wanted if not st.is_output(r[1], r[2])]]
+    for group in groups:
+        for conn, c, p in group:
+            if not check(st, Attach(conn, c, p)):
+                return Attach(conn, c, p)
+    unwanted = sorted(config.roles - goal.roles, key=lambda r: (not st.is_output(r[1], r[2]), r))
+    for conn, c, p in unwanted:
+        if not check(st, Detach(conn, c, p)):
+            return Detach(conn, c, p)
+    for c in sorted(config.components - goal.components):
+        if not check(st, Remove(c)):
+            return Remove(c)
+    arriving = sorted(goal.components - config.components, key=lambda c: (_unserved(st, goal, c), c))
+    for c in arriving:
+        if not check(st, Create(c)):
+            return Create(c)
+    return None
+
+
+def _unserved(st: Snapshot, goal: Goal, comp: str) -> int:
+    """How many of the wanted inputs of `comp` read an unsatisfied connector."""
+    return sum(1 for conn, c, p in goal.roles
+               if c == comp and not st.is_output(c, p) and not st.conn_sat(conn))
+
+
+def _closure(system: System, config: Configuration) -> set[FuncId]:
+    """The functionalities that must be degraded for `config` to be valid, grown to a fixpoint."""
+    cat = catalogue(system)
+    extra: set[FuncId] = set()
+    while True:
+        trial = Configuration(config.components, config.degraded | extra, config.roles)
+        st = Snapshot(cat, trial)
+        failing = {(c, f) for c, f, _ in st.unsafe(trial.components & set(cat.comps))}
+        if not failing - extra:
+            return extra
+        extra |= failing
+
+
+def _order(system: System, config: Configuration, todo: set[FuncId]) -> Optional[list[Action]]:
+    """Degrade `todo` one by one, least critical first among those whose preconditions hold."""
+    cat = catalogue(system)
+    out: list[Action] = []
+    left = set(todo)
+    while left:
+        st = Snapshot(cat, config)
+        ready = [d for d in sorted(left, key=lambda d: (_weight(system, d), d)) if not check(st, Degrade(*d))]
+        if not ready:
+            return None
+        a = Degrade(*ready[0])
+        out.append(a)
+        config = effect(system, config, a)
+        left.discard(ready[0])
+    return out
+
+
+def _unblock(system: System, config: Configuration, goal: Goal) -> list[Action]:
+    cat = catalogue(system)
+    best: Optional[tuple[tuple[int, int], list[Action]]] = None
+    reasons: list[str] = []
+    for conn, c, p in sorted(config.roles - goal.roles):
+        detach = Detach(conn, c, p)
+        todo = _closure(system, effect(system, config, detach))
+        degrades = _order(system, config, todo)
+        if degrades is None:
+            reasons.append(f"{detach.describe()} needs {', '.join(f'{x}.{y}' for x, y in sorted(todo))} degraded "
+                           "first, and no order of degrades is safe")
+            continue
+        after = config
+        for a in degrades:
+            after = effect(system, after, a)
+        if check(Snapshot(cat, after), detach):
+            continue
+        key = (sum(_weight(system, d) for d in todo), len(todo))
+        if best is None or key < best[0]:
+            best = (key, degrades + [detach])
+    if best is None:
+        raise NoSafePlan(reasons or _stuck(system, config, goal))
+    return best[1]
+
+
+def _stuck(system: System, config: Configuration, goal: Goal) -> list[str]:
+    """Why nothing can move: what each missing step is refused for."""
+    st = Snapshot(catalogue(system), config)
+    out = []
+    for conn, c, p in sorted(goal.roles - config.roles):
+        if c in config.components:
+            out += [f"cannot attach {c}.{p} to {conn}: {r}" for r in check(st, Attach(conn, c, p))]
+    for c, f in sorted(config.degraded):
+        if c in goal.components and c in config.components:
+            out += [f"cannot upgrade {c}.{f}: {r}" for r in check(st, Upgrade(c, f))]
+    return out or ["default: no action makes progress"]

@@ -1,0 +1,188 @@
+"""Reconfigurations to plan: replace, remove, add, migrate; and the one entry point `solve`.
+
+Every plan is checked step by step with `semantics.evaluate` (`plan.verify`) before it is
+returned. A `migrate` is described on one combined System: the old deployed components,
+and as versions the new ones. A component whose definition changed becomes a new version
+named `<name>@new` (and a connector whose definition changed, `<name>@new`); `Plan.renames`
+maps these back to the names of the new architecture. Environment guarantees are those of
+the old architecture.
+"""
+from __future__ import annotations
+
+from dataclasses import replace as dc_replace
+from typing import Optional, Union
+
+from reconf_dsl.ir import Component, Connector, PortRef, System
+
+from ..actions import Action, catalogue, failing_assumptions
+from ..config import Configuration, Role
+from .default import default_steps
+from .exhaustive import exhaustive_steps
+from .paper import paper_steps
+from .plan import Goal, NoSafePlan, Plan, Problem, verify
+
+__all__ = ["STRATEGIES", "solve", "plan_replace", "plan_remove", "plan_add", "plan_migrate"]
+
+STRATEGIES = ("default", "paper", "exhaustive")
+RENAMED = "@new"
+
+
+def _steps(problem: Problem, strategy: str) -> list[Action]:
+    if strategy == "paper":
+        return paper_steps(problem)
+    if strategy == "exhaustive":
+        return exhaustive_steps(problem.system, problem.start, problem.goal)
+    if strategy == "default":
+        return default_steps(problem.system, problem.start, problem.goal)
+    raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
+
+
+def _check_ends(problem: Problem) -> None:
+    s, cat = problem.system, catalogue(problem.system)
+    bad = failing_assumptions(s, problem.start)
+    if bad:
+        raise NoSafePlan([f"the current configuration is not valid: {c}.{f} assumes {a}, which does not hold"
+                          for c, f, a in bad])
+    reasons = [f"the target needs {c}, which is not declared" for c in sorted(problem.goal.components)
+               if c not in cat.comps]
+    if reasons:
+        raise NoSafePlan(reasons)
+    for conn in s.connectors:
+        pubs = sorted(f"{c}.{p}" for n, c, p in problem.goal.roles if n == conn.name
+                      and (cat.comps[c].port(p) or _NO_PORT).kind == "output")
+        if conn.single_publisher and len(pubs) > 1:
+            reasons.append(f"in the target, {conn.name} takes a single publisher but has {', '.join(pubs)}")
+    reasons += [f"in the target, {c}.{f} assumes {a}, which would not hold"
+                for c, f, a in failing_assumptions(s, problem.goal.config)]
+    if reasons:
+        raise NoSafePlan(reasons)
+
+
+class _NoPort:
+    kind = "none"
+
+
+_NO_PORT = _NoPort()
+
+
+def solve(problem: Problem, strategy: str = "default") -> Plan:
+    """Plan `problem` with `strategy`; the default strategy keeps the paper's plan when that is better."""
+    _check_ends(problem)
+    plan = verify(problem.system, problem.start, _steps(problem, strategy), problem.goal, strategy, problem.renames)
+    if strategy == "default":
+        try:
+            baseline = verify(problem.system, problem.start, paper_steps(problem), problem.goal, strategy,
+                              problem.renames)
+        except NoSafePlan:
+            return plan
+        if (baseline.disruption, len(baseline)) < (plan.disruption, len(plan)):
+            baseline.notes.append("the paper's plan was less disruptive here and is kept")
+            return baseline
+    return plan
+
+
+def _start(system: System, config: Optional[Configuration]) -> Configuration:
+    return config if config is not None else Configuration.initial(system)
+
+
+def plan_replace(system: System, old: str, new: Union[str, Component], strategy: str = "default",
+                 config: Optional[Configuration] = None) -> Plan:
+    """Replace deployed `old` by the version `new` (a name in `system.versions`, or a Component)."""
+    if isinstance(new, Component):
+        if system.component(new.name) is None:
+            system = dc_replace(system, versions=system.versions + (new,))
+        new = new.name
+    start = _start(system, config)
+    comp = system.component(new)
+    if comp is None:
+        raise NoSafePlan([f"no component {new} is declared"])
+    if old not in start.components:
+        raise NoSafePlan([f"{old} is not in the system"])
+    roles = {r for r in start.roles if r[1] != old}
+    roles |= {(conn, new, port) for conn, c, port in start.roles if c == old and comp.port(port) is not None}
+    goal = Goal((start.components - {old}) | {new}, frozenset(roles))
+    return solve(Problem(system, start, goal, replaced=[(old, new)]), strategy)
+
+
+def plan_remove(system: System, component: str, strategy: str = "default",
+                config: Optional[Configuration] = None) -> Plan:
+    start = _start(system, config)
+    if component not in start.components:
+        raise NoSafePlan([f"{component} is not in the system"])
+    goal = Goal(start.components - {component}, frozenset(r for r in start.roles if r[1] != component))
+    return solve(Problem(system, start, goal, removed=[component]), strategy)
+
+
+def plan_add(system: System, component: str, strategy: str = "default", *, source: System,
+             config: Optional[Configuration] = None) -> Plan:
+    """Add `component` as `source` declares it, with its attachments there."""
+    comp = source.component(component)
+    if comp is None:
+        raise NoSafePlan([f"{component} is not declared in {source.name}"])
+    if system.component(component) is not None:
+        raise NoSafePlan([f"{system.name} already declares a component {component}"])
+    roles = {(conn.name, r.component, r.port) for conn in source.connectors for r in conn.roles
+             if r.component == component}
+    missing = [dc_replace(source.connector(n), publishers=(), subscribers=())  # type: ignore[arg-type]
+               for n in sorted({r[0] for r in roles}) if system.connector(n) is None]
+    system = dc_replace(system, versions=system.versions + (comp,), connectors=system.connectors + tuple(missing))
+    start = _start(system, config)
+    goal = Goal(start.components | {component}, start.roles | roles)
+    return solve(Problem(system, start, goal, added=[component]), strategy)
+
+
+def plan_migrate(old: System, new: System, strategy: str = "default",
+                 config: Optional[Configuration] = None) -> Plan:
+    """From the deployed `old` architecture to the deployed `new` one."""
+    olds = {c.name: c for c in old.components}
+    news = {c.name: c for c in new.components}
+    taken = {c.name for c in old.components + old.versions}
+    comp_names: dict[str, str] = {}
+    versions = list(old.versions)
+    replaced, added = [], []
+    for name, c in news.items():
+        if name in olds and olds[name] == c:
+            comp_names[name] = name
+            continue
+        target = name if name not in taken else _fresh(name, taken)
+        taken.add(target)
+        comp_names[name] = target
+        versions.append(dc_replace(c, name=target, replaces=name if name in olds else c.replaces))
+        (replaced.append((name, target)) if name in olds else added.append(target))
+    removed = [n for n in olds if n not in news]
+    old_conns = {c.name: c for c in old.connectors}
+    conn_names: dict[str, str] = {}
+    conns = list(old.connectors)
+    conn_taken = set(old_conns)
+    for c in new.connectors:
+        if c.name in old_conns and _same_connector(old_conns[c.name], c):
+            conn_names[c.name] = c.name
+            continue
+        target = c.name if c.name not in conn_taken else _fresh(c.name, conn_taken)
+        conn_taken.add(target)
+        conn_names[c.name] = target
+        conns.append(dc_replace(c, name=target, publishers=_rename(c.publishers, comp_names),
+                                subscribers=_rename(c.subscribers, comp_names)))
+    system = dc_replace(old, versions=tuple(versions), connectors=tuple(conns))
+    start = _start(system, config)
+    roles: set[Role] = {(conn_names[c.name], comp_names[r.component], r.port) for c in new.connectors
+                        for r in c.roles}
+    goal = Goal(frozenset(comp_names.values()), frozenset(roles))
+    renames = {v: k for k, v in {**comp_names, **conn_names}.items() if k != v}
+    return solve(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),
+                 strategy)
+
+
+def _fresh(name: str, taken: set[str]) -> str:
+    candidate, i = name + RENAMED, 2
+    while candidate in taken:
+        candidate, i = f"{name}{RENAMED}{i}", i + 1
+    return candidate
+
+
+def _same_connector(a: Connector, b: Connector) -> bool:
+    return (a.kind, a.guarantee, a.single) == (b.kind, b.guarantee, b.single)
+
+
+def _rename(refs: tuple[PortRef, ...], names: dict[str, str]) -> tuple[PortRef, ...]:
+    return tuple(PortRef(names.get(r.component, r.component), r.port) for r in refs)

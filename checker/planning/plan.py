@@ -1,0 +1,124 @@
+"""Plans, goals, disruption and the step-by-step check every plan passes before it is returned.
+
+Disruption (one function, `disruption`): for a plan with states s0 (before the first step)
+… sn (after the last), disruption = Σ_{i=1..n} weight(s_i), where weight(s) is the sum of the
+criticality of every functionality that is degraded in s and belongs to a component present
+in s. Functionalities of absent components do not count; a freshly created component counts
+until its functionalities are upgraded. So a functionality of criticality w that stays
+degraded for k steps costs w·k, and the empty plan costs 0.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+from reconf_dsl.ir import System
+
+from ..actions import Action, catalogue, effect, preconditions
+from ..config import Configuration, Role
+from ..semantics import evaluate
+
+__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "disruption", "state_weight", "run_actions", "verify"]
+
+
+class NoSafePlan(Exception):
+    """No plan keeps every step valid; `reasons` says why."""
+
+    def __init__(self, reasons: list[str]) -> None:
+        super().__init__("no safe plan: " + "; ".join(reasons))
+        self.reasons = reasons
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A target configuration: these components present, exactly these attachments, nothing degraded."""
+
+    components: frozenset[str]
+    roles: frozenset[Role]
+
+    def reached(self, config: Configuration) -> bool:
+        return config.components == self.components and config.roles == self.roles and not config.degraded
+
+    @property
+    def config(self) -> Configuration:
+        return Configuration(self.components, frozenset(), self.roles)
+
+
+def state_weight(system: System, config: Configuration) -> int:
+    funcs = catalogue(system).funcs
+    return sum(funcs[d].criticality for d in config.degraded if d[0] in config.components and d in funcs)
+
+
+def disruption(system: System, states: Sequence[Configuration]) -> int:
+    """Σ over the states after each step of the criticality of its degraded functionalities."""
+    return sum(state_weight(system, s) for s in states[1:])
+
+
+@dataclass
+class Plan:
+    system: System
+    steps: list[Action]
+    states: list[Configuration]
+    strategy: str
+    disruption: int
+    goal: Goal
+    renames: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    def describe(self) -> list[str]:
+        return [f"{i:>3}. {a.symbol} {a.describe()}" for i, a in enumerate(self.steps, 1)]
+
+    def summary(self) -> str:
+        counts: dict[str, int] = {}
+        for a in self.steps:
+            counts[a.kind] = counts.get(a.kind, 0) + 1
+        parts = ", ".join(f"{n} {k}" for k, n in counts.items()) or "nothing to do"
+        return f"{len(self.steps)} steps ({parts}); disruption {self.disruption}; strategy {self.strategy}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"strategy": self.strategy, "disruption": self.disruption,
+                "steps": [a.to_dict() for a in self.steps], "renames": dict(self.renames), "notes": list(self.notes)}
+
+
+def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -> list[Configuration]:
+    """The states s0…sn of `steps` from `start` (preconditions not checked)."""
+    states = [start]
+    for a in steps:
+        states.append(effect(system, states[-1], a))
+    return states
+
+
+def verify(system: System, start: Configuration, steps: Sequence[Action], goal: Goal, strategy: str,
+           renames: dict[str, str] | None = None) -> Plan:
+    """Re-check a plan step by step: every precondition holds, every state is valid, the goal is reached."""
+    states = [start]
+    for i, a in enumerate(steps, 1):
+        reasons = preconditions(system, states[-1], a)
+        if reasons:
+            raise NoSafePlan([f"{strategy}: step {i} ({a.describe()}) is refused: " + "; ".join(reasons)])
+        states.append(effect(system, states[-1], a))
+        ev = evaluate(system, states[-1], explain=False)
+        if not ev.valid:
+            r = ev.unsatisfied[0]
+            raise NoSafePlan([f"{strategy}: after step {i} ({a.describe()}) {r.component}.{r.functionality} "
+                              f"assumes {r.assumption}, which fails"])
+    if not goal.reached(states[-1]):
+        raise NoSafePlan([f"{strategy}: the plan does not reach the goal"])
+    return Plan(system, list(steps), states, strategy, disruption(system, states), goal, dict(renames or {}))
+
+
+@dataclass
+class Problem:
+    """A reconfiguration to plan: where from, where to, and what changes (for the `paper` strategy,
+    which reasons per component)."""
+
+    system: System
+    start: Configuration
+    goal: Goal
+    replaced: list[tuple[str, str]] = field(default_factory=list)   # (old, new)
+    removed: list[str] = field(default_factory=list)
+    added: list[str] = field(default_factory=list)
+    renames: dict[str, str] = field(default_factory=dict)
