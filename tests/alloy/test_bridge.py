@@ -1,0 +1,90 @@
+"""The JPype bridge: errors with positions, a clear error when the jar is missing, the
+SAT4J fallback, and the time limit through a worker process."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from checker.alloy import AlloyBridge, AlloyError, AlloyTimeout, metamodel_modules, run_with_timeout
+from checker.alloy.metamodel import MAIN
+
+ROOT = Path(__file__).resolve().parents[2]
+
+LIB = "module lib/shapes\nsig Shape { side: set Shape }\n"
+MAIN_OK = "open lib/shapes\nsig Square extends Shape {}\nrun { some Square and some side } for 3 expect 1\n"
+
+
+def test_modules_open_each_other_in_memory(bridge: AlloyBridge) -> None:
+    (o,) = bridge.run({"main.als": MAIN_OK, "lib/shapes.als": LIB}, "main.als")
+    assert o.satisfiable and o.as_expected and o.outcome == "instance"
+    squares = o.eval("Square")
+    assert squares and all(len(t) == 1 for t in squares)
+    assert all(len(t) == 2 for t in o.eval("side"))
+
+
+def test_syntax_error_has_module_line_and_column(bridge: AlloyBridge) -> None:
+    bad = "module lib/shapes\nsig Shape {\n  side: set Shape }}\n"
+    with pytest.raises(AlloyError) as info:
+        bridge.run({"main.als": MAIN_OK, "lib/shapes.als": bad}, "main.als")
+    err = info.value
+    assert (err.module, err.line) == ("lib/shapes.als", 3)
+    assert err.column == 20
+    assert str(err).startswith("lib/shapes.als:3:20: ")
+
+
+def test_type_error_has_position(bridge: AlloyBridge) -> None:
+    text = "sig A {}\nrun {\n  some B\n} for 2\n"
+    with pytest.raises(AlloyError) as info:
+        bridge.run({"m.als": text}, "m.als")
+    assert (info.value.module, info.value.line, info.value.column) == ("m.als", 3, 8)
+
+
+def test_unknown_solver_is_an_error(bridge: AlloyBridge) -> None:
+    with pytest.raises(AlloyError, match="unknown SAT solver"):
+        bridge.usable_solver("no-such-solver")
+
+
+def test_native_solver_is_used_when_it_loads(bridge: AlloyBridge) -> None:
+    (o,) = bridge.run({"main.als": MAIN_OK, "lib/shapes.als": LIB}, "main.als", solver="minisat")
+    assert o.solver == "minisat(jni)"
+
+
+def test_falls_back_to_sat4j(bridge: AlloyBridge) -> None:
+    # the jar ships no CryptoMiniSat library for x86-64 Linux
+    assert bridge.usable_solver("cryptominisat") == "sat4j"
+    (o,) = bridge.run({"main.als": MAIN_OK, "lib/shapes.als": LIB}, "main.als", solver="cryptominisat")
+    assert o.solver == "sat4j" and o.satisfiable
+
+
+def test_missing_jar_gives_clear_error() -> None:
+    code = (
+        "from checker.alloy import AlloyBridge, AlloyUnavailable\n"
+        "try:\n    AlloyBridge.get()\n"
+        "except AlloyUnavailable as e:\n    print('UNAVAILABLE', e)\n"
+    )
+    env = {**os.environ, "RECONF_ALLOY_JAR": "/nonexistent/alloy.jar", "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=60, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    line = out.stdout.strip()
+    assert line.startswith("UNAVAILABLE Alloy jar not found at /nonexistent/alloy.jar")
+    assert "pip install PythonAlloyClient" in line and "\n" not in line
+
+
+def test_worker_returns_outcomes_with_evaluations() -> None:
+    outcomes = run_with_timeout({"main.als": MAIN_OK, "lib/shapes.als": LIB}, "main.als",
+                                timeout=60, evals=["Square"])
+    assert outcomes[0].satisfiable and outcomes[0].eval("Square")
+
+
+def test_timeout_kills_a_long_solve() -> None:
+    modules = metamodel_modules(scope=10)
+    start = time.monotonic()
+    with pytest.raises(AlloyTimeout):
+        run_with_timeout(modules, MAIN, "SafeAttach", solver="sat4j", timeout=4)
+    assert time.monotonic() - start < 15
