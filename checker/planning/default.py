@@ -33,6 +33,7 @@ from reconf_dsl.ir import System
 from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
                        effect)
 from ..config import Configuration, FuncId
+from .improve import improve
 from .plan import Goal, NoSafePlan
 
 __all__ = ["default_steps"]
@@ -46,7 +47,7 @@ def default_steps(system: System, start: Configuration, goal: Goal) -> list[Acti
                   + len(cat.funcs)) + 20
     for _ in range(limit):
         if goal.reached(config):
-            return steps
+            return improve(system, start, steps, goal)
         action = _free(system, config, goal)
         macro = [action] if action is not None else _unblock(system, config, goal)
         for a in macro:

@@ -12,12 +12,13 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
-from reconf_dsl.ir import Component, Connector, PortRef, System
+from reconf_dsl.ir import Component, Connector, System
 
 from ..actions import Action, catalogue, failing_assumptions
 from ..config import Configuration, Role
 from .default import default_steps
 from .exhaustive import exhaustive_steps
+from .improve import cost, improve
 from .paper import paper_steps
 from .plan import Goal, NoSafePlan, Plan, Problem, verify
 
@@ -66,18 +67,25 @@ _NO_PORT = _NoPort()
 
 
 def solve(problem: Problem, strategy: str = "default") -> Plan:
-    """Plan `problem` with `strategy`; the default strategy keeps the paper's plan when that is better."""
+    """Plan `problem` with `strategy`.
+
+    `default` also improves the paper's plan locally and keeps whichever of the two is less
+    disruptive, so it is never worse than `paper`."""
     _check_ends(problem)
-    plan = verify(problem.system, problem.start, _steps(problem, strategy), problem.goal, strategy, problem.renames)
+    steps = _steps(problem, strategy)
+    note = None
     if strategy == "default":
         try:
-            baseline = verify(problem.system, problem.start, paper_steps(problem), problem.goal, strategy,
-                              problem.renames)
+            baseline = improve(problem.system, problem.start, paper_steps(problem), problem.goal)
         except NoSafePlan:
-            return plan
-        if (baseline.disruption, len(baseline)) < (plan.disruption, len(plan)):
-            baseline.notes.append("the paper's plan was less disruptive here and is kept")
-            return baseline
+            baseline = None
+        if baseline is not None:
+            mine, theirs = (cost(problem.system, problem.start, s, problem.goal) for s in (steps, baseline))
+            if theirs is not None and (mine is None or theirs < mine):
+                steps, note = baseline, "the paper's order, improved, was less disruptive here and is kept"
+    plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
+    if note:
+        plan.notes.append(note)
     return plan
 
 
@@ -161,10 +169,9 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
         target = c.name if c.name not in conn_taken else _fresh(c.name, conn_taken)
         conn_taken.add(target)
         conn_names[c.name] = target
-        conns.append(dc_replace(c, name=target, publishers=_rename(c.publishers, comp_names),
-                                subscribers=_rename(c.subscribers, comp_names)))
+        conns.append(dc_replace(c, name=target, publishers=(), subscribers=()))
     system = dc_replace(old, versions=tuple(versions), connectors=tuple(conns))
-    start = _start(system, config)
+    start = _start(old, config)
     roles: set[Role] = {(conn_names[c.name], comp_names[r.component], r.port) for c in new.connectors
                         for r in c.roles}
     goal = Goal(frozenset(comp_names.values()), frozenset(roles))
@@ -183,6 +190,3 @@ def _fresh(name: str, taken: set[str]) -> str:
 def _same_connector(a: Connector, b: Connector) -> bool:
     return (a.kind, a.guarantee, a.single) == (b.kind, b.guarantee, b.single)
 
-
-def _rename(refs: tuple[PortRef, ...], names: dict[str, str]) -> tuple[PortRef, ...]:
-    return tuple(PortRef(names.get(r.component, r.component), r.port) for r in refs)
