@@ -14,9 +14,9 @@ Every component has 1-3 outputs, 0-3 inputs (only sources have none: they assume
 environment guarantee instead), and one or two functionalities with a normal and a
 degraded mode. Rates are written as Hz, kHz and periods (ms, s), and are consistent:
 publisher guarantee >= topic guarantee >= input assumption >= functionality assumption.
-About one component in seven also publishes a backup on a topic someone else already
+One component in five also publishes a backup on a topic someone else already
 publishes on. The generated system is safe; with `unsafe=True` exactly one input asks
-for twice the rate its topic guarantees, so the functionality reading it is unsatisfied.
+for twice the rate its topic guarantees, so the functionalities reading it are unsatisfied.
 
     python -m bench.gen --shape dag --n 1000 --seed 3 -o dag.arch [--unsafe] [--version]
 """
@@ -174,13 +174,18 @@ def _preds(shape: str, n: int, rng: random.Random, n_out: list[int]) -> list[lis
     return preds
 
 
+def _backs_up(i: int) -> bool:
+    """Whether component i also publishes, as a backup, on a topic someone else publishes on."""
+    return i % 5 == 3
+
+
 def build(shape: str, n: int, seed: int = 0, unsafe: bool = False) -> Model:
     _check(shape, n)
     rng = random.Random(f"{shape}/{n}/{seed}")
     names = [_name(i, n) for i in range(n)]
     if shape == "fanin":
         return _build_fanin(n, rng, unsafe)
-    n_out = [rng.randint(1, 3) for _ in range(n)]
+    n_out = [rng.randint(1, 2) if _backs_up(i) else rng.randint(1, 3) for i in range(n)]
     comps = [Comp(names[i], criticality=rng.randint(1, 3), host=i % 4) for i in range(n)]
     topics: dict[str, Topic] = {}
     msg_names = list(TOPIC_MESSAGES)
@@ -203,13 +208,14 @@ def build(shape: str, n: int, seed: int = 0, unsafe: bool = False) -> Model:
             c.env = j % len(ENVIRONMENT)
     # Redundant publishers: a backup output on a topic another component already publishes on.
     for j, c in enumerate(comps):
-        if j % 7 == 3 and len(c.outputs) < 3 and j >= 2:
-            other = comps[rng.randrange(j)]
-            tname = other.outputs[0][1]
-            if tname in (tn for _, tn in c.inputs):
-                continue
-            c.outputs.append(("bk", tname))
-            topics[tname].publishers.append((c.name, "bk"))
+        if not _backs_up(j):
+            continue
+        for _ in range(5):
+            tname = comps[rng.randrange(j)].outputs[0][1]
+            if tname not in (tn for _, tn in c.inputs):
+                c.outputs.append(("bk", tname))
+                topics[tname].publishers.append((c.name, "bk"))
+                break
     for t in topics.values():
         t.single = len(t.publishers) == 1 and rng.random() < 0.2
     model = Model(f"bench_{shape}_{n}", comps, topics)
@@ -311,11 +317,11 @@ def render(model: Model, version_of: Optional[str] = None) -> str:
             out.append(f"topic {t.name}: {t.message} @ {t.tier.topic}{single} "
                        f"{{ {', '.join(pubs)} -> {', '.join(subs)} }}".replace(" ->  }", " -> }"))
         else:
+            # One attachment, its lists wrapped: `a -> b -> c` would not read as two.
             out.append(f"topic {t.name}: {t.message} @ {t.tier.topic}{single} {{")
-            for i in range(0, len(pubs), 8):
-                out.append(f"  {', '.join(pubs[i:i + 8])} ->")
-            for i in range(0, len(subs), 8):
-                out.append(f"  -> {', '.join(subs[i:i + 8])}")
+            out.append(",\n".join(f"  {', '.join(pubs[i:i + 8])}" for i in range(0, len(pubs), 8)))
+            out.append("  ->")
+            out.append(",\n".join(f"  {', '.join(subs[i:i + 8])}" for i in range(0, len(subs), 8)))
             out.append("}")
     out.append("")
     return "\n".join(out)
