@@ -69,7 +69,10 @@ def _item(out: _Out, it: ir.Item) -> None:
             body.append((src, _refs(it.publishers) + (" -> " if it.publishers else "-> ") + _refs(it.subscribers)))
             body[-1] = (src, body[-1][1].rstrip())
         else:
-            body += [(r.span.line, f"{r} ->") for r in it.publishers]
+            # Newlines mean nothing to the grammar: publishers continue with commas up to one '->',
+            # then each subscriber has its own '-> x' line.
+            last = len(it.publishers) - 1
+            body += [(r.span.line, f"{r}{' ->' if i == last else ','}") for i, r in enumerate(it.publishers)]
             body += [(r.span.line, f"-> {r}") for r in it.subscribers]
         _block(out, line, 0, head, body, it.span.end_line)
 
@@ -130,30 +133,31 @@ def _component(out: _Out, c: ir.Component) -> None:
 
 
 def _weave(lines: list[tuple[int, int, str]], comments: tuple[tuple[int, int, str], ...]) -> str:
-    """Put every comment back: before the first line from later in the source, or trailing its line."""
+    """Put every comment back: trailing the line it trailed, else before the first line from later on."""
     pending = sorted(comments)
     text: list[str] = []
-    last_src_of_line: list[int] = []
+    srcs: list[int] = []
+
+    def place(cline: int, ctext: str, depth: int) -> None:
+        j = len(text) - 1
+        while j >= 0 and text[j] == "":
+            j -= 1
+        if j >= 0 and srcs[j] == cline and "\n" not in ctext:
+            text[j] += "  " + ctext
+            return
+        for k, part in enumerate(ctext.split("\n")):
+            text.append(INDENT * depth + part.strip() if k == 0 else part.rstrip())
+            srcs.append(-1)
+
     ci = 0
     for src, depth, body in lines:
         while ci < len(pending) and pending[ci][0] < src:
-            cline, _, ctext = pending[ci]
-            trailing = last_src_of_line and last_src_of_line[-1] == cline and text[-1].strip() != ""
-            if trailing and "\n" not in ctext:
-                text[-1] += "  " + ctext
-            else:
-                for k, part in enumerate(ctext.split("\n")):
-                    text.append(INDENT * depth + part.strip() if k == 0 else part.rstrip())
-                    last_src_of_line.append(-1)
+            place(pending[ci][0], pending[ci][2], depth)
             ci += 1
         text.append((INDENT * depth + body) if body else "")
-        last_src_of_line.append(src)
+        srcs.append(src)
     for cline, _, ctext in pending[ci:]:
-        if last_src_of_line and last_src_of_line[-1] == cline and "\n" not in ctext and text[-1].strip():
-            text[-1] += "  " + ctext
-        else:
-            text.extend(ctext.split("\n"))
-            last_src_of_line.append(-1)
+        place(cline, ctext, 0)
     while text and text[-1] == "":
         text.pop()
     return "\n".join(text) + "\n"

@@ -64,13 +64,13 @@ def _system_name(docs: list[ir.Document], sink: DiagnosticSink) -> tuple[str, Sp
     return first or "", first_span
 
 
-def _unique(sink: DiagnosticSink, kind: str, items: Iterable[T]) -> dict[str, T]:
+def _unique(sink: DiagnosticSink, kind: str, items: Iterable[T], where: str = "") -> dict[str, T]:
     seen: dict[str, T] = {}
     for it in items:
         name: str = getattr(it, "name")
         span: Span = getattr(it, "span")
         if name in seen:
-            sink.add(error("RC102", f"duplicate {kind} '{name}'", span,
+            sink.add(error("RC102", f"duplicate {kind} '{name}'{where}", span,
                            related=(Related(getattr(seen[name], "span"), "first declared here"),)))
         else:
             seen[name] = it
@@ -105,9 +105,12 @@ def _check_resources(sink: DiagnosticSink, settings: Iterable[ir.ResourceSetting
 
 def _check_component(sink: DiagnosticSink, c: ir.Component, msgs: set[str], hosts: set[str],
                      comps: dict[str, ir.Component]) -> None:
-    ports = _unique(sink, f"port in component '{c.name}'", c.ports)
-    _unique(sink, f"functionality in component '{c.name}'", c.functionalities)
+    ports = _unique(sink, "port", c.ports, f" in component '{c.name}'")
+    _unique(sink, "functionality", c.functionalities, f" in component '{c.name}'")
     for p in c.ports:
+        if p.kind == "output" and p.name == "assume":
+            sink.add(error("RC127", "an output cannot be named 'assume': in a mode, `assume` starts an assumption",
+                           p.span))
         if p.kind == "output" and p.message not in msgs:
             sink.add(error("RC101", f"unknown message type '{p.message}'", p.span,
                            notes=(_suggest(p.message, msgs, "declare it with `message NAME = pkg/msg/Type`"),)))
@@ -164,8 +167,8 @@ def _check_functionality(sink: DiagnosticSink, c: ir.Component, f: ir.Functional
         if kind == "degraded" and mode.assumptions:
             sink.add(error("RC111", f"the degraded mode of '{f.name}' assumes {mode.assumptions[0]}",
                            mode.assumptions[0].span, notes=("a degraded mode must work without any assumption",)))
-        _unique(sink, f"guarantee in the {kind} mode of '{f.name}'",
-                [ir.Port(g.port, "output", "", None, g.span) for g in mode.guarantees])
+        _unique(sink, "guarantee for", [ir.Port(g.port, "output", "", None, g.span) for g in mode.guarantees],
+                f" in the {kind} mode of '{f.name}'")
         for g in mode.guarantees:
             _check_predicate(sink, g.predicate, msgs)
             if g.port not in outputs:

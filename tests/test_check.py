@@ -1,0 +1,108 @@
+"""The Python safety engine and `reconf check` on the shared example table."""
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from checker.cli import main
+from checker.config import Configuration
+from checker.semantics import evaluate
+from reconf_dsl.loader import load, load_text
+from tests.examples_table import EXAMPLES, Example
+
+
+@pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
+def test_verdict_matches_table(ex: Example) -> None:
+    system = load([ex.file])
+    ev = evaluate(system, Configuration.initial(system))
+    assert ev.valid is ex.safe
+    assert {f"{r.component}.{r.functionality}" for r in ev.unsatisfied} == ex.unsatisfied
+
+
+@pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
+def test_cli_exit_code_and_json(ex: Example) -> None:
+    result = CliRunner().invoke(main, ["check", ex.file, "--output-format", "json"])
+    assert result.exit_code == (0 if ex.safe else 1), result.output
+    doc = json.loads(result.stdout)
+    assert doc["format_version"] == 1
+    assert doc["verdict"] == ("safe" if ex.safe else "unsafe")
+    failing = {f"{a['component']}.{a['functionality']}" for a in doc["assumptions"] if not a["holds"]}
+    assert failing == ex.unsatisfied
+    assert all(d["code"] == "RC201" for d in doc["diagnostics"])
+
+
+def test_chain_explains_rate_too_low() -> None:
+    result = CliRunner().invoke(main, ["check", EXAMPLES[1].file])
+    text = result.stderr
+    assert "error[RC201]: listener.listen assumes String @ 10 Hz, which does not hold" in text
+    assert "input listener.in assumes String @ 10 Hz" in text
+    assert "topic /chatter guarantees String @ 10 Hz, but no attached output satisfies it" in text
+    assert "talk guarantees String @ 5 Hz: rate too low: 5 Hz < 10 Hz" in text
+    assert "chatter_slow.arch:10:3" in text  # the span of the output's functionality
+
+
+def test_chain_explains_missing_publisher_and_degraded() -> None:
+    system = load([EXAMPLES[0].file])
+    config = Configuration.initial(system)
+    degraded = Configuration(config.components, frozenset({("talker", "talk")}), config.roles)
+    ev = evaluate(system, degraded)
+    assert not ev.valid
+    texts = [link.text for link in ev.unsatisfied[0].chain]
+    assert any("talk is degraded and guarantees nothing: it provides nothing" in t for t in texts)
+    detached = Configuration(config.components, frozenset(), frozenset())
+    texts = [link.text for link in evaluate(system, detached).unsatisfied[0].chain]
+    assert any("input listener.in is attached to nothing" in t for t in texts)
+
+
+BASE = """system s
+message M = std_msgs/msg/String
+message N = std_msgs/msg/Int32
+{extra}
+component p {{
+  output out: M
+  functionality f (out) {{
+    normal {{ out: {guar} }}
+    degraded {{ out: nothing }}
+  }}
+}}
+component c {{
+  input in: {inasm}
+  functionality g (in) {{
+    normal {{ assume {asm} }}
+    degraded {{ }}
+  }}
+}}
+topic /t: {conn} {{ p.out -> c.in }}
+"""
+
+
+@pytest.mark.parametrize("guar,conn,inasm,asm,extra,safe", [
+    ("M @ 10 Hz", "M @ 10 Hz", "M @ 10 Hz", "M @ 10 Hz", "", True),
+    ("M @ 20 Hz", "M @ 10 Hz", "M @ 5 Hz", "M", "", True),           # rates only need to be high enough
+    ("M", "M @ 10 Hz", "M @ 10 Hz", "M @ 10 Hz", "", False),          # a rate-less guarantee meets no rate
+    ("M @ 10 Hz", "M", "M @ 10 Hz", "M @ 10 Hz", "", False),          # the connector promises no rate
+    ("M @ 10 Hz", "M @ 10 Hz", "M @ 5 Hz", "M @ 10 Hz", "", False),   # the input's assumption is too weak
+    ("M @ 100 ms", "M @ 10 Hz", "M @ 0.01 kHz", "M @ 10 Hz", "", True),  # units are exact
+    ("M @ 9 Hz", "M @ 10 Hz", "M @ 10 Hz", "N @ 1 Hz", "environment e: N @ 2 Hz", True),  # environment
+    ("M @ 9 Hz", "M @ 10 Hz", "M @ 10 Hz", "N @ 1 Hz", "environment e: N @ 0.5 Hz", False),
+])
+def test_satisfaction_rules(guar: str, conn: str, inasm: str, asm: str, extra: str, safe: bool) -> None:
+    system = load_text(BASE.format(guar=guar, conn=conn, inasm=inasm, asm=asm, extra=extra), "s.arch")
+    assert evaluate(system, Configuration.initial(system)).valid is safe
+
+
+def test_redundant_publisher_keeps_topic_satisfied() -> None:
+    system = load([path_of("redundant")])
+    config = Configuration.initial(system)
+    one_down = Configuration(config.components, frozenset({("lidar_front", "sense")}), config.roles)
+    assert evaluate(system, one_down).valid
+    both_down = Configuration(config.components, frozenset({("lidar_front", "sense"), ("lidar_rear", "sense")}),
+                              config.roles)
+    assert not evaluate(system, both_down).valid
+
+
+def path_of(name: str) -> str:
+    from tests.examples_table import BY_NAME
+    return BY_NAME[name].file
