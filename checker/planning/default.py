@@ -7,9 +7,13 @@ moves towards the goal without degrading anything, in this order:
 2. attach a wanted input of a component that has degraded functionalities;
 3. attach a wanted output (a `single` connector refuses it while the old publisher is on);
 4. attach any other wanted input;
-5. detach an unwanted attachment that nothing needs any more, remove an isolated leaving
-   component;
-6. create an arriving component (one whose inputs are already served first).
+5. create an arriving component (one whose inputs are already served first);
+6. detach an unwanted attachment that nothing needs any more, remove an isolated leaving
+   component.
+
+(The loop also runs with 5 and 6 swapped, and the less disruptive result, after local
+improvement (`improve`), is kept: cleaning up first sometimes frees a `single` connector
+sooner; creating first keeps an old publisher that a new component needs to start.)
 
 So a new version is created, wired, upgraded and publishing before the old one is detached,
 and nobody is degraded where the connector allows two publishers. When no free action is
@@ -33,13 +37,30 @@ from reconf_dsl.ir import System
 from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
                        effect)
 from ..config import Configuration, FuncId
-from .improve import improve
+from .improve import cost, improve
 from .plan import Goal, NoSafePlan
 
 __all__ = ["default_steps"]
 
 
 def default_steps(system: System, start: Configuration, goal: Goal) -> list[Action]:
+    """The better of two orders of free actions (creating before or after cleaning up), improved."""
+    plans, reasons = [], []
+    for make_first in (True, False):
+        try:
+            steps = improve(system, start, _loop(system, start, goal, make_first), goal)
+        except NoSafePlan as e:
+            reasons += [r for r in e.reasons if r not in reasons]
+            continue
+        c = cost(system, start, steps, goal)
+        assert c is not None
+        plans.append((c, steps))
+    if not plans:
+        raise NoSafePlan(reasons)
+    return min(plans, key=lambda p: p[0])[1]
+
+
+def _loop(system: System, start: Configuration, goal: Goal, make_first: bool) -> list[Action]:
     cat = catalogue(system)
     config = start
     steps: list[Action] = []
@@ -47,8 +68,8 @@ def default_steps(system: System, start: Configuration, goal: Goal) -> list[Acti
                   + len(cat.funcs)) + 20
     for _ in range(limit):
         if goal.reached(config):
-            return improve(system, start, steps, goal)
-        action = _free(system, config, goal)
+            return steps
+        action = _free(system, config, goal, make_first)
         macro = [action] if action is not None else _unblock(system, config, goal)
         for a in macro:
             reasons = check(Snapshot(cat, config), a)
@@ -62,7 +83,7 @@ def _weight(system: System, fid: FuncId) -> int:
     return catalogue(system).funcs[fid].criticality
 
 
-def _free(system: System, config: Configuration, goal: Goal) -> Optional[Action]:
+def _free(system: System, config: Configuration, goal: Goal, make_first: bool) -> Optional[Action]:
     cat = catalogue(system)
     st = Snapshot(cat, config)
     ups = sorted(config.degraded, key=lambda d: (-_weight(system, d), d))
@@ -78,17 +99,14 @@ def _free(system: System, config: Configuration, goal: Goal) -> Optional[Action]
         for conn, c, p in group:
             if not check(st, Attach(conn, c, p)):
                 return Attach(conn, c, p)
-    unwanted = sorted(config.roles - goal.roles, key=lambda r: (not st.is_output(r[1], r[2]), r))
-    for conn, c, p in unwanted:
-        if not check(st, Detach(conn, c, p)):
-            return Detach(conn, c, p)
-    for c in sorted(config.components - goal.components):
-        if not check(st, Remove(c)):
-            return Remove(c)
     arriving = sorted(goal.components - config.components, key=lambda c: (_unserved(st, goal, c), c))
-    for c in arriving:
-        if not check(st, Create(c)):
-            return Create(c)
+    creates: list[Action] = [Create(c) for c in arriving]
+    unwanted = sorted(config.roles - goal.roles, key=lambda r: (not st.is_output(r[1], r[2]), r))
+    cleanup: list[Action] = [Detach(*r) for r in unwanted]
+    cleanup += [Remove(c) for c in sorted(config.components - goal.components)]
+    for a in (creates + cleanup if make_first else cleanup + creates):
+        if not check(st, a):
+            return a
     return None
 
 

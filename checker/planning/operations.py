@@ -72,17 +72,28 @@ def solve(problem: Problem, strategy: str = "default") -> Plan:
     `default` also improves the paper's plan locally and keeps whichever of the two is less
     disruptive, so it is never worse than `paper`."""
     _check_ends(problem)
-    steps = _steps(problem, strategy)
     note = None
-    if strategy == "default":
-        try:
-            baseline = improve(problem.system, problem.start, paper_steps(problem), problem.goal)
-        except NoSafePlan:
-            baseline = None
-        if baseline is not None:
-            mine, theirs = (cost(problem.system, problem.start, s, problem.goal) for s in (steps, baseline))
-            if theirs is not None and (mine is None or theirs < mine):
-                steps, note = baseline, "the paper's order, improved, was less disruptive here and is kept"
+    if strategy != "default":
+        steps = _steps(problem, strategy)
+    else:
+        system, start, goal = problem.system, problem.start, problem.goal
+        found: list[tuple[tuple[int, int], int, list[Action]]] = []
+        reasons: list[str] = []
+        for rank, make in enumerate((lambda: default_steps(system, start, goal),
+                                     lambda: improve(system, start, paper_steps(problem), goal))):
+            try:
+                candidate = make()
+            except NoSafePlan as e:
+                reasons += e.reasons
+                continue
+            c = cost(system, start, candidate, goal)
+            if c is not None:
+                found.append((c, rank, candidate))
+        if not found:
+            raise NoSafePlan(reasons)
+        _, rank, steps = min(found, key=lambda f: (f[0], f[1]))
+        if rank == 1:
+            note = "the paper's order, improved, was less disruptive here and is kept"
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
     if note:
         plan.notes.append(note)
@@ -131,8 +142,8 @@ def plan_add(system: System, component: str, strategy: str = "default", *, sourc
         raise NoSafePlan([f"{system.name} already declares a component {component}"])
     roles = {(conn.name, r.component, r.port) for conn in source.connectors for r in conn.roles
              if r.component == component}
-    missing = [dc_replace(source.connector(n), publishers=(), subscribers=())  # type: ignore[arg-type]
-               for n in sorted({r[0] for r in roles}) if system.connector(n) is None]
+    missing = [dc_replace(conn, publishers=(), subscribers=()) for conn in source.connectors
+               if conn.name in {r[0] for r in roles} and system.connector(conn.name) is None]
     system = dc_replace(system, versions=system.versions + (comp,), connectors=system.connectors + tuple(missing))
     start = _start(system, config)
     goal = Goal(start.components | {component}, start.roles | roles)
@@ -162,18 +173,18 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
     conn_names: dict[str, str] = {}
     conns = list(old.connectors)
     conn_taken = set(old_conns)
-    for c in new.connectors:
-        if c.name in old_conns and _same_connector(old_conns[c.name], c):
-            conn_names[c.name] = c.name
+    for conn in new.connectors:
+        if conn.name in old_conns and _same_connector(old_conns[conn.name], conn):
+            conn_names[conn.name] = conn.name
             continue
-        target = c.name if c.name not in conn_taken else _fresh(c.name, conn_taken)
+        target = conn.name if conn.name not in conn_taken else _fresh(conn.name, conn_taken)
         conn_taken.add(target)
-        conn_names[c.name] = target
-        conns.append(dc_replace(c, name=target, publishers=(), subscribers=()))
+        conn_names[conn.name] = target
+        conns.append(dc_replace(conn, name=target, publishers=(), subscribers=()))
     system = dc_replace(old, versions=tuple(versions), connectors=tuple(conns))
     start = _start(old, config)
-    roles: set[Role] = {(conn_names[c.name], comp_names[r.component], r.port) for c in new.connectors
-                        for r in c.roles}
+    roles: set[Role] = {(conn_names[conn.name], comp_names[r.component], r.port) for conn in new.connectors
+                        for r in conn.roles}
     goal = Goal(frozenset(comp_names.values()), frozenset(roles))
     renames = {v: k for k, v in {**comp_names, **conn_names}.items() if k != v}
     return solve(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),

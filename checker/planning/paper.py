@@ -86,9 +86,9 @@ def paper_steps(p: Problem) -> list[Action]:
     run = _Run(p.system, p.start)
     leaving = [old for old, _ in p.replaced] + list(p.removed)
     for c in leaving:
-        for port in run.cat.comps[c].ports:
-            for conn in run.config.connector_of(c, port.name):
-                run.detach(conn, c, port.name)
+        for decl in run.cat.comps[c].ports:
+            for conn in run.config.connector_of(c, decl.name):
+                run.detach(conn, c, decl.name)
         run.do(Remove(c))
     for conn, c, port in sorted(run.config.roles - p.goal.roles):
         if (conn, c, port) in run.config.roles:
@@ -98,7 +98,7 @@ def paper_steps(p: Problem) -> list[Action]:
         run.do(Create(c))
         goal_ports = sorted((conn, port) for conn, comp_, port in p.goal.roles if comp_ == c)
         for conn, port in goal_ports:
-            if comp.port(port) is not None and comp.port(port).kind == "input":  # type: ignore[union-attr]
+            if not run.snap().is_output(c, port):
                 run.do(Attach(conn, c, port))
         for f in comp.functionalities:
             if not check(run.snap(), Upgrade(c, f.name)):

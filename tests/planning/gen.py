@@ -112,3 +112,39 @@ def random_system(seed: int, n: int = 4, n_topics: int = 3, single_p: float = 0.
         if is_valid(s, Configuration.initial(s)) and any(r.component == "c0" for c in conns for r in c.roles):
             return s
     return None
+
+
+def random_migration(seed: int, n: int = 4, n_topics: int = 3, tries: int = 50) -> Optional[tuple[System, System]]:
+    """A valid old system and a valid new one: one component dropped, one added, c0 redefined,
+    some attachments moved."""
+    from reconf_dsl.ir import satisfies
+    rng = random.Random(seed)
+    for _ in range(tries):
+        old = random_system(rng.randrange(1 << 30), n, n_topics)
+        if old is None:
+            continue
+        comps = list(old.components)
+        if len(comps) > 2:
+            comps.pop(rng.randrange(1, len(comps)))
+        comps[0] = replace(version_of(rng, comps[0], comps[0].name), replaces=None)
+        comps.append(component(rng, "added"))
+        conns = []
+        names = {c.name for c in comps}
+        for conn in old.connectors:
+            pubs = [r for r in conn.publishers if r.component in names]
+            subs = [r for r in conn.subscribers if r.component in names and rng.random() < 0.8]
+            for c in comps:
+                for p in c.ports:
+                    used = any((r.component, r.port) == (c.name, p.name) for k in conns + [conn] for r in k.roles)
+                    if used or rng.random() > 0.4:
+                        continue
+                    if p.kind == "input" and p.assumption is not None and satisfies(conn.guarantee, p.assumption):
+                        subs.append(PortRef(c.name, p.name))
+                    elif (p.kind == "output" and satisfies(_guarantee_of(c, p.name), conn.guarantee)
+                          and not (conn.single and pubs)):
+                        pubs.append(PortRef(c.name, p.name))
+            conns.append(replace(conn, publishers=tuple(pubs), subscribers=tuple(subs)))
+        new = replace(old, components=tuple(comps), versions=(), connectors=tuple(conns))
+        if is_valid(new, Configuration.initial(new)):
+            return old, new
+    return None
