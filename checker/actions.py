@@ -24,7 +24,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Iterable, Optional, Union
 
-from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System, satisfies
+from functools import lru_cache
+
+from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
+from reconf_dsl.ir import satisfies as _satisfies
 
 from .config import Configuration, FuncId, Role
 
@@ -135,6 +138,12 @@ class ActionRefused(Exception):
 
 
 # --- satisfaction, fast and with exclusions (the paper's *_no_* predicates) -------------
+
+@lru_cache(maxsize=65536)
+def satisfies(p: Predicate, q: Predicate) -> bool:
+    """`reconf_dsl.ir.satisfies`, memoised: planners ask the same question very often."""
+    return _satisfies(p, q)
+
 
 class _Catalogue:
     """What the actions need to know about a System, indexed once."""

@@ -30,31 +30,56 @@ def cost(system: System, start: Configuration, steps: Sequence[Action], goal: Go
     return (total, len(steps)) if goal.reached(config) else None
 
 
-def _variants(steps: list[Action]) -> Iterator[list[Action]]:
+def _variants(steps: list[Action]) -> Iterator[tuple[int, list[Action]]]:
+    """Candidate plans, each with the index of its first step that differs from `steps`."""
     for i, a in enumerate(steps):
         if isinstance(a, Degrade):
             for j in range(i + 1, len(steps)):
                 b = steps[j]
                 if isinstance(b, Upgrade) and (b.component, b.functionality) == (a.component, a.functionality):
-                    yield steps[:i] + steps[i + 1:j] + steps[j + 1:]
+                    yield i, steps[:i] + steps[i + 1:j] + steps[j + 1:]
                     break
     for i in range(len(steps)):
         rest = steps[:i] + steps[i + 1:]
         for j in range(len(steps)):
             if j != i:
-                yield rest[:j] + [steps[i]] + rest[j:]
+                yield min(i, j), rest[:j] + [steps[i]] + rest[j:]
 
 
-def improve(system: System, start: Configuration, steps: list[Action], goal: Goal, rounds: int = 50) -> list[Action]:
-    best = cost(system, start, steps, goal)
-    if best is None:
+def _tail_cost(system: System, config: Configuration, total: int, steps: Sequence[Action], goal: Goal,
+               bound: tuple[int, int]) -> Optional[tuple[int, int]]:
+    """Cost of running `steps` from `config` with `total` so far; None if refused or not below `bound`."""
+    cat = catalogue(system)
+    for a in steps:
+        if check(Snapshot(cat, config), a):
+            return None
+        config = effect(system, config, a)
+        total += state_weight(system, config)
+        if total > bound[0]:
+            return None
+    return (total, bound[1]) if goal.reached(config) else None
+
+
+def improve(system: System, start: Configuration, steps: list[Action], goal: Goal, rounds: int = 50,
+            budget: int = 20_000) -> list[Action]:
+    """Locally better `steps`; at most `rounds` improvements and `budget` candidates tried."""
+    if cost(system, start, steps, goal) is None:
         return steps
     for _ in range(rounds):
+        states = [start]
+        weights = [0]
+        for a in steps:
+            states.append(effect(system, states[-1], a))
+            weights.append(weights[-1] + state_weight(system, states[-1]))
+        best = (weights[-1], len(steps))
         found = None
-        for cand in _variants(steps):
-            c = cost(system, start, cand, goal)
-            if c is not None and c < best:
-                found, best = cand, c
+        for k, cand in _variants(steps):
+            budget -= 1
+            if budget < 0:
+                return steps
+            c = _tail_cost(system, states[k], weights[k], cand[k:], goal, best)
+            if c is not None and (c[0], len(cand)) < best:
+                found = cand
                 break
         if found is None:
             return steps

@@ -69,35 +69,44 @@ _NO_PORT = _NoPort()
 def solve(problem: Problem, strategy: str = "default") -> Plan:
     """Plan `problem` with `strategy`.
 
-    `default` also improves the paper's plan locally and keeps whichever of the two is less
-    disruptive, so it is never worse than `paper`."""
+    `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
+    so it is never worse than `paper`."""
     _check_ends(problem)
     note = None
     if strategy != "default":
         steps = _steps(problem, strategy)
     else:
-        system, start, goal = problem.system, problem.start, problem.goal
-        found: list[tuple[tuple[int, int], int, list[Action]]] = []
-        reasons: list[str] = []
-        for rank, make in enumerate((lambda: default_steps(system, start, goal),
-                                     lambda: improve(system, start, paper_steps(problem), goal))):
-            try:
-                candidate = make()
-            except NoSafePlan as e:
-                reasons += e.reasons
-                continue
-            c = cost(system, start, candidate, goal)
-            if c is not None:
-                found.append((c, rank, candidate))
-        if not found:
-            raise NoSafePlan(reasons)
-        _, rank, steps = min(found, key=lambda f: (f[0], f[1]))
-        if rank == 1:
-            note = "the paper's order, improved, was less disruptive here and is kept"
+        steps, note = _default(problem)
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
     if note:
         plan.notes.append(note)
     return plan
+
+
+def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
+    """The default strategy's plan, or the paper's (locally improved) when that is less disruptive."""
+    system, start, goal = problem.system, problem.start, problem.goal
+    reasons: list[str] = []
+    mine: Optional[list[Action]] = None
+    try:
+        mine = default_steps(system, start, goal)
+    except NoSafePlan as e:
+        reasons += e.reasons
+    try:
+        theirs = paper_steps(problem)
+    except NoSafePlan as e:
+        if mine is None:
+            raise NoSafePlan(reasons + e.reasons) from None
+        return mine, None
+    mine_cost = None if mine is None else cost(system, start, mine, goal)
+    theirs_cost = cost(system, start, theirs, goal)
+    if mine is not None and mine_cost is not None and (theirs_cost is None or mine_cost < theirs_cost):
+        return mine, None
+    theirs = improve(system, start, theirs, goal)
+    improved = cost(system, start, theirs, goal)
+    if mine is not None and mine_cost is not None and (improved is None or mine_cost <= improved):
+        return mine, None
+    return theirs, "the paper's order, improved, was less disruptive here and is kept"
 
 
 def _start(system: System, config: Optional[Configuration]) -> Configuration:

@@ -63,3 +63,23 @@ def ring_system(degraded_still_serves: bool) -> System:
         "topic /ba: String @ 10 Hz { b.out -> a.in }",
     ])
     return load_text(text, "ring.arch")
+
+
+def chain_system(n: int, single: bool = False, ring: bool = False, serves: tuple[bool, ...] = ()) -> System:
+    """r0 → /t0 → r1 → … → r(n-1), each relay reading the previous topic (a source feeds r0,
+    or with `ring` the last topic does); the version r0_v2. `serves[i]`: r_i's degraded mode
+    still satisfies its topic."""
+    parts = ["system chain", "message String = std_msgs/msg/String"]
+    if not ring:
+        parts.append(TALKER.replace("component talker", "component source"))
+    for i in range(n):
+        d = "String @ 10 Hz" if i < len(serves) and serves[i] else "nothing"
+        parts.append(RELAY % {"name": f"r{i}", "crit": 1 + i % 3, "degraded": d})
+    parts.append((RELAY % {"name": "r0_v2", "crit": 1, "degraded": "nothing"}).replace(
+        "component r0_v2", "component r0_v2 replaces r0"))
+    first = f"r{n - 1}.out" if ring else "source.out"
+    s = " single" if single else ""
+    parts.append(f"topic /in: String @ 10 Hz{s} {{ {first} -> r0.in }}")
+    for i in range(n - 1):
+        parts.append(f"topic /t{i}: String @ 10 Hz{s} {{ r{i}.out -> r{i + 1}.in }}")
+    return load_text("\n".join(parts), "chain.arch")

@@ -12,7 +12,7 @@ from checker.planning.plan import disruption
 from checker.semantics import evaluate
 from reconf_dsl.ir import PortRef
 
-from .systems import ring_system, talker_system
+from .systems import chain_system, ring_system, talker_system
 
 PAPER_PLAN = [
     "degrade listener.listen",
@@ -144,3 +144,35 @@ def test_migrate_to_itself_is_empty() -> None:
     s = talker_system()
     for strategy in STRATEGIES:
         assert plan_migrate(s, s, strategy).steps == []
+
+
+@pytest.mark.parametrize("n", [3, 5, 8])
+@pytest.mark.parametrize("single", [False, True])
+@pytest.mark.parametrize("ring", [False, True])
+def test_chains_and_rings_of_relays(n: int, single: bool, ring: bool) -> None:
+    """Every strategy stops on cycles too; whatever it returns is safe, and default is optimal here."""
+    s = chain_system(n, single=single, ring=ring)
+    found = {}
+    for strategy in STRATEGIES:
+        try:
+            plan = plan_replace(s, "r0", "r0_v2", strategy)
+        except NoSafePlan as e:
+            assert e.reasons
+            continue
+        assert_safe(plan)
+        found[strategy] = plan.disruption
+    assert ("default" in found) == ("exhaustive" in found)
+    if "exhaustive" in found:
+        assert found["default"] == found["exhaustive"] <= found.get("paper", found["default"])
+    if single and ring:
+        assert not found     # the new relay can neither join nor wait: nothing is safe
+
+
+def test_migrate_changed_connector_is_a_new_connector() -> None:
+    old = talker_system()
+    new = replace(old, connectors=tuple(replace(c, single=True) for c in old.connectors))
+    for strategy in STRATEGIES:
+        plan = plan_migrate(old, new, strategy)
+        assert_safe(plan)
+        assert plan.renames == {"/chatter@new": "/chatter"}
+        assert Attach("/chatter@new", "talker", "out") in plan.steps
