@@ -13,6 +13,7 @@ import argparse
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import jinja2
 
@@ -37,6 +38,7 @@ class StateAccess:
     prefix: str = ""
     materialized: bool = False
     sat: str = "sat"
+    store: str | None = None
 
     def head(self, name: str, params: str) -> str:
         decls = [p for p in ((f"{self.var}: {self.sig}" if self.var else ""), params) if p]
@@ -52,14 +54,18 @@ class StateAccess:
     def cached(self, field: str, definition: str) -> str:
         """A derived set of the configuration: the stored relation `field` when
         materialized, else a call of its definition."""
-        return self.rel(field) if self.materialized else self.call(definition, "")
+        if not self.materialized:
+            return self.call(definition, "")
+        return f"({self.store}.{field})" if self.store else self.rel(field)
 
 
 # The meta-model: configurations are System atoms; the satisfaction relation and the
 # satisfied connectors/inputs are relations fixed by facts.
 META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
-# An instance module: one fixed configuration given by constants.
-FIXED_STATE = StateAccess(None, sat="sat")
+# An instance module: one fixed configuration given by constants; the derived sets are
+# stored in the one atom `Derived` (computed once by the solver, then read by the
+# evaluator instead of being recomputed under every quantifier).
+FIXED_STATE = StateAccess(None, sat="sat", materialized=True, store="Derived")
 
 
 def environment() -> jinja2.Environment:
@@ -100,6 +106,202 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{METAMODEL_PATH} is out of date: run python -m codegen.alloy --regenerate")
         return 1
     return 0
+
+
+
+# -- Instance modules ---------------------------------------------------------------------
+
+KINDS = {
+    "component": "c", "port": "p", "functionality": "f", "connector": "k",
+    "message": "m", "data": "d", "rate": "r",
+}
+
+
+def mangle(kind: str, *parts: str) -> str:
+    """A valid, unique Alloy identifier for a DSL name (any characters, keywords too).
+
+    Letters and digits stay; `_` becomes `__`, any other character `_u<hex>_`, and the
+    parts are joined with `_o_`, so distinct names give distinct identifiers.
+    """
+
+    def esc(text: str) -> str:
+        out = []
+        for ch in text:
+            if ch.isascii() and ch.isalnum():
+                out.append(ch)
+            elif ch == "_":
+                out.append("__")
+            else:
+                out.append(f"_u{ord(ch):x}_")
+        return "".join(out)
+
+    return KINDS[kind] + "_" + "_o_".join(esc(p) for p in parts)
+
+
+def union(terms: list[str], empty: str) -> str:
+    """Balanced union (a binary tree of `+`), or `empty` when there are no terms."""
+    if not terms:
+        return empty
+    if len(terms) == 1:
+        return terms[0]
+    mid = len(terms) // 2
+    return f"({union(terms[:mid], empty)} + {union(terms[mid:], empty)})"
+
+
+def _empty(*sigs: str) -> str:
+    product = " -> ".join(sigs)
+    return "none" if len(sigs) == 1 else f"({product} - {product})"
+
+
+def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
+    """An abstract sig and one `one sig` per atom (balanced lines of 8)."""
+    out = [f"abstract sig {parent} {extends}{{}}".replace("  ", " ")]
+    for i in range(0, len(names), 8):
+        out.append(f"one sig {', '.join(names[i:i + 8])} extends {parent} {{}}")
+    return out
+
+
+def render_instance(system: Any, config: Any, module_name: str = "instance") -> tuple[str, dict[str, tuple[str, ...]]]:
+    """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
+    (checker.config.Configuration).
+
+    Returns the text and a map from each atom name to what it stands for:
+    ("component", c), ("port", c, p), ("functionality", c, f), ("connector", k),
+    ("message", m), ("rate", hz), ("data", message, hz or "").
+    The module defines `valid`, `unsatisfied: Functionality -> Data` (evaluate it in the
+    `Verdict` instance) and `check Valid` (a counterexample means the configuration is
+    not valid).
+    """
+    from fractions import Fraction
+
+    names: dict[str, tuple[str, ...]] = {}
+    comps = list(system.components) + [v for v in system.versions
+                                       if v.name not in {c.name for c in system.components}]
+
+    # data predicates: one atom per distinct (message, rate)
+    data_atoms: dict[tuple[str, Fraction | None], str] = {}
+    messages: dict[str, str] = {}
+    rates: set[Fraction] = set()
+
+    def data(pred: Any) -> str:
+        if pred is None or pred.message is None:
+            return "Nothing"
+        key = (pred.message, pred.hz)
+        if key not in data_atoms:
+            atom = f"d_{len(data_atoms)}"
+            data_atoms[key] = atom
+            names[atom] = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
+            if pred.message not in messages:
+                messages[pred.message] = mangle("message", pred.message)
+                names[messages[pred.message]] = ("message", pred.message)
+            if pred.hz is not None:
+                rates.add(pred.hz)
+        return data_atoms[key]
+
+    comp_atoms, port_atoms, func_atoms = {}, {}, {}
+    inputs, outputs = [], []
+    rel: dict[str, list[str]] = {k: [] for k in (
+        "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "nguar",
+        "dguar", "cguar", "envg", "comps", "degraded", "roles")}
+    for c in comps:
+        ca = comp_atoms[c.name] = mangle("component", c.name)
+        names[ca] = ("component", c.name)
+        for p in c.ports:
+            pa = port_atoms[c.name, p.name] = mangle("port", c.name, p.name)
+            names[pa] = ("port", c.name, p.name)
+            if p.kind == "input":
+                inputs.append(pa)
+                rel["inputs"].append(f"{ca} -> {pa}")
+                rel["iasm"].append(f"{pa} -> {data(p.assumption)}")
+            else:
+                outputs.append(pa)
+                rel["outputs"].append(f"{ca} -> {pa}")
+        for f in c.functionalities:
+            fa = func_atoms[c.name, f.name] = mangle("functionality", c.name, f.name)
+            names[fa] = ("functionality", c.name, f.name)
+            rel["funcs"].append(f"{ca} -> {fa}")
+            for pname in f.ports:
+                port = c.port(pname)
+                if port is None:
+                    continue
+                pa = port_atoms[c.name, pname]
+                if port.kind == "input":
+                    rel["assoc_in"].append(f"{fa} -> {pa}")
+                else:
+                    rel["assoc_out"].append(f"{fa} -> {pa}")
+                    for mode, key in ((f.normal, "nguar"), (f.degraded, "dguar")):
+                        guar = mode.guarantee(pname) if mode is not None else None
+                        rel[key].append(f"{fa} -> {pa} -> {data(guar)}")
+            if f.normal is not None:
+                for a in f.normal.assumptions:
+                    rel["nasms"].append(f"{fa} -> {data(a)}")
+    conn_atoms = {}
+    for k in system.connectors:
+        ka = conn_atoms[k.name] = mangle("connector", k.name)
+        names[ka] = ("connector", k.name)
+        rel["cguar"].append(f"{ka} -> {data(k.guarantee)}")
+    for e in system.environment:
+        rel["envg"].append(data(e.guarantee))
+    # the configuration
+    rel["comps"] = [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
+    rel["degraded"] = [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
+    rel["roles"] = [f"{conn_atoms[k]} -> {port_atoms[c, p]}" for k, c, p in sorted(config.roles)
+                    if k in conn_atoms and (c, p) in port_atoms]
+
+    rate_atoms = []
+    for i, hz in enumerate(sorted(rates)):
+        ra = f"r_{i}"
+        rate_atoms.append((hz, ra))
+        names[ra] = ("rate", str(hz))
+    rate_of = dict(rate_atoms)
+    mtype_rel, rate_rel = [], []
+    for (msg, hz), atom in data_atoms.items():
+        mtype_rel.append(f"{atom} -> {messages[msg]}")
+        if hz is not None:
+            rate_rel.append(f"{atom} -> {rate_of[hz]}")
+
+    sigs: list[str] = []
+    sigs += _one_sigs("MType", sorted(messages.values()))
+    sigs += _one_sigs("Rate", [ra for _, ra in rate_atoms])
+    sigs += ["abstract sig Data {}", "one sig Nothing extends Data {}"]
+    sigs += _one_sigs("Msg", list(data_atoms.values()), "extends Data ")
+    sigs += _one_sigs("Component", list(comp_atoms.values()))
+    sigs += ["abstract sig Port {}"]
+    sigs += _one_sigs("Input", inputs, "extends Port ")
+    sigs += _one_sigs("Output", outputs, "extends Port ")
+    sigs += _one_sigs("Functionality", list(func_atoms.values()))
+    sigs += _one_sigs("Connector", list(conn_atoms.values()))
+    # an abstract sig without children could still hold atoms: forbid them
+    for parent, children in (("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
+                             ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
+                             ("Functionality", func_atoms), ("Connector", conn_atoms)):
+        if not children:
+            sigs.append(f"fact no_{parent} {{ no {parent} }}")
+
+    funs = [
+        ("rate_next", "Rate -> Rate", union([f"{a} -> {b}" for (_, a), (_, b) in zip(rate_atoms, rate_atoms[1:])],
+                                            _empty("Rate", "Rate"))),
+        ("mtype", "Msg -> MType", union(mtype_rel, _empty("Msg", "MType"))),
+        ("rate", "Msg -> Rate", union(rate_rel, _empty("Msg", "Rate"))),
+        ("inputs", "Component -> Input", union(rel["inputs"], _empty("Component", "Input"))),
+        ("outputs", "Component -> Output", union(rel["outputs"], _empty("Component", "Output"))),
+        ("funcs", "Component -> Functionality", union(rel["funcs"], _empty("Component", "Functionality"))),
+        ("iasm", "Input -> Data", union(rel["iasm"], _empty("Input", "Data"))),
+        ("assoc_in", "Functionality -> Input", union(rel["assoc_in"], _empty("Functionality", "Input"))),
+        ("assoc_out", "Functionality -> Output", union(rel["assoc_out"], _empty("Functionality", "Output"))),
+        ("nasms", "Functionality -> Data", union(rel["nasms"], _empty("Functionality", "Data"))),
+        ("nguar", "Functionality -> Output -> Data", union(rel["nguar"], _empty("Functionality", "Output", "Data"))),
+        ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
+        ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
+        ("envg", "set Data", union(sorted(set(rel["envg"])), "none")),
+        ("comps", "set Component", union(rel["comps"], "none")),
+        ("degraded", "set Functionality", union(rel["degraded"], "none")),
+        ("roles", "Connector -> Port", union(rel["roles"], _empty("Connector", "Port"))),
+    ]
+    template = environment().get_template("instance.als.j2")
+    text = template.render(st=FIXED_STATE, sigs=sigs, funs=funs, module_name=module_name,
+                           system_name=system.name)
+    return text, names
 
 
 if __name__ == "__main__":

@@ -1,0 +1,58 @@
+"""The Alloy verdict on one configuration of a concrete architecture."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .bridge import DEFAULT_SOLVER, AlloyBridge
+
+MAIN = "instance.als"
+
+
+@dataclass(frozen=True)
+class AlloyVerdict:
+    """`valid` as Alloy judges it; `unsatisfied` lists (component, functionality,
+    assumption index) of every assumption that does not hold, sorted."""
+
+    valid: bool
+    unsatisfied: tuple[tuple[str, str, int], ...]
+    seconds: float
+    text: str  # the instance module, for reports and golden files
+
+
+def _atom(name: str) -> str:
+    name = name.split("/")[-1]
+    return name[:-2] if name.endswith("$0") else name
+
+
+def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
+                  bridge: AlloyBridge | None = None) -> AlloyVerdict:
+    """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
+    in Alloy, through an instance module rendered from the shared semantics."""
+    from codegen.alloy import render_instance
+
+    text, names = render_instance(system, config)
+    bridge = bridge or AlloyBridge.get()
+    (outcome,) = bridge.run({MAIN: text}, MAIN, "Verdict", solver)
+    pairs = outcome.eval("unsatisfied")
+    valid = bool(outcome.eval("valid"))
+    failing: set[tuple[str, str, int]] = set()
+    for f_atom, a_atom in pairs:
+        _, comp, func = names[_atom(f_atom)]
+        component = system.component(comp)
+        functionality = next(f for f in component.functionalities if f.name == func)
+        want = _atom(a_atom)
+        for index, a in enumerate(functionality.normal.assumptions):
+            if _data_atom(a, text, names) == want:
+                failing.add((comp, func, index))
+    return AlloyVerdict(valid, tuple(sorted(failing)), outcome.elapsed, text)
+
+
+def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
+    if pred.message is None:
+        return "Nothing"
+    key = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
+    for atom, meaning in names.items():
+        if meaning == key:
+            return atom
+    return ""

@@ -1,0 +1,125 @@
+"""Instance modules: a concrete architecture and configuration as an Alloy module, judged
+by the same semantics as the meta-model, agreeing with the Python engine."""
+from __future__ import annotations
+
+import random
+import re
+import time
+from fractions import Fraction
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from checker.alloy import AlloyBridge, alloy_verdict
+from checker.config import Configuration
+from checker.semantics import evaluate
+from codegen.alloy import mangle, render_instance, union
+from reconf_dsl import ir
+from reconf_dsl.loader import load
+from tests.examples_table import EXAMPLES
+
+IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def python_verdict(system: ir.System, config: Configuration) -> tuple[bool, tuple[tuple[str, str, int], ...]]:
+    ev = evaluate(system, config, explain=False)
+    return ev.valid, tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=[e.name for e in EXAMPLES])
+def test_examples_agree_with_python(bridge: AlloyBridge, example) -> None:  # type: ignore[no-untyped-def]
+    system = load([example.file])
+    config = Configuration.initial(system)
+    verdict = alloy_verdict(system, config, bridge=bridge)
+    assert verdict.valid == example.safe
+    assert (verdict.valid, verdict.unsatisfied) == python_verdict(system, config)
+    assert {f"{c}.{f}" for c, f, _ in verdict.unsatisfied} == set(example.unsatisfied)
+
+
+def _variations(system: ir.System, rng: random.Random, n: int) -> list[Configuration]:
+    base = Configuration.initial(system)
+    funcs = sorted((c.name, f.name) for c in system.components for f in c.functionalities)
+    out = []
+    for _ in range(n):
+        comps = frozenset(c for c in base.components if rng.random() < 0.85)
+        degraded = frozenset(f for f in funcs if rng.random() < 0.3)
+        roles = frozenset(r for r in base.roles if rng.random() < 0.7 and r[1] in comps)
+        out.append(Configuration(comps, degraded, roles))
+    return out
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=[e.name for e in EXAMPLES])
+def test_changed_configurations_agree_with_python(bridge: AlloyBridge, example) -> None:  # type: ignore[no-untyped-def]
+    system = load([example.file])
+    for config in _variations(system, random.Random(example.name), 4):
+        verdict = alloy_verdict(system, config, bridge=bridge)
+        assert (verdict.valid, verdict.unsatisfied) == python_verdict(system, config), config
+
+
+def _odd_system(names: list[str]) -> ir.System:
+    """A chain of components with the given names; each publishes to the next's topic."""
+    msg = "Odd/msg"
+    rate = ir.Rate(Fraction(10), "Hz")
+    comps, conns = [], []
+    for i, name in enumerate(names):
+        ports = [ir.Port("out", "output", msg)]
+        fports = ["out"]
+        asms: tuple[ir.Predicate, ...] = ()
+        if i > 0:
+            ports.append(ir.Port("in", "input", msg, ir.Predicate(msg, rate)))
+            fports.append("in")
+            asms = (ir.Predicate(msg, rate),)
+        func = ir.Functionality(
+            name, tuple(fports),
+            ir.Mode("normal", asms, (ir.Guarantee("out", ir.Predicate(msg, rate)),)),
+            ir.Mode("degraded", (), (ir.Guarantee("out", ir.NOTHING),)))
+        comps.append(ir.Component(name, tuple(ports), (func,)))
+        if i > 0:
+            conns.append(ir.Connector(f"/ns/{names[i - 1]}/topic", "topic", ir.Predicate(msg, rate),
+                                      publishers=(ir.PortRef(names[i - 1], "out"),),
+                                      subscribers=(ir.PortRef(name, "in"),)))
+    return ir.System("odd", (ir.MessageType(msg, "odd/msg/Odd"),), (), tuple(comps), (), tuple(conns))
+
+
+def test_keywords_and_odd_characters_make_a_valid_module(bridge: AlloyBridge) -> None:
+    names = ["sig", "run", "open", "this", "ñandú", "a_b", "a", "b_c", "x y", "Int", "fun", "none"]
+    system = _odd_system(names)
+    config = Configuration.initial(system)
+    text, name_map = render_instance(system, config)
+    for atom in name_map:
+        assert IDENT.match(atom), atom
+    assert {m[1] for m in name_map.values() if m[0] == "component"} == set(names)
+    verdict = alloy_verdict(system, config, bridge=bridge)
+    assert verdict.valid
+    # remove the first component's output from its topic: its successor loses its input
+    first_topic = system.connectors[0].name
+    broken = Configuration(config.components, config.degraded,
+                           config.roles - {(first_topic, names[0], "out")})
+    verdict = alloy_verdict(system, broken, bridge=bridge)
+    assert (verdict.valid, verdict.unsatisfied) == (False, ((names[1], names[1], 0),))
+    assert (verdict.valid, verdict.unsatisfied) == python_verdict(system, broken)
+
+
+def test_large_architecture_is_fast(bridge: AlloyBridge) -> None:
+    system = _odd_system([f"node{i}" for i in range(150)])
+    config = Configuration.initial(system)
+    start = time.perf_counter()
+    verdict = alloy_verdict(system, config, bridge=bridge)
+    assert verdict.valid
+    assert time.perf_counter() - start < 20
+
+
+def test_union_is_balanced() -> None:
+    assert union([], "none") == "none"
+    assert union(["a"], "none") == "a"
+    assert union(["a", "b", "c", "d"], "none") == "((a + b) + (c + d))"
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(min_size=1, max_size=8), st.text(min_size=1, max_size=8))
+def test_mangling_is_injective_and_valid(a: str, b: str) -> None:
+    ma, mb = mangle("component", a), mangle("component", b)
+    assert IDENT.match(ma) and IDENT.match(mb)
+    assert (ma == mb) == (a == b)
+    assert mangle("port", a, b) != mangle("port", a + "_o_" + b) or a + "_o_" + b == a
