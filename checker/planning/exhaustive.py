@@ -57,7 +57,7 @@ def _candidates(system: System, config: Configuration, goal: Goal) -> list[Actio
     return acts
 
 
-def exhaustive_steps(system: System, start: Configuration, goal: Goal, max_states: int = 200_000) -> list[Action]:
+def exhaustive_steps(system: System, start: Configuration, goal: Goal, max_states: int = 100_000) -> list[Action]:
     cat = catalogue(system)
     tie = count()
     best: dict[Configuration, tuple[int, int]] = {start: (0, 0)}

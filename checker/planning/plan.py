@@ -80,7 +80,10 @@ class Plan:
 
     def to_dict(self) -> dict[str, Any]:
         return {"strategy": self.strategy, "disruption": self.disruption,
-                "steps": [a.to_dict() for a in self.steps], "renames": dict(self.renames), "notes": list(self.notes)}
+                "steps": [a.to_dict() for a in self.steps],
+                "states": [{"components": sorted(s.components), "degraded": [list(d) for d in sorted(s.degraded)],
+                            "roles": [list(r) for r in sorted(s.roles)]} for s in self.states],
+                "renames": dict(self.renames), "notes": list(self.notes)}
 
 
 def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -> list[Configuration]:

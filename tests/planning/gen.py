@@ -79,11 +79,11 @@ def wire(rng: random.Random, comps: list[Component], n_topics: int, single_p: fl
     seen: set[tuple[str, str]] = set()
     out = []
     for c in conns:
-        pubs = tuple(r for r in c.publishers if (r.component, r.port) not in seen)
-        seen |= {(r.component, r.port) for r in pubs}
-        subs = tuple(r for r in c.subscribers if (r.component, r.port) not in seen)
-        seen |= {(r.component, r.port) for r in subs}
-        out.append(replace(c, publishers=pubs, subscribers=subs))
+        kept_pubs = tuple(r for r in c.publishers if (r.component, r.port) not in seen)
+        seen |= {(r.component, r.port) for r in kept_pubs}
+        kept_subs = tuple(r for r in c.subscribers if (r.component, r.port) not in seen)
+        seen |= {(r.component, r.port) for r in kept_subs}
+        out.append(replace(c, publishers=kept_pubs, subscribers=kept_subs))
     return out
 
 
@@ -128,7 +128,7 @@ def random_migration(seed: int, n: int = 4, n_topics: int = 3, tries: int = 50) 
             comps.pop(rng.randrange(1, len(comps)))
         comps[0] = replace(version_of(rng, comps[0], comps[0].name), replaces=None)
         comps.append(component(rng, "added"))
-        conns = []
+        conns: list[Connector] = []
         names = {c.name for c in comps}
         for conn in old.connectors:
             pubs = [r for r in conn.publishers if r.component in names]

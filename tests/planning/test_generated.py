@@ -5,7 +5,8 @@ the default strategy shows up as a failure.
 """
 from __future__ import annotations
 
-from typing import Callable, Optional
+import functools
+from typing import Callable, Optional, Sequence
 
 from checker.planning import NoSafePlan, Plan, plan_migrate, plan_replace
 from checker.planning.default import default_steps
@@ -22,7 +23,7 @@ def _try(make: Callable[[], Plan]) -> Optional[Plan]:
         return None
 
 
-def _compare(cases: list[tuple[str, Callable[[str], Plan]]]) -> dict[str, int]:
+def _compare(cases: Sequence[tuple[str, Callable[[str], Plan]]]) -> dict[str, int]:
     n = better = optimal = own_optimal = 0
     for _, make in cases:
         optimum = _try(lambda: make("exhaustive"))
@@ -48,11 +49,11 @@ def _compare(cases: list[tuple[str, Callable[[str], Plan]]]) -> dict[str, int]:
 
 
 def test_replace_on_generated_systems() -> None:
-    cases = []
+    cases: list[tuple[str, Callable[[str], Plan]]] = []
     for seed in range(120):
         s = random_system(seed, n=4)
         if s is not None:
-            cases.append((f"replace/{seed}", lambda strategy, s=s: plan_replace(s, "c0", "c0_v2", strategy)))
+            cases.append((f"replace/{seed}", functools.partial(plan_replace, s, "c0", "c0_v2")))
     stats = _compare(cases)
     print("replace:", stats)
     assert stats["planned"] >= 100
@@ -61,11 +62,11 @@ def test_replace_on_generated_systems() -> None:
 
 
 def test_migrate_on_generated_systems() -> None:
-    cases = []
+    cases: list[tuple[str, Callable[[str], Plan]]] = []
     for seed in range(50):
         m = random_migration(seed, n=4)
         if m is not None:
-            cases.append((f"migrate/{seed}", lambda strategy, m=m: plan_migrate(m[0], m[1], strategy)))
+            cases.append((f"migrate/{seed}", functools.partial(plan_migrate, m[0], m[1])))
     stats = _compare(cases)
     print("migrate:", stats)
     assert stats["planned"] >= 40

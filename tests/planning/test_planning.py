@@ -176,3 +176,13 @@ def test_migrate_changed_connector_is_a_new_connector() -> None:
         assert_safe(plan)
         assert plan.renames == {"/chatter@new": "/chatter"}
         assert Attach("/chatter@new", "talker", "out") in plan.steps
+
+
+def test_plan_as_json() -> None:
+    import json
+    plan = plan_replace(talker_system(), "talker", "talker_v2", "paper")
+    data = json.loads(json.dumps(plan.to_dict()))
+    assert [s["action"] for s in data["steps"]] == [a.kind for a in plan.steps]
+    assert len(data["states"]) == len(plan.steps) + 1 and data["disruption"] == 7
+    assert plan.summary().startswith("7 steps")
+    assert plan.describe()[0] == "  1. ↓ degrade listener.listen"
