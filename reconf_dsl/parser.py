@@ -5,16 +5,18 @@ names are resolved in `resolve`.
 """
 from __future__ import annotations
 
+import gc
 from fractions import Fraction
 from functools import lru_cache
 from importlib import resources
 from typing import Any, Optional
 
-from lark import Lark, Token, Transformer, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
+from lark import Lark, Token
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from . import ir
-from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, error
+from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
+from .lexer import FastLexer
 from .span import Span
 
 TERMINAL_NAMES = {
@@ -34,52 +36,47 @@ def _describe(terminal: str) -> str:
     return terminal
 
 
-class _ToIR(Transformer[Token, Any]):
-    """Builds IR nodes bottom-up while the LALR parser runs."""
+class _ToIR:
+    """Builds IR nodes bottom-up while the LALR parser runs (no parse tree is built).
+
+    Lark calls one method per rule with every token kept; `_callbacks` computes the rule's
+    source region from its first and last tokens and drops the punctuation and keywords.
+    """
 
     def __init__(self) -> None:
-        super().__init__(visit_tokens=False)
         self.file = "<input>"
         self.sink = DiagnosticSink()
 
-    def span_of(self, meta: Any) -> Span:
-        if getattr(meta, "empty", True):
+    def span_of(self, meta: Optional[tuple[int, int, int, int]]) -> Span:
+        if meta is None:
             return Span(self.file, 1, 1, 1, 1)
-        return Span(self.file, meta.line, meta.column, meta.end_line, meta.end_column)
+        return Span(self.file, *meta)
 
     def tok(self, t: Token) -> Span:
         return Span(self.file, t.line or 1, t.column or 1, t.end_line or t.line or 1,
                     t.end_column or t.column or 1)
 
-    @v_args(meta=True)
     def start(self, meta: Any, items: list[Any]) -> list[Any]:
         return items
 
-    @v_args(meta=True)
     def system_decl(self, meta: Any, c: list[Token]) -> tuple[str, str, Span]:
         return ("system", str(c[0]), self.span_of(meta))
 
-    @v_args(meta=True)
     def include_decl(self, meta: Any, c: list[Token]) -> ir.Include:
         return ir.Include(unquote(c[0]), self.span_of(meta))
 
-    @v_args(meta=True)
     def message_decl(self, meta: Any, c: list[Token]) -> ir.MessageType:
         return ir.MessageType(str(c[0]), str(c[1]), self.span_of(meta))
 
-    @v_args(meta=True)
     def environment_decl(self, meta: Any, c: list[Any]) -> ir.EnvGuarantee:
         return ir.EnvGuarantee(str(c[0]), c[1], self.span_of(meta))
 
-    @v_args(meta=True)
     def host_decl(self, meta: Any, c: list[Any]) -> ir.Host:
         return ir.Host(str(c[0]), tuple(c[1:]), self.span_of(meta))
 
-    @v_args(meta=True)
     def resource_item(self, meta: Any, c: list[Token]) -> ir.ResourceSetting:
         return ir.ResourceSetting(str(c[0]), str(c[1]), self.span_of(meta))
 
-    @v_args(meta=True)
     def component_decl(self, meta: Any, c: list[Any]) -> ir.Component:
         name = str(c[0])
         fields: dict[str, Any] = {"ports": [], "functionalities": [], "resources": []}
@@ -95,46 +92,41 @@ class _ToIR(Transformer[Token, Any]):
             fields[key] = tuple(fields[key])
         return ir.Component(name=name, span=self.span_of(meta), **fields)
 
-    def replaces(self, c: list[Token]) -> tuple[str, str]:
+    def replaces(self, meta: Any, c: list[Token]) -> tuple[str, str]:
         return ("replaces", str(c[0]))
 
-    def run_stmt(self, c: list[Token]) -> tuple[str, str]:
+    def run_stmt(self, meta: Any, c: list[Token]) -> tuple[str, str]:
         return ("run", unquote(c[0]))
 
-    def host_stmt(self, c: list[Token]) -> tuple[str, str]:
+    def host_stmt(self, meta: Any, c: list[Token]) -> tuple[str, str]:
         return ("host", str(c[0]))
 
-    @v_args(meta=True)
     def input_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.Port]:
         pred: ir.Predicate = c[1]
         return ("ports", ir.Port(str(c[0]), "input", pred.message or "", pred, self.span_of(meta)))
 
-    @v_args(meta=True)
     def output_stmt(self, meta: Any, c: list[Token]) -> tuple[str, ir.Port]:
         return ("ports", ir.Port(str(c[0]), "output", str(c[1]), None, self.span_of(meta)))
 
-    def faults_stmt(self, c: list[Any]) -> tuple[str, tuple[str, ...]]:
+    def faults_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[str, ...]]:
         return ("faults", c[0])
 
-    def application_stmt(self, c: list[Any]) -> tuple[str, tuple[str, ...]]:
+    def application_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[str, ...]]:
         return ("application", c[0])
 
-    def resources_stmt(self, c: list[Any]) -> tuple[str, list[ir.ResourceSetting]]:
+    def resources_stmt(self, meta: Any, c: list[Any]) -> tuple[str, list[ir.ResourceSetting]]:
         return ("resources", list(c))
 
-    @v_args(meta=True)
     def ftm_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.FtmDecl]:
         hosts = c[1] if len(c) > 1 else ()
         return ("ftm", ir.FtmDecl(c[0], hosts, self.span_of(meta)))
 
-    def ftm_hosts(self, c: list[Any]) -> tuple[str, ...]:
+    def ftm_hosts(self, meta: Any, c: list[Any]) -> tuple[str, ...]:
         return tuple(c[0])
 
-    @v_args(meta=True)
     def ftm_expr(self, meta: Any, c: list[Any]) -> ir.FtmExpr:
         return ir.FtmExpr(str(c[0]), c[1] if len(c) > 1 else None, self.span_of(meta))
 
-    @v_args(meta=True)
     def functionality(self, meta: Any, c: list[Any]) -> tuple[str, ir.Functionality]:
         name = str(c[0])
         ports: tuple[str, ...] = ()
@@ -155,7 +147,7 @@ class _ToIR(Transformer[Token, Any]):
         return ("functionalities", ir.Functionality(name, ports, modes.get("normal"), modes.get("degraded"),
                                                     criticality, span))
 
-    def criticality(self, c: list[Token]) -> tuple[str, int]:
+    def criticality(self, meta: Any, c: list[Token]) -> tuple[str, int]:
         tok = c[0]
         try:
             value = Fraction(str(tok))
@@ -166,30 +158,25 @@ class _ToIR(Transformer[Token, Any]):
             return ("criticality", 1)
         return ("criticality", int(value))
 
-    @v_args(meta=True)
     def mode(self, meta: Any, c: list[Any]) -> ir.Mode:
         kind = str(c[0])
         asms = tuple(x for x in c[1:] if isinstance(x, ir.Predicate))
         guars = tuple(x for x in c[1:] if isinstance(x, ir.Guarantee))
         return ir.Mode(kind, asms, guars, self.span_of(meta))  # type: ignore[arg-type]
 
-    def assume_stmt(self, c: list[Any]) -> ir.Predicate:
+    def assume_stmt(self, meta: Any, c: list[Any]) -> ir.Predicate:
         return c[0]  # type: ignore[no-any-return]
 
-    @v_args(meta=True)
     def guarantee_stmt(self, meta: Any, c: list[Any]) -> ir.Guarantee:
         return ir.Guarantee(str(c[0]), c[1], self.span_of(meta))
 
-    @v_args(meta=True)
     def nothing(self, meta: Any, c: list[Any]) -> ir.Predicate:
         return ir.Predicate(None, None, self.span_of(meta))
 
-    @v_args(meta=True)
     def data(self, meta: Any, c: list[Any]) -> ir.Predicate:
         rate = c[1] if len(c) > 1 else None
         return ir.Predicate(str(c[0]), rate, self.span_of(meta))
 
-    @v_args(meta=True)
     def rate(self, meta: Any, c: list[Token]) -> Optional[ir.Rate]:
         number, unit = c
         span = self.span_of(meta)
@@ -207,11 +194,9 @@ class _ToIR(Transformer[Token, Any]):
             return ir.Rate(Fraction(1), str(unit), span)
         return ir.Rate(value, str(unit), span)
 
-    @v_args(meta=True)
     def topic_decl(self, meta: Any, c: list[Any]) -> ir.Connector:
         return self._connector("topic", meta, c)
 
-    @v_args(meta=True)
     def service_decl(self, meta: Any, c: list[Any]) -> ir.Connector:
         return self._connector("service", meta, c)
 
@@ -228,10 +213,10 @@ class _ToIR(Transformer[Token, Any]):
                 subs.extend(x[1])
         return ir.Connector(name, kind, pred, single, tuple(pubs), tuple(subs), self.span_of(meta))  # type: ignore[arg-type]
 
-    def conn_name(self, c: list[Token]) -> str:
+    def conn_name(self, meta: Any, c: list[Token]) -> str:
         return str(c[0])
 
-    def attachment(self, c: list[Any]) -> tuple[list[ir.PortRef], list[ir.PortRef]]:
+    def attachment(self, meta: Any, c: list[Any]) -> tuple[list[ir.PortRef], list[ir.PortRef]]:
         left: list[ir.PortRef] = []
         right: list[ir.PortRef] = []
         seen_arrow = False
@@ -242,18 +227,73 @@ class _ToIR(Transformer[Token, Any]):
                 (right if seen_arrow else left).extend(x)
         return left, right
 
-    def portref_list(self, c: list[ir.PortRef]) -> list[ir.PortRef]:
+    def portref_list(self, meta: Any, c: list[ir.PortRef]) -> list[ir.PortRef]:
         return list(c)
 
-    @v_args(meta=True)
     def portref(self, meta: Any, c: list[Token]) -> ir.PortRef:
         return ir.PortRef(str(c[0]), str(c[1]), self.span_of(meta))
 
-    def name_list(self, c: list[Token]) -> tuple[str, ...]:
+    def name_list(self, meta: Any, c: list[Token]) -> tuple[str, ...]:
         return tuple(str(t) for t in c)
 
 
 _ESCAPES = {"n": "\n", "t": "\t", '"': '"', "\\": "\\"}
+
+
+# Terminals that carry meaning; every other token (keywords, punctuation) only marks position.
+MEANINGFUL = frozenset({"NAME", "ROS_NAME", "ROS_TYPE", "NUMBER", "STRING", "MODE_KIND", "NOTHING", "SINGLE",
+                        "ARROW"})
+
+
+def _first(x: Any) -> Optional[tuple[int, int]]:
+    if isinstance(x, Token):
+        return (x.line or 1, x.column or 1)
+    span = getattr(x, "span", None)
+    if isinstance(span, Span):
+        return (span.line, span.col)
+    if isinstance(x, (list, tuple)):
+        for y in x:
+            found = _first(y)
+            if found is not None:
+                return found
+    return None
+
+
+def _last(x: Any) -> Optional[tuple[int, int]]:
+    if isinstance(x, Token):
+        return (x.end_line or x.line or 1, x.end_column or x.column or 1)
+    span = getattr(x, "span", None)
+    if isinstance(span, Span):
+        return (span.end_line, span.end_col)
+    if isinstance(x, (list, tuple)):
+        for y in reversed(x):
+            found = _last(y)
+            if found is not None:
+                return found
+    return None
+
+
+class _Callbacks:
+    """What Lark calls while parsing: one attribute per rule or alias of the grammar."""
+
+    RULES = ("start", "system_decl", "include_decl", "message_decl", "environment_decl", "host_decl",
+             "resource_item", "component_decl", "replaces", "run_stmt", "host_stmt", "input_stmt", "output_stmt",
+             "faults_stmt", "application_stmt", "resources_stmt", "ftm_stmt", "ftm_hosts", "ftm_expr",
+             "functionality", "criticality", "mode", "assume_stmt", "guarantee_stmt", "nothing", "data", "rate",
+             "topic_decl", "service_decl", "conn_name", "attachment", "portref_list", "portref", "name_list")
+
+    def __init__(self, target: _ToIR) -> None:
+        for rule in self.RULES:
+            setattr(self, rule, self._wrap(getattr(target, rule)))
+
+    @staticmethod
+    def _wrap(method: Any) -> Any:
+        def callback(children: list[Any]) -> Any:
+            first, last = _first(children), _last(children)
+            meta = None if first is None or last is None else (first[0], first[1], last[0], last[1])
+            kept = [c for c in children if not isinstance(c, Token) or c.type in MEANINGFUL]
+            return method(meta, kept)
+        return callback
 
 
 def unquote(tok: Token) -> str:
@@ -285,11 +325,10 @@ class Parser:
     def __init__(self) -> None:
         grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
         self._ir = _ToIR()
-        self._comments: list[Token] = []
-        self._lark = Lark(grammar, parser="lalr", lexer="contextual", propagate_positions=True,
-                          maybe_placeholders=True,
-                          lexer_callbacks={"LINE_COMMENT": self._comments.append,
-                                           "BLOCK_COMMENT": self._comments.append})
+        self._lark = Lark(grammar, parser="lalr", lexer=FastLexer, keep_all_tokens=True,
+                          transformer=_Callbacks(self._ir))
+        lexer = self._lark.parser.lexer
+        self._comments: list[Token] = getattr(lexer, "lexer", lexer).comments
 
     def parse(self, text: str, file: str) -> ir.Document:
         """Parse one file. Raises DiagnosticError on any error."""
@@ -297,12 +336,16 @@ class Parser:
         self._ir.sink = DiagnosticSink()
         self._comments.clear()
         try:
-            items = self._ir.transform(self._lark.parse(text))
+            # The IR is many small objects that all live on: the cyclic collector only costs time here.
+            paused = gc.isenabled()
+            gc.disable()
+            try:
+                items = self._lark.parse(text)
+            finally:
+                if paused:
+                    gc.enable()
         except UnexpectedInput as e:
             raise DiagnosticError([syntax_diagnostic(e, text, file)]) from None
-        except VisitError as e:  # pragma: no cover - a transformer bug, reported not hidden
-            raise DiagnosticError([error("RC000", f"internal error while reading: {e.orig_exc!r}",
-                                         Span(file, 1, 1, 1, 1))]) from None
         self._ir.sink.raise_if_errors()
         system: Optional[str] = None
         system_span = Span(file, 1, 1, 1, 1)
@@ -321,8 +364,7 @@ class Parser:
         return ir.Document(file, system, tuple(body), system_span, comments)
 
 
-def _rel(span: Span, msg: str) -> Any:
-    from .diagnostics import Related
+def _rel(span: Span, msg: str) -> Related:
     return Related(span, msg)
 
 

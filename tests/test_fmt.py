@@ -58,9 +58,9 @@ component c {
 
   functionality f (o) criticality 2 {
     normal { o: M @ 10 Hz }
-    degraded { o: nothing }  /* end */
+    degraded { o: nothing }
   }
-}
+}  /* end */
 
 topic /t: M @ 10 Hz {
   c.o ->
