@@ -29,10 +29,10 @@ def picture(system: System, config: Optional[Configuration] = None, *, title: Op
         pic.nodes.append(GraphNode("e:" + env.name, f"{env.name}\n{env.guarantee}", "note"))
     present = set(shown)
     for conn_name, comp_name, port in sorted(config.roles):
-        comp = catalogue.get(comp_name)
-        if comp is None or comp_name not in present:
+        owner = catalogue.get(comp_name)
+        if owner is None or comp_name not in present:
             continue
-        p = comp.port(port)
+        p = owner.port(port)
         if p is None:
             continue
         status = "removed" if comp_name in removed else "normal"

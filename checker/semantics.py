@@ -109,10 +109,10 @@ def build_graph(system: System, config: Configuration) -> "nx.DiGraph[tuple[str,
     for conn_name, comp, port in config.roles:
         if comp not in comps or conn_name not in conns:
             continue
-        p = comps[comp].port(port)
-        if p is None:
+        port_decl = comps[comp].port(port)
+        if port_decl is None:
             continue
-        if p.kind == "output":
+        if port_decl.kind == "output":
             g.add_edge(("out", comp, port), ("conn", conn_name))
         else:
             g.add_edge(("conn", conn_name), ("in", comp, port))

@@ -41,7 +41,7 @@ class FastLexer(Lexer):
         self.comments: list[Token] = []
 
     def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
-        text: str = getattr(lexer_state.text, "text", lexer_state.text)
+        text: str = getattr(lexer_state.text, "text", None) or str(lexer_state.text)
         states = parser_state.parse_conf.states
         literals = self.literals
         match = MASTER.match
@@ -53,7 +53,7 @@ class FastLexer(Lexer):
                 raise UnexpectedCharacters(text, pos, line, pos - line_start + 1,
                                            allowed={k for k in accepts if k.isupper()},
                                            state=parser_state.position)
-            kind = m.lastgroup
+            kind = m.lastgroup or ""
             value = m.group()
             start, pos = pos, m.end()
             col = start - line_start + 1

@@ -340,7 +340,7 @@ class Parser:
             paused = gc.isenabled()
             gc.disable()
             try:
-                items = self._lark.parse(text)
+                items: list[Any] = self._lark.parse(text)  # type: ignore[assignment]
             finally:
                 if paused:
                     gc.enable()
@@ -371,13 +371,14 @@ def _rel(span: Span, msg: str) -> Related:
 def syntax_diagnostic(e: UnexpectedInput, text: str, file: str) -> Diagnostic:
     line, col = e.line if e.line > 0 else 1, e.column if e.column > 0 else 1
     if isinstance(e, UnexpectedCharacters):
-        rest = text[e.pos_in_stream:e.pos_in_stream + 2]
+        at = e.pos_in_stream or 0
+        rest = text[at:at + 2]
         span = Span(file, line, col, line, col + 1)
         if rest.startswith('"'):
             return error("RC003", "unterminated string", span, notes=("a string ends with \" on the same line",))
         if rest.startswith("/*"):
             return error("RC004", "unterminated comment", span, notes=("a /* comment */ needs its closing */",))
-        char = text[e.pos_in_stream] if e.pos_in_stream < len(text) else ""
+        char = text[at] if at < len(text) else ""
         expected = sorted(_describe(t) for t in (e.allowed or ()))
         return error("RC002", f"unexpected character {char!r}", span,
                      notes=(f"expected {_one_of(expected)}",) if expected else ())

@@ -143,8 +143,8 @@ def _check_component(sink: DiagnosticSink, c: ir.Component, msgs: set[str], host
         for h in c.ftm.hosts:
             if hosts and h not in hosts:
                 sink.add(error("RC101", f"unknown host '{h}'", c.ftm.span))
-    for f in c.functionalities:
-        _check_functionality(sink, c, f, ports, msgs)
+    for func in c.functionalities:
+        _check_functionality(sink, c, func, ports, msgs)
 
 
 def _check_functionality(sink: DiagnosticSink, c: ir.Component, f: ir.Functionality,
