@@ -22,7 +22,8 @@ topic, a leaving component's input). For each such detach the closure of functio
 that would lose an assumption is computed on the configuration after it — redundant
 publishers and degraded guarantees that still satisfy are taken into account, and the
 closure grows monotonically, so cycles terminate. The detach whose closure has the least
-criticality is chosen; its closure is degraded least critical first, in an order each
+criticality is chosen, a leaving component's own inputs last (what they degrade stays
+degraded until the component is removed); its closure is degraded least critical first, in an order each
 degrade's preconditions accept, then the detach runs. Free actions then repair the damage.
 
 Every turn either makes progress that is never undone (attach a wanted role, detach an
@@ -148,7 +149,7 @@ def _order(system: System, config: Configuration, todo: set[FuncId]) -> Optional
 
 def _unblock(system: System, config: Configuration, goal: Goal) -> list[Action]:
     cat = catalogue(system)
-    best: Optional[tuple[tuple[int, int], list[Action]]] = None
+    best: Optional[tuple[tuple[int, int, int], list[Action]]] = None
     reasons: list[str] = []
     for conn, c, p in sorted(config.roles - goal.roles):
         detach = Detach(conn, c, p)
@@ -163,7 +164,9 @@ def _unblock(system: System, config: Configuration, goal: Goal) -> list[Action]:
             after = effect(system, after, a)
         if check(Snapshot(cat, after), detach):
             continue
-        key = (sum(_weight(system, d) for d in todo), len(todo))
+        # A leaving component's own inputs go last: what they degrade stays degraded until removal.
+        leaving_input = c not in goal.components and not Snapshot(cat, config).is_output(c, p)
+        key = (int(leaving_input), sum(_weight(system, d) for d in todo), len(todo))
         if best is None or key < best[0]:
             best = (key, degrades + [detach])
     if best is None:

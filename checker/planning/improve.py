@@ -1,9 +1,10 @@
-"""Local improvement of a plan: drop needless degrade/upgrade pairs, move single steps.
+"""Local improvement of a plan: drop needless degrade/upgrade pairs, move steps.
 
-Repeats, until nothing gets better: for every step, try it at every other position; for every
-degrade, try the plan without it and without the upgrade that undoes it. A candidate is kept
-when every step's preconditions hold and it reaches the goal with less (disruption, length).
-Each round strictly lowers the cost, so this terminates.
+Repeats, until nothing gets better: every step, and every pair of consecutive steps (a
+degrade with the detach it allows), is tried at every other position; every degrade
+(upgrade) is tried away together with the upgrade (degrade) that undoes it. A candidate is
+kept when every step's preconditions hold and it reaches the goal at a lower (disruption,
+length). Each round strictly lowers the cost, and a budget bounds the candidates tried.
 """
 from __future__ import annotations
 
@@ -33,17 +34,19 @@ def cost(system: System, start: Configuration, steps: Sequence[Action], goal: Go
 def _variants(steps: list[Action]) -> Iterator[tuple[int, list[Action]]]:
     """Candidate plans, each with the index of its first step that differs from `steps`."""
     for i, a in enumerate(steps):
-        if isinstance(a, Degrade):
+        if isinstance(a, (Degrade, Upgrade)):
+            undo = Upgrade if isinstance(a, Degrade) else Degrade
             for j in range(i + 1, len(steps)):
                 b = steps[j]
-                if isinstance(b, Upgrade) and (b.component, b.functionality) == (a.component, a.functionality):
+                if isinstance(b, undo) and (b.component, b.functionality) == (a.component, a.functionality):
                     yield i, steps[:i] + steps[i + 1:j] + steps[j + 1:]
                     break
-    for i in range(len(steps)):
-        rest = steps[:i] + steps[i + 1:]
-        for j in range(len(steps)):
-            if j != i:
-                yield min(i, j), rest[:j] + [steps[i]] + rest[j:]
+    for width in (1, 2):
+        for i in range(len(steps) - width + 1):
+            block, rest = steps[i:i + width], steps[:i] + steps[i + width:]
+            for j in range(len(rest) + 1):
+                if j != i:
+                    yield min(i, j), rest[:j] + block + rest[j:]
 
 
 def _tail_cost(system: System, config: Configuration, total: int, steps: Sequence[Action], goal: Goal,
