@@ -23,8 +23,9 @@ that would lose an assumption is computed on the configuration after it — redu
 publishers and degraded guarantees that still satisfy are taken into account, and the
 closure grows monotonically, so cycles terminate. The detach whose closure has the least
 criticality is chosen, a leaving component's own inputs last (what they degrade stays
-degraded until the component is removed); its closure is degraded least critical first, in an order each
-degrade's preconditions accept, then the detach runs. Free actions then repair the damage.
+degraded until the component is removed). Its closure is degraded least critical first, in
+an order each degrade's preconditions accept, then the detach runs. Free actions then
+repair the damage.
 
 Every turn either makes progress that is never undone (attach a wanted role, detach an
 unwanted one, create, remove) or upgrades, so the loop terminates.
