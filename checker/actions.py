@@ -32,7 +32,8 @@ from reconf_dsl.ir import satisfies as _satisfies
 from .config import Configuration, FuncId, Role
 
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
-           "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect", "action_from_dict", "is_valid", "failing_assumptions"]
+           "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",
+           "action_from_dict", "is_valid", "failing_assumptions"]
 
 
 @dataclass(frozen=True)

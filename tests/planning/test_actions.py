@@ -7,15 +7,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from checker.actions import (Action, ActionRefused, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict, apply,
-                             effect, is_valid, preconditions)
+from checker.actions import (Action, ActionRefused, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict,
+                             apply, effect, is_valid, preconditions)
 from checker.config import Configuration
 from checker.semantics import evaluate
 
 from .gen import random_system
 from .systems import talker_system
 
-ALL: list[Action] = [Remove("c"), Create("c"), Detach("/t", "c", "p"), Attach("/t", "c", "p"), Degrade("c", "f"), Upgrade("c", "f")]
+ALL: list[Action] = [Remove("c"), Create("c"), Detach("/t", "c", "p"), Attach("/t", "c", "p"), Degrade("c", "f"),
+                     Upgrade("c", "f")]
 
 
 def test_forms_round_trip_and_symbols_differ() -> None:

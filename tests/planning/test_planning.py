@@ -63,7 +63,8 @@ def test_single_topic_forbids_make_before_break() -> None:
         assert_safe(plan)
         assert all(len(publishers(plan, state, "/chatter")) <= 1 for state in plan.states)
         assert Degrade("listener", "listen") in plan.steps
-    assert plan_replace(s, "talker", "talker_v2").disruption < plan_replace(s, "talker", "talker_v2", "paper").disruption
+    paper = plan_replace(s, "talker", "talker_v2", "paper")
+    assert plan_replace(s, "talker", "talker_v2").disruption < paper.disruption
 
 
 def test_redundant_publisher_avoids_degradation() -> None:
