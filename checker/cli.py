@@ -157,8 +157,8 @@ def fmt(files: tuple[str, ...], check_only: bool, diff: bool, to_stdout: bool, s
             sys.exit(EXIT_UNSAFE)
 
 
-def plural(n: int, word: str) -> str:
-    return f"{n} {word}{'' if n == 1 else 's'}"
+def plural(n: int, word: str, many: Optional[str] = None) -> str:
+    return f"{n} {word if n == 1 else (many or word + 's')}"
 
 
 def write_atomically(path: str, text: str) -> None:
@@ -197,5 +197,14 @@ def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], so
         click.echo(text, nl=False)
 
 
-if __name__ == "__main__":  # pragma: no cover
-    main()
+def _register() -> None:
+    from .plan_cli import plan
+    main.add_command(plan)
+    try:
+        from .verify_model import verify_model_cmd
+    except ImportError:  # pragma: no cover - the Alloy side is part of the package
+        return
+    main.add_command(verify_model_cmd, "verify-model")
+
+
+_register()

@@ -26,6 +26,9 @@ class Example:
 
 EXAMPLES: list[Example] = [
     Example("chatter", path("examples", "chatter.arch"), True, replace="talker",
+            paper_plan=("degrade listener.listen", "detach talker.out from /chatter", "remove talker",
+                        "create talker_v2 (all functionalities degraded)", "upgrade talker_v2.talk",
+                        "attach talker_v2.out to /chatter", "upgrade listener.listen"),
             tags=frozenset({"paper001"})),
     Example("chatter_slow", path("examples", "chatter_slow.arch"), False, frozenset({"listener.listen"}),
             tags=frozenset({"rate"})),

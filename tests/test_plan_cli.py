@@ -1,0 +1,120 @@
+"""`reconf plan ...` end to end on the shared examples (Python verification; Alloy in tests/alloy)."""
+from __future__ import annotations
+
+import json
+import os
+
+from click.testing import CliRunner
+
+from checker.cli import main
+from tests.examples_table import BY_NAME, EXAMPLES
+
+CHATTER = BY_NAME["chatter"].file
+
+
+def invoke(*args: str) -> "object":
+    return CliRunner().invoke(main, list(args))
+
+
+def test_paper_strategy_reproduces_the_seven_steps() -> None:
+    r = invoke("plan", "replace", "talker", "-f", CHATTER, "--strategy", "paper", "--no-alloy",
+               "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    from checker.actions import action_from_dict
+    steps = tuple(action_from_dict(s).describe() for s in doc["plan"]["steps"])
+    assert steps == BY_NAME["chatter"].paper_plan
+    assert doc["format_version"] == 1 and doc["fingerprint"].startswith("sha256:")
+    assert doc["evidence"]["python"]["valid"] is True
+
+
+def test_every_example_with_a_version_has_a_paper_plan_in_the_table() -> None:
+    for ex in EXAMPLES:
+        if ex.replace:
+            r = invoke("plan", "replace", ex.replace, "-f", ex.file, "--strategy", "paper", "--no-alloy")
+            assert r.exit_code == 0
+            for i, step in enumerate(ex.paper_plan, 1):
+                assert f"{i:>3}. " in r.stderr and step in r.stderr
+
+
+def test_text_output_like_terraform() -> None:
+    r = invoke("plan", "replace", "talker", "-f", CHATTER, "--no-alloy")
+    assert r.exit_code == 0
+    text = r.stderr
+    assert "reconf will replace talker with talker_v2 in 5 steps (strategy default):" in text
+    assert "1. + create talker_v2 (all functionalities degraded)" in text
+    assert "Plan: 5 actions" in text and "Disruption: 1" in text
+    assert "✓ Python engine: every precondition holds, all 6 states valid" in text
+
+
+def test_default_is_less_disruptive_than_paper_on_chatter() -> None:
+    docs = {}
+    for strategy in ("paper", "default", "exhaustive"):
+        r = invoke("plan", "replace", "talker", "-f", CHATTER, "--no-alloy", "--strategy", strategy,
+                   "--output-format", "json")
+        assert r.exit_code == 0
+        docs[strategy] = json.loads(r.stdout)["plan"]["disruption"]
+    assert docs["default"] <= docs["paper"]
+    assert docs["default"] == docs["exhaustive"]
+
+
+def test_remove_and_add(tmp_path: "os.PathLike[str]") -> None:
+    r = invoke("plan", "remove", "obstacle_detector", "-f", BY_NAME["robot"].file, "--no-alloy",
+               "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    kinds = [s["action"] for s in json.loads(r.stdout)["plan"]["steps"]]
+    assert kinds[-1] == "remove" and "degrade" in kinds
+    r = invoke("plan", "add", "talker", "--from", CHATTER, "-f", BY_NAME["chatter_unpublished"].file,
+               "--no-alloy", "--output-format", "json")
+    # the listener is unsafe before the talker arrives: no plan starts from an unsafe configuration
+    assert r.exit_code == 1 and "not valid" in json.loads(r.stdout)["reasons"][0]
+
+
+def test_migrate(tmp_path: "os.PathLike[str]") -> None:
+    with open(BY_NAME["robot"].file) as f:
+        old = f.read()
+    new = old.replace("      out: Obstacles @ 1 Hz", "      out: Obstacles @ 2 Hz")
+    d = os.path.dirname(BY_NAME["robot"].file)
+    target = os.path.join(d, "common", "..", "robot.arch")
+    path = os.path.join(str(tmp_path), "robot_v2.arch")
+    os.makedirs(os.path.join(str(tmp_path), "common"), exist_ok=True)
+    with open(os.path.join(d, "common", "messages.arch")) as f, \
+            open(os.path.join(str(tmp_path), "common", "messages.arch"), "w") as g:
+        g.write(f.read())
+    with open(path, "w") as f:
+        f.write(new)
+    r = invoke("plan", "migrate", target, path, "--no-alloy", "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert any(s["action"] == "create" for s in doc["plan"]["steps"])
+    assert doc["target_fingerprint"] != doc["fingerprint"]
+
+
+def test_no_safe_plan_exits_1_and_says_why(tmp_path: "os.PathLike[str]") -> None:
+    with open(CHATTER) as f:
+        text = f.read()
+    slow = text.replace("component talker_v2 replaces talker {", "component talker_v2 replaces talker {  // slow")
+    slow = slow.replace("""  functionality talk (out) {
+    normal { out: String @ 10 Hz }
+    degraded { out: nothing }
+  }
+}
+
+component listener""", """  functionality talk (out) {
+    normal { out: String @ 2 Hz }
+    degraded { out: nothing }
+  }
+}
+
+component listener""")
+    path = os.path.join(str(tmp_path), "slow.arch")
+    with open(path, "w") as f:
+        f.write(slow)
+    r = invoke("plan", "replace", "talker", "-f", path, "--no-alloy")
+    assert r.exit_code == 1
+    assert "no safe plan" in r.stderr and "listener.listen assumes String @ 10 Hz" in r.stderr
+
+
+def test_missing_version_is_explained() -> None:
+    r = invoke("plan", "replace", "listener", "-f", CHATTER, "--no-alloy")
+    assert r.exit_code == 1 and "no declared replacement" in r.stderr
