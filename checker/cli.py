@@ -21,6 +21,7 @@ from reconf_dsl.parser import parse_text
 
 from . import report
 from .config import Configuration
+from .engines import EngineUnavailable, EnginesDisagree
 from .report import OutputFormat
 from .semantics import evaluate
 
@@ -54,6 +55,9 @@ def guarded(command: str) -> Callable[[F], F]:
             except Failure as e:
                 emit_failure(command, e.diagnostics, fmt, sources)
                 sys.exit(e.code)
+            except (EngineUnavailable, EnginesDisagree) as e:
+                emit_failure(command, [e.diagnostic], fmt, sources)
+                sys.exit(EXIT_BAD_INPUT)
             except KeyboardInterrupt:
                 console().print("interrupted")
                 sys.exit(130)
@@ -95,33 +99,64 @@ def main() -> None:
     """
 
 
+engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
+                             show_default=True,
+                             help="both: Alloy proves, Python explains, and they must agree")
+solver_option = click.option("--solver", default="glucose", show_default=True,
+                             help="SAT solver for Alloy (glucose, minisat, sat4j); falls back to sat4j")
+
+
 @main.command()
 @files_argument
 @format_option
+@engine_option
+@solver_option
 @guarded("check")
-def check(files: tuple[str, ...], output_format: OutputFormat, sources: Sources) -> None:
+def check(files: tuple[str, ...], output_format: OutputFormat, engine: str, solver: str, sources: Sources) -> None:
     """Prove that every functionality's assumptions hold in FILES (one system; includes followed).
 
     Lists each assumption that does not hold with its chain: functionality → assumption →
     input → connector → each attached output and why it falls short.
     """
+    from .engines import judge
+
     system = load(list(files), sources)
-    ev = evaluate(system, Configuration.initial(system))
+    judged = judge(system, Configuration.initial(system), engine, solver)
+    ev = judged.python
     diags = [report.assumption_diagnostic(r) for r in ev.unsatisfied]
-    verdict = "safe" if ev.valid else "unsafe"
+    verdict = "safe" if judged.valid else "unsafe"
     if output_format is OutputFormat.JSON:
         click.echo(report.document("check", verdict, diags, system=system.name, files=list(system.files),
-                                   engines={"python": verdict}, assumptions=report.evaluation_json(ev)))
+                                   engines=judged.engines, assumptions=report.evaluation_json(ev)))
     else:
         report.render_text(diags, sources, sys.stderr)
         n, bad = len(ev.results), len(ev.unsatisfied)
         summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                         (len(system.connectors), "connector"), (n, "assumption")))
-        if ev.valid:
-            console().print(f"[bold green]✓ safe[/]: {system.name} — {summary}, all hold")
+        how = judged.how()
+        if judged.valid:
+            console().print(f"[bold green]✓ safe[/]: {system.name} — {summary}, all hold{how}")
         else:
-            console().print(f"[bold red]✗ unsafe[/]: {system.name} — {summary}, {bad} do not hold")
-    sys.exit(EXIT_OK if ev.valid else EXIT_UNSAFE)
+            console().print(f"[bold red]✗ unsafe[/]: {system.name} — {summary}, {bad} do not hold{how}")
+    sys.exit(EXIT_OK if judged.valid else EXIT_UNSAFE)
+
+
+@main.command("alloy")
+@files_argument
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the module here instead of stdout")
+@guarded("alloy")
+def alloy_cmd(files: tuple[str, ...], output: Optional[str], sources: Sources,
+              output_format: OutputFormat = OutputFormat.TEXT) -> None:
+    """Write the Alloy instance module of FILES' deployed configuration (open it in the Alloy GUI)."""
+    from codegen.alloy import render_instance
+
+    system = load(list(files), sources)
+    text, _ = render_instance(system, Configuration.initial(system))
+    if output:
+        write_atomically(output, text)
+        console().print(f"wrote {output}: `run Verdict` shows the configuration and what fails")
+    else:
+        click.echo(text, nl=False)
 
 
 @main.command()

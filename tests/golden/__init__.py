@@ -23,7 +23,8 @@ def check_output(path: str) -> tuple[int, str]:
     cwd = os.getcwd()
     os.chdir(ROOT)
     try:
-        result = CliRunner().invoke(main, ["check", os.path.relpath(path, ROOT)], env={"NO_COLOR": "1"})
+        result = CliRunner().invoke(main, ["check", "--engine", "python", os.path.relpath(path, ROOT)],
+                                   env={"NO_COLOR": "1"})
     finally:
         os.chdir(cwd)
     return result.exit_code, result.stderr
