@@ -114,28 +114,20 @@ pred satisfy[p, q: Data] {
   q in p.(Sem.sat)
 }
 
--- The definitions below are relational (joins rather than nested quantifiers): that keeps
--- the translation small both for the meta-model and for instance modules of hundreds of
--- components.
-
 -- The functionalities of the present components.
 fun present_funcs[s: System]: set Functionality {
   (s.comps).funcs
 }
 
--- Each functionality's guarantee on each associated output, in its current mode.
-fun cur_guars[s: System]: Functionality -> Output -> Data {
-  ((s.degraded) <: dguar) + ((Functionality - (s.degraded)) <: nguar)
-}
-
 -- The guarantee on output o of f in f's current mode.
 fun cur_guar[s: System, f: Functionality, o: Output]: lone Data {
-  o.(f.(cur_guars[s]))
+  f in (s.degraded) implies o.(f.dguar) else o.(f.nguar)
 }
 
 -- What each output guarantees now: the current guarantees of the present functionalities.
 fun out_guar[s: System]: Output -> Data {
-  (present_funcs[s]).(cur_guars[s])
+  (present_funcs[s] & (s.degraded)).dguar
+  + (present_funcs[s] - (s.degraded)).nguar
 }
 
 -- The assumptions of f's current mode (the degraded mode assumes nothing).
@@ -144,12 +136,25 @@ fun cur_asms[s: System, f: Functionality]: set Data {
 }
 
 -- Connector k is satisfied by an attached output other than those in no_o: one of them
--- guarantees, in its functionality's current mode, something that satisfies k's guarantee.
-pred conn_satisfied_no_out[s: System, k: Connector, no_o: set Output] {
+-- guarantees, in its functionality's current mode, something that satisfies k's
+-- guarantee. Two equivalent encodings (the meta-model checks they agree): quantifiers,
+-- faster in the meta-model's SAT problems, and a join, which keeps instance modules of
+-- hundreds of components small.
+pred conn_satisfied_no_out_q[s: System, k: Connector, no_o: set Output] {
+  some f: present_funcs[s], o: f.assoc_out - no_o |
+    o in k.(s.roles) and satisfy[cur_guar[s, f, o], k.cguar]
+}
+
+pred conn_satisfied_no_out_j[s: System, k: Connector, no_o: set Output] {
   k.cguar in ((k.(s.roles) - no_o).(out_guar[s])).(Sem.sat)
 }
 
--- The satisfied connectors.
+pred conn_satisfied_no_out[s: System, k: Connector, no_o: set Output] {
+  conn_satisfied_no_out_q[s, k, no_o]
+}
+
+-- The satisfied connectors: some attached output of a present functionality guarantees,
+-- in its current mode, something that satisfies the connector's guarantee.
 fun sat_conns_def[s: System]: set Connector {
   {k: Connector | conn_satisfied_no_out[s, k, none]}
 }
@@ -157,7 +162,7 @@ fun sat_conns_def[s: System]: set Connector {
 -- The satisfied inputs: attached to a satisfied connector whose guarantee satisfies the
 -- input's assumption.
 fun sat_inputs_def[s: System]: set Input {
-  {i: Input | i.iasm in (((s.roles).i & (s.csat)).cguar).(Sem.sat)}
+  {i: Input | some k: (s.roles).i & (s.csat) | satisfy[k.cguar, i.iasm]}
 }
 
 pred conn_satisfied[s: System, k: Connector] {
@@ -168,29 +173,26 @@ pred input_satisfied[s: System, i: Input] {
   i in (s.isat)
 }
 
--- What f can rely on without the inputs no_i: whatever the assumption of an associated,
--- satisfied input satisfies, and whatever an environment guarantee satisfies.
-fun held_no_input[s: System, f: Functionality, no_i: set Input]: set Data {
-  (((f.assoc_in - no_i) & (s.isat)).iasm).(Sem.sat) + envg.(Sem.sat)
-}
-
--- Assumption a of f holds without the inputs no_i.
+-- Assumption a of f holds without the inputs no_i: by an associated satisfied input
+-- whose assumption satisfies a, or by an environment guarantee.
 pred asm_holds_no_input[s: System, f: Functionality, a: Data, no_i: set Input] {
-  a in held_no_input[s, f, no_i]
+  (some i: f.assoc_in - no_i | satisfy[i.iasm, a] and input_satisfied[s, i])
+  or
+  (some g: envg | satisfy[g, a])
 }
 
 pred asm_holds[s: System, f: Functionality, a: Data] {
-  a in held_no_input[s, f, none]
+  asm_holds_no_input[s, f, a, none]
 }
 
 -- Component c stays safe without the inputs no_i.
 pred safe_no_input[s: System, c: Component, no_i: set Input] {
-  all f: c.funcs | cur_asms[s, f] in held_no_input[s, f, no_i]
+  all f: c.funcs, a: cur_asms[s, f] | asm_holds_no_input[s, f, a, no_i]
 }
 
 -- The safety property: every assumption of every present functionality's current mode holds.
 pred valid[s: System] {
-  all f: present_funcs[s] | cur_asms[s, f] in held_no_input[s, f, none]
+  all f: present_funcs[s], a: cur_asms[s, f] | asm_holds[s, f, a]
 }
 
 -- Actions ----------------------------------------------------------------------------
@@ -272,6 +274,11 @@ assert SafeAttach  { all k: Connector, p: Port | valid[Pre] and attach[Pre, Post
 assert SafeDegrade { all f: Functionality | valid[Pre] and degrade[Pre, Post, f] implies valid[Post] }
 assert SafeUpgrade { all f: Functionality | valid[Pre] and upgrade[Pre, Post, f] implies valid[Post] }
 assert AttachWellTyped { all k: Connector, p: Port | attach[Pre, Post, k, p] implies well_typed[Post, k, p] }
+-- The two encodings of connector satisfaction in the shared semantics agree.
+assert ConnectorEncodingsAgree {
+  all k: Connector, no_o: set Output |
+    conn_satisfied_no_out_q[Pre, k, no_o] iff conn_satisfied_no_out_j[Pre, k, no_o]
+}
 
 check SafeRemove  for 5 expect 0
 check SafeCreate  for 5 expect 0
@@ -280,6 +287,7 @@ check SafeAttach  for 5 expect 0
 check SafeDegrade for 5 expect 0
 check SafeUpgrade for 5 expect 0
 check AttachWellTyped for 5 expect 0
+check ConnectorEncodingsAgree for 5 expect 0
 
 -- Each action's preconditions can hold between two valid configurations.
 run Remove  { some c: Component | valid[Pre] and remove[Pre, Post, c] and valid[Post] } for 3 expect 1

@@ -72,16 +72,21 @@ def _names(tuples: set[tuple[str, ...]]) -> list[str]:
     return sorted(t[0] for t in tuples)
 
 
-def _configuration(o: CommandOutcome, state: str) -> Configuration:
+def _owners(o: CommandOutcome) -> dict[str, str]:
+    """Port and functionality atoms, qualified by their component: `Component$1.Input$0`."""
+    return {x: f"{c}.{x}" for c, x in o.eval("inputs + outputs + funcs")}
+
+
+def _configuration(o: CommandOutcome, state: str, owner: dict[str, str]) -> Configuration:
     roles: dict[str, list[str]] = {}
     for k, p in sorted(o.eval(f"{state}.roles")):
-        roles.setdefault(k, []).append(p)
+        roles.setdefault(k, []).append(owner.get(p, p))
     unsat = o.eval(f"{{ f: present_funcs[{state}], a: cur_asms[{state}, f] | not asm_holds[{state}, f, a] }}")
     return Configuration(
         components=_names(o.eval(f"{state}.comps")),
-        degraded=_names(o.eval(f"{state}.degraded")),
+        degraded=[owner.get(f, f) for f in _names(o.eval(f"{state}.degraded"))],
         roles=roles,
-        unsatisfied=[f"{f} assumes {a}" for f, a in sorted(unsat)],
+        unsatisfied=[f"{owner.get(f, f)} assumes {a}" for f, a in sorted(unsat)],
     )
 
 
@@ -98,7 +103,8 @@ def _action(pre: Configuration, post: Configuration) -> str:
 
 
 def counterexample(o: CommandOutcome) -> Counterexample:
-    pre, post = (_configuration(o, s) for s in STATES)
+    owner = _owners(o)
+    pre, post = (_configuration(o, s, owner) for s in STATES)
     return Counterexample(_action(pre, post), pre, post)
 
 
@@ -170,7 +176,10 @@ def _render_counterexample(r: CommandRow, console: Any) -> None:
               help="SAT solver: glucose, glucose41, minisat, sat4j (falls back to sat4j).")
 @click.option("--output-format", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
-def verify_model_cmd(scope: int, solver: str, output_format: str) -> None:
+@click.option("--model", "model_path", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Verify this meta-model file instead of the bundled one (its commands run "
+                   "with the scopes written in it; --scope is ignored).")
+def verify_model_cmd(scope: int, solver: str, output_format: str, model_path: str | None) -> None:
     """Prove the six reconfiguration actions safe in the Alloy meta-model."""
     from rich.console import Console
 
@@ -191,7 +200,11 @@ def verify_model_cmd(scope: int, solver: str, output_format: str) -> None:
         if status is not None:
             status.start()
         try:
-            report = verify_model(scope, solver, before, after)
+            modules = None
+            if model_path is not None:
+                with open(model_path, encoding="utf-8") as fh:
+                    modules = {MAIN: fh.read()}
+            report = verify_model(scope, solver, before, after, modules)
         finally:
             if status is not None:
                 status.stop()

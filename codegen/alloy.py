@@ -39,6 +39,7 @@ class StateAccess:
     materialized: bool = False
     sat: str = "sat"
     store: str | None = None
+    joins: bool = False  # connector satisfaction as a join rather than quantifiers
 
     def head(self, name: str, params: str) -> str:
         decls = [p for p in ((f"{self.var}: {self.sig}" if self.var else ""), params) if p]
@@ -65,7 +66,7 @@ META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
 # An instance module: one fixed configuration given by constants; the derived sets are
 # stored in the one atom `Derived` (computed once by the solver, then read by the
 # evaluator instead of being recomputed under every quantifier).
-FIXED_STATE = StateAccess(None, sat="sat", materialized=True, store="Derived")
+FIXED_STATE = StateAccess(None, sat="sat", materialized=True, store="Derived", joins=True)
 
 
 def environment() -> jinja2.Environment:
@@ -255,10 +256,10 @@ def render_instance(system: Any, config: Any, module_name: str = "instance") -> 
         names[ra] = ("rate", str(hz))
     rate_of = dict(rate_atoms)
     mtype_rel, rate_rel = [], []
-    for (msg, hz), atom in data_atoms.items():
+    for (msg, data_hz), atom in data_atoms.items():
         mtype_rel.append(f"{atom} -> {messages[msg]}")
-        if hz is not None:
-            rate_rel.append(f"{atom} -> {rate_of[hz]}")
+        if data_hz is not None:
+            rate_rel.append(f"{atom} -> {rate_of[data_hz]}")
 
     sigs: list[str] = []
     sigs += _one_sigs("MType", sorted(messages.values()))

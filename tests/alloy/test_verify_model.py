@@ -1,0 +1,65 @@
+"""`reconf verify-model`: outcomes against expectations, counterexamples as two
+configurations, exit codes."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from checker.alloy import metamodel_modules
+from checker.alloy.metamodel import MAIN
+from checker.verify_model import verify_model, verify_model_cmd
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _mutated(tmp_path: Path) -> Path:
+    text = metamodel_modules(3)[MAIN]
+    lines = [line for line in text.splitlines(keepends=True) if "--@pre remove.isolated" not in line]
+    path = tmp_path / "mutated.als"
+    path.write_text("".join(lines), encoding="utf-8")
+    return path
+
+
+def test_json_report_at_small_scope() -> None:
+    result = CliRunner().invoke(verify_model_cmd, ["--scope", "3", "--output-format", "json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["ok"] and report["scope"] == 3
+    rows = {r["command"]: r for r in report["commands"]}
+    assert rows["SafeDetach"]["outcome"] == "no counterexample"
+    assert rows["SafeDetach"]["scope"].startswith("3")
+    assert rows["Detach"]["outcome"] == "instance"
+    assert all(r["as_expected"] for r in report["commands"])
+
+
+def test_counterexample_is_two_configurations(tmp_path: Path) -> None:
+    modules = {MAIN: _mutated(tmp_path).read_text(encoding="utf-8")}
+    report = verify_model(3, modules=modules)
+    assert not report.ok
+    (row,) = [r for r in report.rows if r.as_expected is False]
+    assert row.command == "SafeRemove" and row.counterexample is not None
+    cex = row.counterexample
+    assert cex.action.startswith("remove Component$")
+    removed = cex.action.split()[1]
+    assert removed in cex.pre.components and removed not in cex.post.components
+    assert cex.post.unsatisfied and not cex.pre.unsatisfied
+
+
+def test_exit_code_1_and_text_counterexample(tmp_path: Path) -> None:
+    result = CliRunner().invoke(verify_model_cmd, ["--model", str(_mutated(tmp_path))])
+    assert result.exit_code == 1
+    assert "SafeRemove counterexample: action remove" in result.stderr
+    assert "components present:" in result.stderr and "roles:" in result.stderr
+
+
+def test_exit_code_2_without_alloy() -> None:
+    env = {**os.environ, "RECONF_ALLOY_JAR": "/nonexistent/alloy.jar", "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-m", "checker.verify_model", "--scope", "3"], env=env,
+                         capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert out.returncode == 2
+    assert "Alloy jar not found" in out.stderr
