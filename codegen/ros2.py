@@ -1,0 +1,95 @@
+"""ROS 2 plan scripts: one self-contained Python file per plan (DESIGN.md §8).
+
+The caller decides everything and hands over a plan document, a JSON-able dict:
+
+    {"format_version": 1, "system": name, "fingerprint": "sha256:...", "evidence": {...},
+     "plan": plan.to_dict(), "model": model_data(system)}
+
+`render_plan_script` embeds it as a JSON literal in `templates/plan_ros2.py.j2`. The script
+replays the plan offline (`--dry-run`, no ROS needed) with its own copy of the satisfaction
+rules of DESIGN.md §3, or drives the running system through lifecycle services and the
+parameter-based control interface of docs/control-interface.md.
+
+`model_data` is a plain data conversion of the IR; rates become exact fractions in hertz,
+written as strings ("10", "1/2").
+"""
+from __future__ import annotations
+
+import json
+from typing import Any, Optional
+
+from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
+
+from .render import render
+
+__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script"]
+
+FORMAT_VERSION = 1
+_KEYS = ("format_version", "system", "fingerprint", "evidence", "plan", "model")
+
+
+def _predicate(p: Optional[Predicate]) -> Optional[dict[str, Any]]:
+    if p is None:
+        return None
+    hz = p.hz
+    return {"message": p.message, "hz": None if hz is None else str(hz), "text": str(p)}
+
+
+def _mode(m: Optional[Mode]) -> Optional[dict[str, Any]]:
+    if m is None:
+        return None
+    return {"assumptions": [_predicate(a) for a in m.assumptions],
+            "guarantees": [{"port": g.port, "predicate": _predicate(g.predicate)} for g in m.guarantees]}
+
+
+def _functionality(f: Functionality) -> dict[str, Any]:
+    return {"name": f.name, "ports": list(f.ports), "criticality": f.criticality,
+            "normal": _mode(f.normal), "degraded": _mode(f.degraded)}
+
+
+def _component(c: Component, deployed: bool) -> dict[str, Any]:
+    return {"name": c.name, "deployed": deployed, "replaces": c.replaces, "run": c.run, "host": c.host,
+            "ports": [{"name": p.name, "kind": p.kind, "message": p.message, "assumption": _predicate(p.assumption)}
+                      for p in c.ports],
+            "functionalities": [_functionality(f) for f in c.functionalities]}
+
+
+def _connector(c: Connector) -> dict[str, Any]:
+    return {"name": c.name, "kind": c.kind, "guarantee": _predicate(c.guarantee), "single": c.single,
+            "single_publisher": c.single_publisher,
+            "publishers": [[r.component, r.port] for r in c.publishers],
+            "subscribers": [[r.component, r.port] for r in c.subscribers]}
+
+
+def model_data(system: System) -> dict[str, Any]:
+    """The architecture as plain data: what a plan script needs to judge a configuration."""
+    return {"name": system.name,
+            "messages": [{"name": m.name, "ros_type": m.ros_type} for m in system.messages],
+            "environment": [{"name": e.name, "guarantee": _predicate(e.guarantee)} for e in system.environment],
+            "components": [_component(c, True) for c in system.components]
+            + [_component(c, False) for c in system.versions],
+            "connectors": [_connector(c) for c in system.connectors],
+            "hosts": [h.name for h in system.hosts]}
+
+
+def plan_document(plan: Any, *, fingerprint: str, evidence: dict[str, Any]) -> dict[str, Any]:
+    """Assemble a plan document from a `checker.planning.Plan` and what the caller established."""
+    return {"format_version": FORMAT_VERSION, "system": plan.system.name, "fingerprint": fingerprint,
+            "evidence": evidence, "plan": plan.to_dict(), "model": model_data(plan.system)}
+
+
+def render_plan_script(plan_doc: dict[str, Any]) -> str:
+    """The ROS 2 Python script for `plan_doc`; deterministic (same document, same text)."""
+    missing = [k for k in _KEYS if k not in plan_doc]
+    if missing:
+        raise ValueError(f"plan document lacks {', '.join(missing)}")
+    if plan_doc["format_version"] != FORMAT_VERSION:
+        raise ValueError(f"plan document format {plan_doc['format_version']!r} is not {FORMAT_VERSION}")
+    text = json.dumps(plan_doc, indent=1, sort_keys=True, ensure_ascii=True)
+    # A raw triple-quoted string holds any JSON text: JSON escapes every quote inside strings,
+    # so three quotes in a row never occur, and the text ends with "}", never a backslash.
+    assert '"""' not in text
+    plan = plan_doc["plan"]
+    return render("plan_ros2.py.j2", doc_json=text, system=str(plan_doc["system"]),
+                  fingerprint=str(plan_doc["fingerprint"]), strategy=str(plan.get("strategy", "")),
+                  steps=len(plan.get("steps", [])))

@@ -1,0 +1,473 @@
+"""ROS 2 plan scripts (`codegen.ros2`): they compile, pass pyflakes, are deterministic, and their
+`--dry-run` judges every state exactly as `checker.semantics.evaluate` does (differential test).
+The non-dry-run path is exercised against a small in-memory stand-in for rclpy and the ROS 2
+message packages, written to a temporary directory.
+
+Golden scripts: `python -m tests.test_ros_script` rewrites tests/golden/ros2/ (see `golden_scripts`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Iterator, Optional
+
+import pytest
+
+from checker.actions import Action, Degrade, Detach, Upgrade
+from checker.config import Configuration
+from checker.planning import Plan, plan_replace
+from checker.planning.plan import run_actions
+from checker.semantics import evaluate
+from codegen.ros2 import model_data, plan_document, render_plan_script
+from reconf_dsl.ir import Predicate, Rate, System
+from reconf_dsl.loader import load
+from tests.examples_table import EXAMPLES, Example
+
+ROOT = Path(__file__).resolve().parent.parent
+GOLDEN = ROOT / "tests" / "golden" / "ros2"
+CHATTER = ROOT / "examples" / "chatter.arch"
+ROBOT = ROOT / "examples" / "robot.arch"
+
+
+def fingerprint(path: Path) -> str:
+    return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def chatter_plan(strategy: str) -> Plan:
+    return plan_replace(load([str(CHATTER)]), "talker", "talker_v2", strategy=strategy)
+
+
+def robot_plan(strategy: str) -> Plan:
+    system = load([str(ROBOT)])
+    old = system.component("motor_controller")
+    assert old is not None
+    return plan_replace(system, "motor_controller", dataclasses.replace(old, name="motor_controller_v2"),
+                        strategy=strategy)
+
+
+CASES = {"chatter_paper": (CHATTER, lambda: chatter_plan("paper")),
+         "chatter_default": (CHATTER, lambda: chatter_plan("default")),
+         "robot_paper": (ROBOT, lambda: robot_plan("paper")),
+         "robot_default": (ROBOT, lambda: robot_plan("default"))}
+
+
+def case_doc(name: str) -> tuple[Plan, dict[str, Any]]:
+    source, make = CASES[name]
+    plan = make()
+    doc = plan_document(plan, fingerprint=fingerprint(source),
+                        evidence={"python_engine": f"all {len(plan.states)} states valid"})
+    return plan, doc
+
+
+def golden_scripts() -> Iterator[tuple[str, str]]:
+    """(file name, text) of every golden script; a producer for tests/regen_golden.py."""
+    for name in ("chatter_paper", "chatter_default"):
+        yield name + ".py", render_plan_script(case_doc(name)[1])
+
+
+def write_script(tmp_path: Path, doc: dict[str, Any], name: str = "plan.py") -> Path:
+    out = tmp_path / name
+    out.write_text(render_plan_script(doc), encoding="utf-8")
+    return out
+
+
+def run(script: Path, *args: str, env: Optional[dict[str, str]] = None,
+        stdin: str = "") -> subprocess.CompletedProcess[str]:
+    base = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    base["PYTHONIOENCODING"] = "utf-8"
+    return subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, input=stdin,
+                          env={**base, **(env or {})}, timeout=60, cwd=str(script.parent))
+
+
+STATE_LINE = re.compile(r"^\s*(\d+)\. .*\[(safe|UNSAFE)\]", re.M)
+
+
+def printed_safety(stdout: str) -> dict[int, bool]:
+    return {int(i): verdict == "safe" for i, verdict in STATE_LINE.findall(stdout)}
+
+
+def doc_for(system: System, steps: list[Action], start: Configuration, name: str = "variant") -> dict[str, Any]:
+    states = run_actions(system, start, steps)
+    plan = Plan(system, list(steps), states, name, 0, None)  # type: ignore[arg-type]
+    return {"format_version": 1, "system": system.name, "fingerprint": "sha256:test", "evidence": {},
+            "plan": plan.to_dict(), "model": model_data(system)}
+
+
+# --- rendering --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_script_compiles_is_clean_and_deterministic(name: str, tmp_path: Path) -> None:
+    plan, doc = case_doc(name)
+    text = render_plan_script(doc)
+    compile(text, f"{name}.py", "exec")
+    assert render_plan_script(case_doc(name)[1]) == text
+    assert doc["fingerprint"] in text and "python_engine" in text
+    assert "import rclpy" not in text.split("class Runtime", 1)[0], "rclpy must be imported lazily"
+    path = write_script(tmp_path, doc)
+    flakes = subprocess.run([sys.executable, "-m", "pyflakes", str(path)], capture_output=True, text=True)
+    assert flakes.returncode == 0, flakes.stdout + flakes.stderr
+
+
+def test_model_data_rates_are_exact_fractions() -> None:
+    data = model_data(load([str(ROBOT)]))
+    assert json.loads(json.dumps(data)) == data
+    ctrl = next(c for c in data["components"] if c["name"] == "motor_controller")
+    control = ctrl["functionalities"][0]
+    assert control["criticality"] == 5
+    assert control["normal"]["assumptions"][0] == {"message": "Obstacles", "hz": "1", "text": "Obstacles @ 1 s"}
+    assert ctrl["ports"][0] == {"name": "in", "kind": "input", "message": "Obstacles",
+                                "assumption": {"message": "Obstacles", "hz": "1", "text": "Obstacles @ 1 Hz"}}
+    assert ctrl["run"] == "ros2 run control motor_controller" and ctrl["host"] == "base"
+    assert data["environment"] == [{"name": "camera",
+                                    "guarantee": {"message": "Image", "hz": "30", "text": "Image @ 30 Hz"}}]
+    cmd_vel = next(c for c in data["connectors"] if c["name"] == "/cmd_vel")
+    assert cmd_vel["single"] is True and cmd_vel["kind"] == "topic"
+    assert {"name": "Twist", "ros_type": "geometry_msgs/msg/Twist"} in data["messages"]
+
+
+def test_model_data_half_hertz() -> None:
+    system = load([str(CHATTER)])
+    listener = system.component("listener")
+    assert listener is not None
+    slow = Predicate("String", Rate(Fraction(2), "s"))
+    port = dataclasses.replace(listener.ports[0], assumption=slow)
+    system = dataclasses.replace(system, components=tuple(
+        dataclasses.replace(c, ports=(port,)) if c.name == "listener" else c for c in system.components))
+    comp = next(c for c in model_data(system)["components"] if c["name"] == "listener")
+    assert comp["ports"][0]["assumption"] == {"message": "String", "hz": "1/2", "text": "String @ 2 s"}
+
+
+@pytest.mark.parametrize("name", ["chatter_paper", "chatter_default"])
+def test_golden(name: str) -> None:
+    expected = (GOLDEN / f"{name}.py").read_text(encoding="utf-8")
+    assert render_plan_script(case_doc(name)[1]) == expected, "run `python -m tests.test_ros_script` and review"
+
+
+# --- dry run: differential against checker.semantics ---------------------------------------
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_dry_run_agrees_with_engine(name: str, tmp_path: Path) -> None:
+    plan, doc = case_doc(name)
+    res = run(write_script(tmp_path, doc), "--dry-run")
+    printed = printed_safety(res.stdout)
+    assert printed == {i: evaluate(plan.system, s).valid for i, s in enumerate(plan.states)}
+    assert res.returncode == 0, res.stdout + res.stderr
+    for i, action in enumerate(plan.steps, 1):
+        assert re.search(rf"^\s*{i}\. \S+ {re.escape(action.describe())} ", res.stdout, re.M)
+    assert "all %d states are safe" % len(plan.states) in res.stdout
+
+
+def wild_steps(system: System) -> list[Action]:
+    """Degrade every functionality, upgrade them back, then detach every port: structurally
+    possible, and a mix of safe and unsafe states."""
+    funcs = [(c.name, f.name) for c in system.components for f in c.functionalities]
+    start = Configuration.initial(system)
+    steps: list[Action] = [Degrade(c, f) for c, f in funcs]
+    steps += [Upgrade(c, f) for c, f in reversed(funcs)]
+    steps += [Detach(conn, comp, port) for conn, comp, port in sorted(start.roles)]
+    return steps
+
+
+@pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
+def test_dry_run_agrees_with_engine_on_unsafe_states(ex: Example, tmp_path: Path) -> None:
+    system = load([ex.file])
+    start = Configuration.initial(system)
+    steps = wild_steps(system)
+    doc = doc_for(system, steps, start)
+    res = run(write_script(tmp_path, doc), "--dry-run")
+    states = run_actions(system, start, steps)
+    expected = {i: evaluate(system, s).valid for i, s in enumerate(states)}
+    assert printed_safety(res.stdout) == expected, res.stdout
+    assert res.returncode == (0 if all(expected.values()) else 1)
+
+
+@pytest.mark.parametrize("name", ["chatter_paper", "robot_paper"])
+def test_dropping_the_degrade_step_is_caught(name: str, tmp_path: Path) -> None:
+    plan, _ = case_doc(name)
+    degrade = next(a for a in plan.steps if isinstance(a, Degrade))
+    # without the degrade, the matching upgrade has nothing to do: drop both
+    steps = [a for a in plan.steps if a != degrade and a != Upgrade(degrade.component, degrade.functionality)]
+    doc = doc_for(plan.system, steps, plan.states[0])
+    res = run(write_script(tmp_path, doc), "--dry-run")
+    assert res.returncode == 1
+    states = run_actions(plan.system, plan.states[0], steps)
+    unsafe = [i for i, s in enumerate(states) if not evaluate(plan.system, s).valid]
+    assert unsafe and printed_safety(res.stdout) == {i: i not in unsafe for i in range(len(states))}
+    first = unsafe[0]
+    assert f"UNSAFE after step {first} ({steps[first - 1].describe()})" in res.stdout
+    assert "which does not hold" in res.stdout
+
+
+def test_states_that_disagree_with_the_steps_are_caught(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_default")
+    doc["plan"]["steps"].pop(2)     # the attach: the recorded states no longer follow from the steps
+    res = run(write_script(tmp_path, doc), "--dry-run")
+    assert res.returncode == 1
+    assert "records a different state" in res.stdout
+
+
+def test_structurally_impossible_step_is_refused(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    doc["plan"]["steps"].insert(0, {"action": "remove", "component": "listener"})
+    res = run(write_script(tmp_path, doc), "--dry-run")
+    assert res.returncode == 1
+    assert "step 1 (remove listener) cannot run: listener is not isolated" in res.stdout
+
+
+def test_without_ros_exits_2(tmp_path: Path) -> None:
+    _, doc = case_doc("chatter_paper")
+    res = run(write_script(tmp_path, doc), "--yes")
+    assert res.returncode == 2
+    assert "ROS 2 is not available" in res.stderr
+
+
+def test_bad_from_step_is_a_usage_error(tmp_path: Path) -> None:
+    _, doc = case_doc("chatter_paper")
+    res = run(write_script(tmp_path, doc), "--from-step", "9")
+    assert res.returncode == 2 and "--from-step" in res.stderr
+
+
+# --- applying a plan, against an in-memory stand-in for ROS 2 ------------------------------
+
+FAKE = {
+    "rclpy/__init__.py": '''
+import json, os
+SIM = {}
+def _cfg():
+    return json.loads(os.environ["FAKE_ROS"])
+def init():
+    cfg = _cfg()
+    for name, node in cfg["nodes"].items():
+        SIM[name] = dict(node)
+def try_shutdown():
+    with open(_cfg()["out"], "w") as f:
+        json.dump(SIM, f, sort_keys=True)
+def spin_until_future_complete(node, fut, timeout_sec=None):
+    pass
+class Future:
+    def __init__(self, value):
+        self.value = value
+    def done(self):
+        return self.value is not None
+    def exception(self):
+        return None
+    def result(self):
+        return self.value
+    def cancel(self):
+        pass
+class NS:
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+TRANSITIONS = {1: (1, 2), 2: (2, 1), 3: (2, 3), 4: (3, 2), 5: (1, 4)}
+LABELS = {1: "unconfigured", 2: "inactive", 3: "active", 4: "finalized"}
+class Client:
+    def __init__(self, name):
+        self.comp, self.service = name.rsplit("/", 1)
+        self.comp = self.comp.lstrip("/")
+    def wait_for_service(self, timeout_sec=None):
+        cfg = _cfg()
+        if self.comp not in SIM and self.comp in cfg.get("startable", {}):
+            SIM[self.comp] = dict(cfg["startable"][self.comp])
+        return self.comp in SIM and SIM[self.comp]["state"] != 4 or self.service == "get_state" and self.comp in SIM
+    def call_async(self, req):
+        if self.comp in _cfg().get("hang", []):
+            return Future(None)
+        node = SIM[self.comp]
+        if self.service == "get_state":
+            return Future(NS(current_state=NS(id=node["state"], label=LABELS[node["state"]])))
+        if self.service == "change_state":
+            before, after = TRANSITIONS[req.transition.id]
+            ok = node["state"] == before
+            if ok:
+                node["state"] = after
+            return Future(NS(success=ok))
+        if self.service == "get_parameters":
+            values = []
+            for n in req.names:
+                v = node["params"].get(n)
+                if isinstance(v, str):
+                    values.append(NS(type=4, string_value=v, string_array_value=[]))
+                elif isinstance(v, list):
+                    values.append(NS(type=9, string_value="", string_array_value=list(v)))
+                else:
+                    values.append(NS(type=0, string_value="", string_array_value=[]))
+            return Future(NS(values=values))
+        results = []
+        for p in req.parameters:
+            if p.name in _cfg().get("refuse", {}).get(self.comp, []):
+                results.append(NS(successful=False, reason="not now"))
+                continue
+            node["params"][p.name] = p.value.string_value if p.value.type == 4 else list(p.value.string_array_value)
+            results.append(NS(successful=True, reason=""))
+        return Future(NS(results=results))
+class Node:
+    def create_client(self, srv_type, name):
+        return Client(name)
+    def get_node_names_and_namespaces(self):
+        return [(n, "/") for n, v in SIM.items() if v["state"] != 4]
+    def destroy_node(self):
+        pass
+def create_node(name):
+    return Node()
+''',
+    "lifecycle_msgs/__init__.py": "",
+    "lifecycle_msgs/msg.py": '''
+class State:
+    PRIMARY_STATE_UNCONFIGURED = 1
+    PRIMARY_STATE_INACTIVE = 2
+    PRIMARY_STATE_ACTIVE = 3
+    PRIMARY_STATE_FINALIZED = 4
+class Transition:
+    TRANSITION_CONFIGURE = 1
+    TRANSITION_CLEANUP = 2
+    TRANSITION_ACTIVATE = 3
+    TRANSITION_DEACTIVATE = 4
+    TRANSITION_UNCONFIGURED_SHUTDOWN = 5
+    def __init__(self):
+        self.id = 0
+''',
+    "lifecycle_msgs/srv.py": '''
+from .msg import Transition
+class _Req:
+    def __init__(self):
+        self.transition = Transition()
+class ChangeState:
+    Request = _Req
+class GetState:
+    class Request:
+        pass
+''',
+    "rcl_interfaces/__init__.py": "",
+    "rcl_interfaces/msg.py": '''
+class ParameterType:
+    PARAMETER_NOT_SET = 0
+    PARAMETER_STRING = 4
+    PARAMETER_STRING_ARRAY = 9
+class ParameterValue:
+    def __init__(self):
+        self.type, self.string_value, self.string_array_value = 0, "", []
+class Parameter:
+    def __init__(self, name, value):
+        self.name, self.value = name, value
+''',
+    "rcl_interfaces/srv.py": '''
+class GetParameters:
+    class Request:
+        def __init__(self):
+            self.names = []
+class SetParameters:
+    class Request:
+        def __init__(self):
+            self.parameters = []
+''',
+}
+
+
+def node_params(system: System, comp: str, config: Configuration) -> dict[str, Any]:
+    c = system.component(comp)
+    assert c is not None
+    params: dict[str, Any] = {f"reconf.mode.{f.name}": "degraded" if (comp, f.name) in config.degraded else "normal"
+                              for f in c.functionalities}
+    params.update({f"reconf.port.{p.name}": sorted(n for n, cc, pp in config.roles if cc == comp and pp == p.name)
+                   for p in c.ports})
+    return params
+
+
+def fake_ros(tmp_path: Path, plan: Plan, at: int = 0, **extra: Any) -> dict[str, str]:
+    """An environment for the script: the stand-in on PYTHONPATH, nodes as in state `at` of the plan."""
+    for rel, text in FAKE.items():
+        out = tmp_path / "fake" / rel
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text, encoding="utf-8")
+    config = plan.states[at]
+    nodes = {c: {"state": 3, "params": node_params(plan.system, c, config)} for c in sorted(config.components)}
+    startable = {c.name: {"state": 1, "params": node_params(plan.system, c.name, Configuration(
+        frozenset({c.name}), frozenset((c.name, f.name) for f in c.functionalities), frozenset()))}
+        for c in plan.system.versions + plan.system.components}
+    cfg = {"nodes": nodes, "startable": startable, "out": str(tmp_path / "sim.json"), **extra}
+    return {"PYTHONPATH": str(tmp_path / "fake"), "FAKE_ROS": json.dumps(cfg)}
+
+
+def quick_runs(doc: dict[str, Any]) -> dict[str, Any]:
+    """Created processes: a Python that exits at once (the stand-in plays the node)."""
+    for c in doc["model"]["components"]:
+        c["run"] = shlex.join([sys.executable, "-c", "pass"])
+    return doc
+
+
+def sim_config(tmp_path: Path) -> Configuration:
+    sim = json.loads((tmp_path / "sim.json").read_text())
+    comps = {c for c, n in sim.items() if n["state"] == 3}
+    degraded = {(c, k.split(".", 2)[2]) for c in comps for k, v in sim[c]["params"].items()
+                if k.startswith("reconf.mode.") and v == "degraded"}
+    roles = {(conn, c, k.split(".", 2)[2]) for c in comps for k, v in sim[c]["params"].items()
+             if k.startswith("reconf.port.") for conn in v}
+    return Configuration(frozenset(comps), frozenset(degraded), frozenset(roles))
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_apply_reaches_the_plan_final_state(name: str, tmp_path: Path) -> None:
+    plan, doc = case_doc(name)
+    res = run(write_script(tmp_path, quick_runs(doc)), "--yes", env=fake_ros(tmp_path, plan))
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert f"all {len(plan.steps)} steps done" in res.stdout
+    assert sim_config(tmp_path) == plan.states[-1]
+
+
+def test_apply_stops_at_the_first_failure(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    env = fake_ros(tmp_path, plan, refuse={"talker_v2": ["reconf.port.out"]})
+    res = run(write_script(tmp_path, quick_runs(doc)), "--yes", env=env)
+    assert res.returncode == 1
+    assert "step 6 (attach talker_v2.out to /chatter) FAILED: talker_v2 refused reconf.port.out" in res.stderr
+    assert "the state before step 6" in res.stderr and "--from-step 6" in res.stderr
+    assert "upgrade listener.listen ..." not in res.stdout
+    assert sim_config(tmp_path) == plan.states[5]
+
+
+def test_apply_checks_the_state_before_each_step(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    res = run(write_script(tmp_path, quick_runs(doc)), "--yes", "--from-step", "3", env=fake_ros(tmp_path, plan))
+    assert res.returncode == 1
+    assert "step 3 (remove talker) FAILED: before the step, talker is not isolated" in res.stderr
+
+
+def test_apply_resumes_from_a_step(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    res = run(write_script(tmp_path, quick_runs(doc)), "-y", "--from-step", "4", env=fake_ros(tmp_path, plan, at=3))
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert sim_config(tmp_path) == plan.states[-1]
+
+
+def test_apply_times_out(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    env = fake_ros(tmp_path, plan, hang=["listener"])
+    res = run(write_script(tmp_path, quick_runs(doc)), "--yes", "--timeout", "0.1", env=env)
+    assert res.returncode == 1
+    assert "step 1 (degrade listener.listen) FAILED: no answer from /listener/get_state" in res.stderr
+
+
+def test_apply_asks_for_confirmation(tmp_path: Path) -> None:
+    plan, doc = case_doc("chatter_paper")
+    res = run(write_script(tmp_path, quick_runs(doc)), env=fake_ros(tmp_path, plan), stdin="n\n")
+    assert res.returncode == 1 and "nothing done" in res.stdout
+    assert sim_config(tmp_path) == plan.states[0]
+
+
+def regenerate() -> None:
+    GOLDEN.mkdir(parents=True, exist_ok=True)
+    for key, text in golden_scripts():
+        (GOLDEN / key).write_text(text, encoding="utf-8")
+        print("wrote", (GOLDEN / key).relative_to(ROOT))
+
+
+if __name__ == "__main__":
+    regenerate()
