@@ -247,7 +247,7 @@ def init():
     cfg = _cfg()
     for name, node in cfg["nodes"].items():
         SIM[name] = dict(node)
-def try_shutdown():
+def shutdown():
     with open(_cfg()["out"], "w") as f:
         json.dump(SIM, f, sort_keys=True)
 def spin_until_future_complete(node, fut, timeout_sec=None):

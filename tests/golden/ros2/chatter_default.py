@@ -383,6 +383,8 @@ DOC = json.loads(r"""{
 
 PLAN = DOC["plan"]
 MODEL = DOC["model"]
+# Planning names of changed components and connectors (`name@new`) -> names in the running system.
+RENAMES = PLAN.get("renames", {})
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7",
            "degrade": "\u2193", "upgrade": "\u2191"}
 
@@ -619,7 +621,8 @@ class Runtime:
         self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
         self.GetParameters, self.SetParameters = GetParameters, SetParameters
         self.timeout, self.step_timeout = args.timeout, args.step_timeout
-        self.namespace = args.namespace.rstrip("/")
+        ns = args.namespace.strip("/")
+        self.namespace = f"/{ns}" if ns else ""
         self.deadline = 0.0
         self.processes = {}
         self.clients = {}
@@ -629,10 +632,13 @@ class Runtime:
 
     def close(self):
         self.node.destroy_node()
-        self.rclpy.try_shutdown()
+        try:
+            self.rclpy.shutdown()
+        except Exception:
+            pass
 
     def fqn(self, comp):
-        return f"{self.namespace}/{comp}"
+        return f"{self.namespace}/{RENAMES.get(comp, comp)}"
 
     def left(self):
         remaining = self.deadline - time.monotonic()
@@ -721,7 +727,7 @@ class Runtime:
     def do_create(self, step):
         comp = step["component"]
         ns = self.namespace or "/"
-        if (comp, ns) in self.node.get_node_names_and_namespaces():
+        if (RENAMES.get(comp, comp), ns) in self.node.get_node_names_and_namespaces():
             raise StepFailed(f"before the step, a node {self.fqn(comp)} is already running")
         run = MODEL_RUN.get(comp)
         if not run:
@@ -765,7 +771,7 @@ class Runtime:
         if proc is not None and proc.poll() is None:
             proc.terminate()
             try:
-                proc.wait(timeout=max(0.1, min(self.timeout, self.left())))
+                proc.wait(timeout=max(0.1, min(self.timeout, self.deadline - time.monotonic())))
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
@@ -777,7 +783,7 @@ class Runtime:
         self.port_step(step, attach=False)
 
     def port_step(self, step, attach):
-        comp, port, conn = step["component"], step["port"], step["connector"]
+        comp, port, conn = step["component"], step["port"], RENAMES.get(step["connector"], step["connector"])
         self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_ACTIVE,), "before the step")
         now = self.attachments(comp, port)
         if (conn in now) == attach:
