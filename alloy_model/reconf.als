@@ -265,6 +265,13 @@ pred well_typed[s: System, k: Connector, p: Port] {
   p in Input implies satisfy[k.cguar, p.iasm]
 }
 
+-- One action of any kind takes s to s2.
+pred step[s, s2: System] {
+  (some c: Component | remove[s, s2, c] or create[s, s2, c])
+  or (some k: Connector, p: Port | detach[s, s2, k, p] or attach[s, s2, k, p])
+  or (some f: Functionality | degrade[s, s2, f] or upgrade[s, s2, f])
+}
+
 -- Safety of the actions --------------------------------------------------------------
 
 assert SafeRemove  { all c: Component | valid[Pre] and remove[Pre, Post, c] implies valid[Post] }

@@ -164,11 +164,25 @@ def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
 
 def render_instance(system: Any, config: Any, module_name: str = "instance") -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
-    (checker.config.Configuration).
+    (checker.config.Configuration); see `_render`."""
+    return _render(system, [config], module_name, plan=False)
+
+
+def render_plan(system: Any, configs: list[Any], module_name: str = "plan") -> tuple[str, dict[str, tuple[str, ...]]]:
+    """An Alloy module for a sequence of configurations of `system` (the states of a
+    plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
+    actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
+    in the `Verdict` instance."""
+    return _render(system, configs, module_name, plan=True)
+
+
+def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tuple[str, dict[str, tuple[str, ...]]]:
+    """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
+    configurations (checker.config.Configuration).
 
     Returns the text and a map from each atom name to what it stands for:
     ("component", c), ("port", c, p), ("functionality", c, f), ("connector", k),
-    ("message", m), ("rate", hz), ("data", message, hz or "").
+    ("message", m), ("rate", hz), ("data", message, hz or ""), ("state", i).
     The module defines `valid`, `unsatisfied: Functionality -> Data` (evaluate it in the
     `Verdict` instance) and `check Valid` (a counterexample means the configuration is
     not valid).
@@ -243,11 +257,16 @@ def render_instance(system: Any, config: Any, module_name: str = "instance") -> 
         rel["cguar"].append(f"{ka} -> {data(k.guarantee)}")
     for e in system.environment:
         rel["envg"].append(data(e.guarantee))
-    # the configuration
-    rel["comps"] = [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
-    rel["degraded"] = [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
-    rel["roles"] = [f"{conn_atoms[k]} -> {port_atoms[c, p]}" for k, c, p in sorted(config.roles)
-                    if k in conn_atoms and (c, p) in port_atoms]
+    # the configuration(s)
+    states = [f"S{i}" for i in range(len(configs))]
+    for i, config in enumerate(configs):
+        at = f"{states[i]} -> " if plan else ""
+        if plan:
+            names[states[i]] = ("state", str(i))
+        rel["comps"] += [at + comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
+        rel["degraded"] += [at + func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
+        rel["roles"] += [f"{at}{conn_atoms[k]} -> {port_atoms[c, p]}" for k, c, p in sorted(config.roles)
+                         if k in conn_atoms and (c, p) in port_atoms]
 
     rate_atoms = []
     for i, hz in enumerate(sorted(rates)):
@@ -295,6 +314,18 @@ def render_instance(system: Any, config: Any, module_name: str = "instance") -> 
         ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
         ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
         ("envg", "set Data", union(sorted(set(rel["envg"])), "none")),
+    ]
+    if plan:
+        funs += [
+            ("comps", "System -> Component", union(rel["comps"], _empty("System", "Component"))),
+            ("degraded", "System -> Functionality", union(rel["degraded"], _empty("System", "Functionality"))),
+            ("roles", "System -> Connector -> Port", union(rel["roles"], _empty("System", "Connector", "Port"))),
+        ]
+        template = environment().get_template("plan.als.j2")
+        text = template.render(st=META_STATE, sigs=sigs, funs=funs, module_name=module_name,
+                               system_name=system.name, states=states)
+        return text, names
+    funs += [
         ("comps", "set Component", union(rel["comps"], "none")),
         ("degraded", "set Functionality", union(rel["degraded"], "none")),
         ("roles", "Connector -> Port", union(rel["roles"], _empty("Connector", "Port"))),

@@ -5,12 +5,12 @@
 """
 from .bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
 from .errors import AlloyError, AlloyTimeout, AlloyUnavailable
-from .instance import AlloyVerdict, alloy_verdict
+from .instance import AlloyPlanVerdict, AlloyVerdict, alloy_plan_verdict, alloy_verdict
 from .jvm import find_jar, find_jvm
 from .metamodel import metamodel_modules
 from .worker import run_with_timeout
 
 __all__ = [
-    "DEFAULT_SOLVER", "AlloyBridge", "AlloyVerdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend",
+    "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend",
     "CommandOutcome", "find_jar", "find_jvm", "get_backend", "metamodel_modules", "run_with_timeout",
 ]

@@ -56,3 +56,49 @@ def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
         if meaning == key:
             return atom
     return ""
+
+
+ACTIONS = ("remove", "create", "detach", "attach", "degrade", "upgrade")
+PLAN_MAIN = "plan.als"
+
+
+@dataclass(frozen=True)
+class AlloyPlanVerdict:
+    """Alloy's judgement of a plan: `valid[i]` for each configuration, and for each step i
+    (configuration i to i+1) the actions whose pre/post-conditions it meets (empty when
+    the step is no single action)."""
+
+    valid: tuple[bool, ...]
+    steps: tuple[tuple[str, ...], ...]
+    seconds: float
+    text: str
+
+    @property
+    def ok(self) -> bool:
+        return all(self.valid) and all(self.steps)
+
+
+def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
+                       bridge: AlloyBridge | None = None) -> AlloyPlanVerdict:
+    """Check a plan (its successive configurations, initial first) in Alloy: each
+    configuration valid, each step one of the six actions with its preconditions met."""
+    from codegen.alloy import render_plan
+
+    text, _ = render_plan(system, configs)
+    bridge = bridge or AlloyBridge.get()
+    (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
+    n = len(configs)
+    valid = tuple(bool(outcome.eval(f"valid[S{i}]")) for i in range(n))
+    steps = []
+    for i in range(n - 1):
+        s, s2 = f"S{i}", f"S{i + 1}"
+        matched = []
+        for action in ACTIONS:
+            arg = {"remove": "c: Component", "create": "c: Component",
+                   "detach": "k: Connector, p: Port", "attach": "k: Connector, p: Port",
+                   "degrade": "f: Functionality", "upgrade": "f: Functionality"}[action]
+            params = ", ".join(part.split(":")[0] for part in arg.split(", "))
+            if outcome.eval(f"some {arg} | {action}[{s}, {s2}, {params}]"):
+                matched.append(action)
+        steps.append(tuple(matched))
+    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text)
