@@ -78,6 +78,22 @@ def plan_document(plan: Any, *, fingerprint: str, evidence: dict[str, Any]) -> d
             "evidence": evidence, "plan": plan.to_dict(), "model": model_data(plan.system)}
 
 
+def _dump(value: Any, depth: int = 0, expand: int = 3) -> str:
+    """JSON, sorted, ASCII: containers one item a line down to `expand` levels, compact below."""
+    compact = json.dumps(value, sort_keys=True, ensure_ascii=True, separators=(", ", ": "))
+    if depth >= expand or not isinstance(value, (dict, list)) or not value:
+        return compact
+    pad, inner = " " * depth, " " * (depth + 1)
+    if isinstance(value, dict):
+        # the model gets two more levels: a component's fields, and its functionalities, a line each
+        items = [f"{inner}{json.dumps(k, ensure_ascii=True)}: "
+                 f"{_dump(v, depth + 1, expand + 2 if depth == 0 and k == 'model' else expand)}"
+                 for k, v in sorted(value.items())]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    items = [inner + _dump(v, depth + 1, expand) for v in value]
+    return "[\n" + ",\n".join(items) + "\n" + pad + "]"
+
+
 def render_plan_script(plan_doc: dict[str, Any]) -> str:
     """The ROS 2 Python script for `plan_doc`; deterministic (same document, same text)."""
     missing = [k for k in _KEYS if k not in plan_doc]
@@ -85,7 +101,7 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
         raise ValueError(f"plan document lacks {', '.join(missing)}")
     if plan_doc["format_version"] != FORMAT_VERSION:
         raise ValueError(f"plan document format {plan_doc['format_version']!r} is not {FORMAT_VERSION}")
-    text = json.dumps(plan_doc, indent=1, sort_keys=True, ensure_ascii=True)
+    text = _dump(plan_doc)
     # A raw triple-quoted string holds any JSON text: JSON escapes every quote inside strings,
     # so three quotes in a row never occur, and the text ends with "}", never a backslash.
     assert '"""' not in text

@@ -39,49 +39,12 @@ DOC = json.loads(r"""{
    {
     "deployed": true,
     "functionalities": [
-     {
-      "criticality": 1,
-      "degraded": {
-       "assumptions": [],
-       "guarantees": [
-        {
-         "port": "out",
-         "predicate": {
-          "hz": null,
-          "message": null,
-          "text": "nothing"
-         }
-        }
-       ]
-      },
-      "name": "talk",
-      "normal": {
-       "assumptions": [],
-       "guarantees": [
-        {
-         "port": "out",
-         "predicate": {
-          "hz": "10",
-          "message": "String",
-          "text": "String @ 10 Hz"
-         }
-        }
-       ]
-      },
-      "ports": [
-       "out"
-      ]
-     }
+     {"criticality": 1, "degraded": {"assumptions": [], "guarantees": [{"port": "out", "predicate": {"hz": null, "message": null, "text": "nothing"}}]}, "name": "talk", "normal": {"assumptions": [], "guarantees": [{"port": "out", "predicate": {"hz": "10", "message": "String", "text": "String @ 10 Hz"}}]}, "ports": ["out"]}
     ],
     "host": "robot",
     "name": "talker",
     "ports": [
-     {
-      "assumption": null,
-      "kind": "output",
-      "message": "String",
-      "name": "out"
-     }
+     {"assumption": null, "kind": "output", "message": "String", "name": "out"}
     ],
     "replaces": null,
     "run": "ros2 run demo_nodes_py talker"
@@ -89,41 +52,12 @@ DOC = json.loads(r"""{
    {
     "deployed": true,
     "functionalities": [
-     {
-      "criticality": 1,
-      "degraded": {
-       "assumptions": [],
-       "guarantees": []
-      },
-      "name": "listen",
-      "normal": {
-       "assumptions": [
-        {
-         "hz": "10",
-         "message": "String",
-         "text": "String @ 10 Hz"
-        }
-       ],
-       "guarantees": []
-      },
-      "ports": [
-       "in"
-      ]
-     }
+     {"criticality": 1, "degraded": {"assumptions": [], "guarantees": []}, "name": "listen", "normal": {"assumptions": [{"hz": "10", "message": "String", "text": "String @ 10 Hz"}], "guarantees": []}, "ports": ["in"]}
     ],
     "host": "robot",
     "name": "listener",
     "ports": [
-     {
-      "assumption": {
-       "hz": "10",
-       "message": "String",
-       "text": "String @ 10 Hz"
-      },
-      "kind": "input",
-      "message": "String",
-      "name": "in"
-     }
+     {"assumption": {"hz": "10", "message": "String", "text": "String @ 10 Hz"}, "kind": "input", "message": "String", "name": "in"}
     ],
     "replaces": null,
     "run": "ros2 run demo_nodes_py listener"
@@ -131,49 +65,12 @@ DOC = json.loads(r"""{
    {
     "deployed": false,
     "functionalities": [
-     {
-      "criticality": 1,
-      "degraded": {
-       "assumptions": [],
-       "guarantees": [
-        {
-         "port": "out",
-         "predicate": {
-          "hz": null,
-          "message": null,
-          "text": "nothing"
-         }
-        }
-       ]
-      },
-      "name": "talk",
-      "normal": {
-       "assumptions": [],
-       "guarantees": [
-        {
-         "port": "out",
-         "predicate": {
-          "hz": "10",
-          "message": "String",
-          "text": "String @ 10 Hz"
-         }
-        }
-       ]
-      },
-      "ports": [
-       "out"
-      ]
-     }
+     {"criticality": 1, "degraded": {"assumptions": [], "guarantees": [{"port": "out", "predicate": {"hz": null, "message": null, "text": "nothing"}}]}, "name": "talk", "normal": {"assumptions": [], "guarantees": [{"port": "out", "predicate": {"hz": "10", "message": "String", "text": "String @ 10 Hz"}}]}, "ports": ["out"]}
     ],
     "host": "robot",
     "name": "talker_v2",
     "ports": [
-     {
-      "assumption": null,
-      "kind": "output",
-      "message": "String",
-      "name": "out"
-     }
+     {"assumption": null, "kind": "output", "message": "String", "name": "out"}
     ],
     "replaces": "talker",
     "run": "ros2 run demo_nodes_py talker --ros-args -p version:=2"
@@ -189,18 +86,12 @@ DOC = json.loads(r"""{
     "kind": "topic",
     "name": "/chatter",
     "publishers": [
-     [
-      "talker",
-      "out"
-     ]
+     ["talker", "out"]
     ],
     "single": false,
     "single_publisher": false,
     "subscribers": [
-     [
-      "listener",
-      "in"
-     ]
+     ["listener", "in"]
     ]
    }
   ],
@@ -219,208 +110,23 @@ DOC = json.loads(r"""{
   "notes": [],
   "renames": {},
   "states": [
-   {
-    "components": [
-     "listener",
-     "talker"
-    ],
-    "degraded": [],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ],
-     [
-      "/chatter",
-      "talker",
-      "out"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ],
-     [
-      "/chatter",
-      "talker",
-      "out"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker_v2"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ],
-     [
-      "talker_v2",
-      "talk"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker_v2"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker_v2"
-    ],
-    "degraded": [
-     [
-      "listener",
-      "listen"
-     ]
-    ],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ],
-     [
-      "/chatter",
-      "talker_v2",
-      "out"
-     ]
-    ]
-   },
-   {
-    "components": [
-     "listener",
-     "talker_v2"
-    ],
-    "degraded": [],
-    "roles": [
-     [
-      "/chatter",
-      "listener",
-      "in"
-     ],
-     [
-      "/chatter",
-      "talker_v2",
-      "out"
-     ]
-    ]
-   }
+   {"components": ["listener", "talker"], "degraded": [], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker", "out"]]},
+   {"components": ["listener", "talker"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker", "out"]]},
+   {"components": ["listener", "talker"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
+   {"components": ["listener"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
+   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"], ["talker_v2", "talk"]], "roles": [["/chatter", "listener", "in"]]},
+   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
+   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker_v2", "out"]]},
+   {"components": ["listener", "talker_v2"], "degraded": [], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker_v2", "out"]]}
   ],
   "steps": [
-   {
-    "action": "degrade",
-    "component": "listener",
-    "functionality": "listen"
-   },
-   {
-    "action": "detach",
-    "component": "talker",
-    "connector": "/chatter",
-    "port": "out"
-   },
-   {
-    "action": "remove",
-    "component": "talker"
-   },
-   {
-    "action": "create",
-    "component": "talker_v2"
-   },
-   {
-    "action": "upgrade",
-    "component": "talker_v2",
-    "functionality": "talk"
-   },
-   {
-    "action": "attach",
-    "component": "talker_v2",
-    "connector": "/chatter",
-    "port": "out"
-   },
-   {
-    "action": "upgrade",
-    "component": "listener",
-    "functionality": "listen"
-   }
+   {"action": "degrade", "component": "listener", "functionality": "listen"},
+   {"action": "detach", "component": "talker", "connector": "/chatter", "port": "out"},
+   {"action": "remove", "component": "talker"},
+   {"action": "create", "component": "talker_v2"},
+   {"action": "upgrade", "component": "talker_v2", "functionality": "talk"},
+   {"action": "attach", "component": "talker_v2", "connector": "/chatter", "port": "out"},
+   {"action": "upgrade", "component": "listener", "functionality": "listen"}
   ],
   "strategy": "paper"
  },
