@@ -42,7 +42,13 @@ def unsafe_examples() -> Iterator[tuple[str, str]]:
             yield ex.name + ".txt", check_output(ex.file)[1]
 
 
+def ros2_scripts() -> Iterator[tuple[str, str]]:
+    from tests.test_ros_script import golden_scripts
+    yield from golden_scripts()
+
+
 GOLDEN_SETS: dict[str, Callable[[], Iterator[tuple[str, str]]]] = {
     "diagnostics": diagnostics,
     "explanations": unsafe_examples,
+    "ros2": ros2_scripts,
 }
