@@ -1,19 +1,21 @@
-"""A fast lexer for the grammar, driven by the LALR parser state.
+"""Lexing and the LALR driver: the grammar's parse table, run by one tight loop.
 
-Lark's contextual lexer is correct but spends most of a parse in per-token bookkeeping.
-This one scans with a single compiled regular expression and decides only what needs the
-parser: whether a word is a keyword or a name. A keyword counts as a keyword only where
-the parser can accept it, so keywords stay usable as names everywhere else (as with Lark's
-contextual lexer). Comments are collected for the formatter.
+Lark compiles `grammar.lark` into an LALR(1) table and the rule callbacks; this module
+runs them. The lexer scans with a single compiled regular expression and decides only what
+needs the parser: whether a word is a keyword or a name. A keyword counts as a keyword only
+where the parser state can accept it, so keywords stay usable as names everywhere else (as
+with Lark's contextual lexer). Lexing and parsing share one loop, which is what makes large
+files fast; comments are collected for the formatter.
 """
 from __future__ import annotations
 
 import re
-from typing import Any, Iterator
+from typing import Any, Optional
 
-from lark import Token
-from lark.exceptions import UnexpectedCharacters
-from lark.lexer import Lexer, LexerState, PatternStr
+from lark import Lark, Token
+from lark.exceptions import UnexpectedCharacters, UnexpectedToken
+from lark.lexer import PatternStr
+from lark.parsers.lalr_analysis import Shift
 
 MASTER = re.compile(r"""
   (?P<WS>[ \t\r\n\f\v]+)
@@ -30,50 +32,83 @@ MASTER = re.compile(r"""
 NAMED_WORDS = {"normal": "MODE_KIND", "degraded": "MODE_KIND", "nothing": "NOTHING", "single": "SINGLE"}
 
 
-class FastLexer(Lexer):
-    __future_interface__ = 1
+class Driver:
+    """Parses text with the table and callbacks Lark built for the grammar."""
 
-    def __init__(self, conf: Any) -> None:
-        self.literals: dict[str, str] = {}
-        for t in conf.terminals:
-            if isinstance(t.pattern, PatternStr):
-                self.literals[t.pattern.value] = t.name
+    def __init__(self, lark: Lark) -> None:
+        frontend: Any = lark.parser
+        lalr = frontend.parser.parser
+        table = lalr.parse_table
+        self.states: dict[int, dict[str, tuple[Any, Any]]] = table.states
+        self.start: int = table.start_states["start"]
+        self.end: int = table.end_states["start"]
+        self.callbacks: dict[Any, Any] = lalr.callbacks
+        self.literals: dict[str, str] = {t.pattern.value: t.name for t in lark.terminals
+                                         if isinstance(t.pattern, PatternStr)}
         self.comments: list[Token] = []
 
-    def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
-        text: str = getattr(lexer_state.text, "text", None) or str(lexer_state.text)
-        states = parser_state.parse_conf.states
-        literals = self.literals
+    def parse(self, text: str) -> Any:
+        states, callbacks, literals = self.states, self.callbacks, self.literals
+        comments = self.comments
         match = MASTER.match
+        state_stack: list[int] = [self.start]
+        value_stack: list[Any] = []
         pos, line, line_start, end = 0, 1, 0, len(text)
-        while pos < end:
-            m = match(text, pos)
-            if m is None:
-                accepts = states[parser_state.position]
-                raise UnexpectedCharacters(text, pos, line, pos - line_start + 1,
-                                           allowed={k for k in accepts if k.isupper()},
-                                           state=parser_state.position)
-            kind = m.lastgroup or ""
-            value = m.group()
-            start, pos = pos, m.end()
-            col = start - line_start + 1
-            if kind == "WS" or kind == "BLOCK_COMMENT":
-                nl = value.count("\n")
-                if kind == "BLOCK_COMMENT":
-                    end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
-                    self.comments.append(Token(kind, value, start, line, col, line + nl, end_col, pos))
-                if nl:
-                    line += nl
-                    line_start = start + value.rfind("\n") + 1
-                continue
-            if kind == "LINE_COMMENT":
-                self.comments.append(Token(kind, value, start, line, col, line, col + len(value), pos))
-                continue
-            if kind == "WORD":
-                kind = self._word(value, states[parser_state.position])
-            elif kind == "PUNCT":
-                kind = literals[value]
-            yield Token(kind, value, start, line, col, line, col + len(value), pos)
+        last: Optional[Token] = None
+        while True:
+            if pos < end:
+                m = match(text, pos)
+                if m is None:
+                    accepts = states[state_stack[-1]]
+                    raise UnexpectedCharacters(text, pos, line, pos - line_start + 1,
+                                               allowed={k for k in accepts if k.isupper()})
+                kind = m.lastgroup or ""
+                value = m.group()
+                start, pos = pos, m.end()
+                col = start - line_start + 1
+                if kind == "WS" or kind == "BLOCK_COMMENT":
+                    nl = value.count("\n")
+                    if kind == "BLOCK_COMMENT":
+                        end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
+                        comments.append(Token(kind, value, start, line, col, line + nl, end_col, pos))
+                    if nl:
+                        line += nl
+                        line_start = start + value.rfind("\n") + 1
+                    continue
+                if kind == "LINE_COMMENT":
+                    comments.append(Token(kind, value, start, line, col, line, col + len(value), pos))
+                    continue
+                if kind == "WORD":
+                    kind = self._word(value, states[state_stack[-1]])
+                elif kind == "PUNCT":
+                    kind = literals[value]
+                token = Token(kind, value, start, line, col, line, col + len(value), pos)
+                last = token
+                is_end = False
+            else:
+                token = Token.new_borrow_pos("$END", "", last) if last else Token("$END", "", 0, 1, 1)
+                is_end = True
+            while True:
+                actions = states[state_stack[-1]]
+                try:
+                    action, arg = actions[token.type]
+                except KeyError:
+                    raise UnexpectedToken(token, {s for s in actions if s.isupper()}) from None
+                if action is Shift:
+                    state_stack.append(arg)
+                    value_stack.append(token)
+                    break
+                size = len(arg.expansion)
+                if size:
+                    children = value_stack[-size:]
+                    del state_stack[-size:]
+                    del value_stack[-size:]
+                else:
+                    children = []
+                state_stack.append(states[state_stack[-1]][arg.origin.name][1])
+                value_stack.append(callbacks[arg](children))
+                if is_end and state_stack[-1] == self.end:
+                    return value_stack[-1]
 
     def _word(self, word: str, accepts: dict[str, Any]) -> str:
         if "/" in word:

@@ -16,7 +16,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
-from .lexer import FastLexer
+from .lexer import Driver
 from .span import Span
 
 TERMINAL_NAMES = {
@@ -289,10 +289,13 @@ class _Callbacks:
     @staticmethod
     def _wrap(method: Any) -> Any:
         def callback(children: list[Any]) -> Any:
-            first, last = _first(children), _last(children)
+            if not children:
+                return method(None, children)
+            a, b = children[0], children[-1]
+            first = (a.line, a.column) if type(a) is Token else _first(children)
+            last = (b.end_line, b.end_column) if type(b) is Token else _last(children)
             meta = None if first is None or last is None else (first[0], first[1], last[0], last[1])
-            kept = [c for c in children if not isinstance(c, Token) or c.type in MEANINGFUL]
-            return method(meta, kept)
+            return method(meta, [c for c in children if type(c) is not Token or c.type in MEANINGFUL])
         return callback
 
 
@@ -325,10 +328,9 @@ class Parser:
     def __init__(self) -> None:
         grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
         self._ir = _ToIR()
-        self._lark = Lark(grammar, parser="lalr", lexer=FastLexer, keep_all_tokens=True,
-                          transformer=_Callbacks(self._ir))
-        lexer = self._lark.parser.lexer
-        self._comments: list[Token] = getattr(lexer, "lexer", lexer).comments
+        lark = Lark(grammar, parser="lalr", lexer="basic", keep_all_tokens=True, transformer=_Callbacks(self._ir))
+        self._driver = Driver(lark)
+        self._comments: list[Token] = self._driver.comments
 
     def parse(self, text: str, file: str) -> ir.Document:
         """Parse one file. Raises DiagnosticError on any error."""
@@ -340,7 +342,7 @@ class Parser:
             paused = gc.isenabled()
             gc.disable()
             try:
-                items: list[Any] = self._lark.parse(text)  # type: ignore[assignment]
+                items: list[Any] = self._driver.parse(text)
             finally:
                 if paused:
                     gc.enable()
