@@ -106,6 +106,7 @@ def build_graph(system: System, config: Configuration) -> "nx.DiGraph[tuple[str,
                 g.add_node(("in", name, p.name), port=p, component=c)
     for cname, conn in conns.items():
         g.add_node(("conn", cname), connector=conn)
+    edges: list[tuple[tuple[str, ...], tuple[str, ...]]] = []
     for conn_name, comp, port in config.roles:
         if comp not in comps or conn_name not in conns:
             continue
@@ -113,9 +114,10 @@ def build_graph(system: System, config: Configuration) -> "nx.DiGraph[tuple[str,
         if port_decl is None:
             continue
         if port_decl.kind == "output":
-            g.add_edge(("out", comp, port), ("conn", conn_name))
+            edges.append((("out", comp, port), ("conn", conn_name)))
         else:
-            g.add_edge(("conn", conn_name), ("in", comp, port))
+            edges.append((("conn", conn_name), ("in", comp, port)))
+    g.add_edges_from(edges)
     for node, data in g.nodes(data=True):
         if node[0] == "conn":
             want = data["connector"].guarantee

@@ -7,6 +7,7 @@ Rates are exact fractions in hertz: `@ 100 ms` and `@ 10 Hz` are the same rate.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from fractions import Fraction
 from typing import Literal, Optional
 
@@ -29,7 +30,7 @@ class Rate:
     unit: str
     span: Span = _span()
 
-    @property
+    @cached_property
     def hz(self) -> Fraction:
         return rate_in_hz(self.value, self.unit)
 
