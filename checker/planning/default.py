@@ -3,7 +3,8 @@
 A loop over the current configuration. Each turn takes the first *free* action, one that
 moves towards the goal without degrading anything, in this order:
 
-1. upgrade a degraded functionality whose normal assumptions hold (most critical first);
+1. upgrade a degraded functionality whose normal assumptions hold (most critical first),
+   unless the goal keeps it degraded;
 2. attach a wanted input of a component that has degraded functionalities;
 3. attach a wanted output (a `single` connector refuses it while the old publisher is on);
 4. attach any other wanted input;
@@ -90,7 +91,7 @@ def _free(system: System, config: Configuration, goal: Goal, make_first: bool) -
     st = Snapshot(cat, config)
     ups = sorted(config.degraded, key=lambda d: (-_weight(system, d), d))
     for c, f in ups:
-        if c in config.components and not check(st, Upgrade(c, f)):
+        if c in config.components and (c, f) not in goal.degraded and not check(st, Upgrade(c, f)):
             return Upgrade(c, f)
     wanted = sorted(r for r in goal.roles - config.roles if r[1] in config.components)
     hurting = {c for c, _ in config.degraded}
@@ -171,6 +172,11 @@ def _unblock(system: System, config: Configuration, goal: Goal) -> list[Action]:
         if best is None or key < best[0]:
             best = (key, degrades + [detach])
     if best is None:
+        # What must end degraded and is not yet (no detach needed it): degrade it now.
+        left = {d for d in goal.degraded - config.degraded if d[0] in config.components}
+        degrades = _order(system, config, left) if left else None
+        if degrades:
+            return degrades
         raise NoSafePlan(reasons or _stuck(system, config, goal))
     return best[1]
 
@@ -182,7 +188,7 @@ def _stuck(system: System, config: Configuration, goal: Goal) -> list[str]:
     for conn, c, p in sorted(goal.roles - config.roles):
         if c in config.components:
             out += [f"cannot attach {c}.{p} to {conn}: {r}" for r in check(st, Attach(conn, c, p))]
-    for c, f in sorted(config.degraded):
+    for c, f in sorted(config.degraded - goal.degraded):
         if c in goal.components and c in config.components:
             out += [f"cannot upgrade {c}.{f}: {r}" for r in check(st, Upgrade(c, f))]
     return out or ["default: no action makes progress"]

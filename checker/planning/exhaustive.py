@@ -6,7 +6,8 @@ one, and degrading or upgrading any present functionality. Wanted attachments ar
 detached and arriving components never removed: doing so can only add steps. Within that
 space the first plan popped is optimal: the heuristic never overestimates, since
 
-- a degraded functionality of a component that stays must be upgraded, one per step, so with
+- a degraded functionality of a component that stays must be upgraded (unless the goal keeps
+  it degraded), one per step, so with
   weights w0 ≥ w1 ≥ … the i-th is degraded in at least i further states: Σ i·w_i;
 - an arriving component is degraded in the state right after its creation: Σ of its weights;
 - every differing attachment, component and degraded functionality needs one step.
@@ -36,12 +37,13 @@ class SearchTooLarge(NoSafePlan):
 
 def _heuristic(system: System, config: Configuration, goal: Goal) -> tuple[int, int]:
     cat = catalogue(system)
-    staying = sorted((cat.funcs[d].criticality for d in config.degraded if d[0] in goal.components
+    staying = sorted((cat.funcs[d].criticality for d in config.degraded - goal.degraded if d[0] in goal.components
                       and d[0] in config.components), reverse=True)
-    arriving = [f for c in goal.components - config.components for f in cat.comps[c].functionalities]
-    cost = sum(i * w for i, w in enumerate(staying)) + sum(f.criticality for f in arriving)
+    arriving = [(c, f.name) for c in goal.components - config.components for f in cat.comps[c].functionalities]
+    cost = sum(i * w for i, w in enumerate(staying)) + sum(cat.funcs[d].criticality for d in arriving)
+    to_degrade = [d for d in goal.degraded - config.degraded if d[0] in config.components]
     steps = (len(config.roles ^ goal.roles) + len(config.components ^ goal.components) + len(staying)
-             + len(arriving))
+             + len([d for d in arriving if d not in goal.degraded]) + len(to_degrade))
     return cost, steps
 
 

@@ -6,6 +6,11 @@ and as versions the new ones. A component whose definition changed becomes a new
 named `<name>@new` (and a connector whose definition changed, `<name>@new`); `Plan.renames`
 maps these back to the names of the new architecture. Environment guarantees are those of
 the old architecture.
+
+A target need not have every functionality normal: the goal is `settle`d first, so the
+functionalities whose assumptions cannot hold in the target (removing the only publisher of
+a topic they need, say) end degraded, and the plan's notes say which and why. Only a target
+that no degradation makes valid (two publishers on a `single` topic) is refused.
 """
 from __future__ import annotations
 
@@ -14,13 +19,13 @@ from typing import Optional, Union
 
 from reconf_dsl.ir import Component, Connector, System
 
-from ..actions import Action, catalogue, failing_assumptions
+from ..actions import Action, catalogue, failing_assumptions, satisfies
 from ..config import Configuration, Role
 from .default import default_steps
 from .exhaustive import exhaustive_steps
 from .improve import cost, improve
 from .paper import paper_steps
-from .plan import Goal, NoSafePlan, Plan, Problem, verify
+from .plan import Goal, NoSafePlan, Plan, Problem, settle, verify
 
 __all__ = ["STRATEGIES", "solve", "plan_replace", "plan_remove", "plan_add", "plan_migrate"]
 
@@ -38,7 +43,8 @@ def _steps(problem: Problem, strategy: str) -> list[Action]:
     raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
 
 
-def _check_ends(problem: Problem) -> None:
+def _check_ends(problem: Problem) -> Problem:
+    """Refuse an invalid start or an impossible target; the problem with its goal `settle`d."""
     s, cat = problem.system, catalogue(problem.system)
     bad = failing_assumptions(s, problem.start)
     if bad:
@@ -48,15 +54,30 @@ def _check_ends(problem: Problem) -> None:
                if c not in cat.comps]
     if reasons:
         raise NoSafePlan(reasons)
+    pubs: dict[str, list[str]] = {}
+    short: list[str] = []
+    for n, c, p in problem.goal.roles:
+        port = cat.comps[c].port(p)
+        if port is None or port.kind != "output" or n not in cat.conns:
+            continue
+        pubs.setdefault(n, []).append(f"{c}.{p}")
+        want = cat.conns[n].guarantee
+        best = [f.normal.guarantee(p) for f in cat.comps[c].functionalities if p in f.ports and f.normal]
+        if not any(satisfies(g, want) for g in best):
+            short.append(f"{c}.{p} guarantees at best {' or '.join(map(str, best)) or 'nothing'}, which does not "
+                         f"satisfy {want} of {n}")
     for conn in s.connectors:
-        pubs = sorted(f"{c}.{p}" for n, c, p in problem.goal.roles if n == conn.name
-                      and (cat.comps[c].port(p) or _NO_PORT).kind == "output")
-        if conn.single_publisher and len(pubs) > 1:
-            reasons.append(f"in the target, {conn.name} takes a single publisher but has {', '.join(pubs)}")
-    reasons += [f"in the target, {c}.{f} assumes {a}, which would not hold"
-                for c, f, a in failing_assumptions(s, problem.goal.config)]
+        if conn.single_publisher and len(pubs.get(conn.name, [])) > 1:
+            reasons.append(f"in the target, {conn.name} takes a single publisher but has "
+                           f"{', '.join(sorted(pubs[conn.name]))}")
     if reasons:
         raise NoSafePlan(reasons)
+    goal = settle(s, problem.goal)
+    if short and goal.degraded:
+        # A publisher that can never serve its topic is a mistake in the target, not a degradation to plan.
+        said = [w.removeprefix("it ").replace("cannot hold in the target", "would not hold") for _, w in goal.why]
+        raise NoSafePlan([f"in the target, {c}.{f} {w}" for ((c, f), _), w in zip(goal.why, said)] + [f"in the target, {x}" for x in sorted(short)])
+    return dc_replace(problem, goal=goal)
 
 
 class _NoPort:
@@ -71,7 +92,7 @@ def solve(problem: Problem, strategy: str = "default") -> Plan:
 
     `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
     so it is never worse than `paper`."""
-    _check_ends(problem)
+    problem = _check_ends(problem)
     note = None
     if strategy != "default":
         steps = _steps(problem, strategy)

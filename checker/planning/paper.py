@@ -5,7 +5,8 @@ order, degrading the affected functionalities before each detach; remove c. Then
 component c' arriving: create c' degraded, attach its inputs, upgrade its functionalities,
 attach its outputs. Rewired attachments of the remaining components are detached the same
 way (degrade first) before the arrivals and attached after them. Finally the degraded
-functionalities of the other components are upgraded (until none can be).
+functionalities of the other components are upgraded (until none can be), except those
+the target keeps degraded (residual degradation, `plan.settle`).
 
 Degrade(c, f) = DegradeByConn(AffectedConns(f)); ExecDegrade(c, f), and
 DegradeByConn(conns) degrades AffectedFuncs(c, inputs of conns) of every reader c. The paper
@@ -72,11 +73,11 @@ class _Run:
                 self.degrade(comp, f)
         self.do(Detach(conn, comp, port))
 
-    def upgrade_all(self, comps: list[str]) -> None:
+    def upgrade_all(self, comps: list[str], keep: frozenset[FuncId]) -> None:
         progress = True
         while progress:
             progress = False
-            for c, f in sorted(self.config.degraded):
+            for c, f in sorted(self.config.degraded - keep):
                 if c in comps and not check(self.snap(), Upgrade(c, f)):
                     self.do(Upgrade(c, f))
                     progress = True
@@ -101,7 +102,7 @@ def paper_steps(p: Problem) -> list[Action]:
             if not run.snap().is_output(c, port):
                 run.do(Attach(conn, c, port))
         for f in comp.functionalities:
-            if not check(run.snap(), Upgrade(c, f.name)):
+            if (c, f.name) not in p.goal.degraded and not check(run.snap(), Upgrade(c, f.name)):
                 run.do(Upgrade(c, f.name))
         for conn, port in goal_ports:
             if (conn, c, port) not in run.config.roles:
@@ -109,5 +110,9 @@ def paper_steps(p: Problem) -> list[Action]:
     rest = sorted(p.goal.roles - run.config.roles, key=lambda r: (run.snap().is_output(r[1], r[2]), r))
     for conn, c, port in rest:
         run.do(Attach(conn, c, port))
-    run.upgrade_all(sorted(run.config.components))
+    run.upgrade_all(sorted(run.config.components), p.goal.degraded)
+    # What the target keeps degraded and no detach degraded on the way (not in Algorithm 1).
+    for c, name in sorted(p.goal.degraded - run.config.degraded):
+        if c in run.config.components:
+            run.degrade(c, name)
     return run.steps

@@ -14,11 +14,11 @@ from typing import Any, Sequence
 
 from reconf_dsl.ir import System
 
-from ..actions import Action, catalogue, effect, preconditions
-from ..config import Configuration, Role
+from ..actions import Action, catalogue, effect, failing_assumptions, preconditions
+from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
 
-__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "disruption", "state_weight", "run_actions", "verify"]
+__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "settle", "disruption", "state_weight", "run_actions", "verify"]
 
 
 class NoSafePlan(Exception):
@@ -31,17 +31,49 @@ class NoSafePlan(Exception):
 
 @dataclass(frozen=True)
 class Goal:
-    """A target configuration: these components present, exactly these attachments, nothing degraded."""
+    """A target configuration: these components present, exactly these attachments, and exactly
+    the functionalities of `degraded` degraded (residual degradation: those whose assumptions
+    cannot hold in the target, see `settle`); `why` says, per degraded one, what cannot hold."""
 
     components: frozenset[str]
     roles: frozenset[Role]
+    degraded: frozenset[FuncId] = frozenset()
+    why: tuple[tuple[FuncId, str], ...] = ()
 
     def reached(self, config: Configuration) -> bool:
-        return config.components == self.components and config.roles == self.roles and not config.degraded
+        return (config.components == self.components and config.roles == self.roles
+                and config.degraded == self.degraded)
 
     @property
     def config(self) -> Configuration:
-        return Configuration(self.components, frozenset(), self.roles)
+        return Configuration(self.components, self.degraded, self.roles)
+
+    def residual_notes(self) -> list[str]:
+        """One line per functionality that stays degraded, and why."""
+        return [f"{c}.{f} stays degraded: {reason}" for (c, f), reason in self.why]
+
+
+def settle(system: System, goal: Goal) -> Goal:
+    """`goal` with the least set D of degraded functionalities such that the target is valid.
+
+    Starting from `goal.degraded`, every functionality one of whose current assumptions fails is
+    degraded, and the check is repeated (a degraded functionality may stop satisfying a
+    connector others read), until nothing fails. D only grows and degraded modes assume
+    nothing, so this terminates with a valid configuration; every functionality in D had to
+    be degraded given the ones before it, so D is the least such set."""
+    degraded = set(goal.degraded)
+    why = dict(goal.why)
+    while True:
+        failing = failing_assumptions(system, Configuration(goal.components, frozenset(degraded), goal.roles))
+        new = [(c, f, a) for c, f, a in failing if (c, f) not in degraded]
+        if not new:
+            break
+        for c, f, a in new:
+            if (c, f) not in why:
+                why[(c, f)] = f"it assumes {a}, which cannot hold in the target"
+            degraded.add((c, f))
+    return Goal(goal.components, goal.roles, frozenset(degraded),
+                tuple(sorted((d, w) for d, w in why.items() if d in degraded)))
 
 
 def state_weight(system: System, config: Configuration) -> int:
@@ -76,14 +108,18 @@ class Plan:
         for a in self.steps:
             counts[a.kind] = counts.get(a.kind, 0) + 1
         parts = ", ".join(f"{n} {k}" for k, n in counts.items()) or "nothing to do"
-        return f"{len(self.steps)} steps ({parts}); disruption {self.disruption}; strategy {self.strategy}"
+        left = ""
+        if self.goal.degraded:
+            left = "; left degraded: " + ", ".join(f"{c}.{f}" for c, f in sorted(self.goal.degraded))
+        return f"{len(self.steps)} steps ({parts}); disruption {self.disruption}; strategy {self.strategy}{left}"
 
     def to_dict(self) -> dict[str, Any]:
         return {"strategy": self.strategy, "disruption": self.disruption,
                 "steps": [a.to_dict() for a in self.steps],
                 "states": [{"components": sorted(s.components), "degraded": [list(d) for d in sorted(s.degraded)],
                             "roles": [list(r) for r in sorted(s.roles)]} for s in self.states],
-                "renames": dict(self.renames), "notes": list(self.notes)}
+                "renames": dict(self.renames), "notes": list(self.notes),
+                "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
 
 
 def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -> list[Configuration]:
@@ -110,7 +146,8 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
                               f"assumes {r.assumption}, which fails"])
     if not goal.reached(states[-1]):
         raise NoSafePlan([f"{strategy}: the plan does not reach the goal"])
-    return Plan(system, list(steps), states, strategy, disruption(system, states), goal, dict(renames or {}))
+    return Plan(system, list(steps), states, strategy, disruption(system, states), goal, dict(renames or {}),
+                goal.residual_notes())
 
 
 @dataclass

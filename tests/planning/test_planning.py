@@ -1,6 +1,7 @@
 """Planners: the paper's plan, and what the default and exhaustive strategies do better."""
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 
 import pytest
@@ -11,8 +12,11 @@ from checker.planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrat
 from checker.planning.plan import disruption
 from checker.semantics import evaluate
 from reconf_dsl.ir import PortRef
+from reconf_dsl.loader import load
 
 from .systems import chain_system, ring_system, talker_system
+
+EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "examples")
 
 PAPER_PLAN = [
     "degrade listener.listen",
@@ -109,9 +113,51 @@ def test_single_topic_ring_has_no_safe_plan() -> None:
 
 
 def test_no_safe_plan_says_why() -> None:
+    s = talker_system()
+    bad = replace(Configuration.initial(s), degraded=frozenset({("talker", "talk")}))
     with pytest.raises(NoSafePlan) as e:
-        plan_remove(talker_system(), "talker")
-    assert e.value.reasons == ["in the target, listener.listen assumes String @ 10 Hz, which would not hold"]
+        plan_remove(s, "talker", config=bad)
+    assert e.value.reasons == ["the current configuration is not valid: listener.listen assumes String @ 10 Hz, "
+                               "which does not hold"]
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_removing_the_only_publisher_leaves_its_reader_degraded(strategy: str) -> None:
+    plan = plan_remove(talker_system(), "talker", strategy)
+    assert_safe(plan)
+    assert plan.goal.degraded == {("listener", "listen")} == plan.states[-1].degraded
+    assert plan.notes[0] == "listener.listen stays degraded: it assumes String @ 10 Hz, which cannot hold in the target"
+    assert plan.summary().endswith("left degraded: listener.listen")
+    assert plan.to_dict()["left_degraded"][0]["functionality"] == "listen"
+
+
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_removing_the_obstacle_detector_stops_the_robot(strategy: str) -> None:
+    """Paper 001 §3.1: without obstacles the controller degrades (it stops the robot); its degraded
+    mode still publishes Twist @ 20 Hz, so the base driver stays normal."""
+    robot = load([os.path.join(EXAMPLES, "robot.arch")])
+    plan = plan_remove(robot, "obstacle_detector", strategy)
+    assert_safe(plan)
+    assert plan.goal.degraded == {("motor_controller", "control")}
+    assert plan.states[-1].degraded == {("motor_controller", "control")}
+    assert plan.steps[-1].describe() == "remove obstacle_detector"
+    assert Degrade("motor_controller", "control") in plan.steps
+    assert not any(a.kind == "degrade" and a.component == "base_driver" for a in plan.steps)
+    assert any("Obstacles @ 1 s" in n for n in plan.notes)
+    assert plan.disruption == 5 * 3     # degraded in the states after the degrade, the detach, the removal
+
+
+def test_chained_residual_degradation() -> None:
+    """Degrading one reader can starve another: the goal's degraded set is a fixpoint."""
+    for strategy in STRATEGIES:
+        plan = plan_remove(chain_system(3), "r0", strategy)
+        assert_safe(plan)
+        assert plan.goal.degraded == {("r1", "relay"), ("r2", "relay")}
+        assert "r2.relay stays degraded: it assumes String @ 10 Hz, which cannot hold in the target" in plan.notes
+        # r1's degraded mode still serves /t1: r2 keeps working
+        plan = plan_remove(chain_system(3, serves=(False, True)), "r0", strategy)
+        assert_safe(plan)
+        assert plan.goal.degraded == {("r1", "relay")}
 
 
 def test_add_a_publisher_and_a_listener() -> None:
