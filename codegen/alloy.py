@@ -67,6 +67,8 @@ META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
 # stored in the one atom `Derived` (computed once by the solver, then read by the
 # evaluator instead of being recomputed under every quantifier).
 FIXED_STATE = StateAccess(None, sat="sat", materialized=True, store="Derived", joins=True)
+# A plan module: the configurations are constant System atoms.
+PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True)
 
 
 def environment() -> jinja2.Environment:
@@ -174,6 +176,28 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan") -> t
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
     in the `Verdict` instance."""
     return _render(system, configs, module_name, plan=True)
+
+
+def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | None:
+    """The single action that the difference between two configurations would be, with its
+    arguments as (kind, DSL key), or None when the difference is not one change."""
+    removed = before.components - after.components
+    created = after.components - before.components
+    detached = before.roles - after.roles
+    attached = after.roles - before.roles
+    degraded = after.degraded - before.degraded
+    upgraded = before.degraded - after.degraded
+    changes = [removed, created, detached, attached, degraded, upgraded]
+    if sum(len(c) for c in changes) != 1:
+        return None
+    if removed or created:
+        (c,) = removed or created
+        return ("remove" if removed else "create"), [("component", c)]
+    if detached or attached:
+        ((k, comp, port),) = detached or attached
+        return ("detach" if detached else "attach"), [("connector", k), ("port", (comp, port))]
+    (f,) = degraded or upgraded
+    return ("degrade" if degraded else "upgrade"), [("functionality", f)]
 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tuple[str, dict[str, tuple[str, ...]]]:
@@ -322,8 +346,27 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
             ("roles", "System -> Connector -> Port", union(rel["roles"], _empty("System", "Connector", "Port"))),
         ]
         template = environment().get_template("plan.als.j2")
-        text = template.render(st=META_STATE, sigs=sigs, funs=funs, module_name=module_name,
-                               system_name=system.name, states=states)
+        terms = []
+        for i, (before, after) in enumerate(zip(configs, configs[1:])):
+            step = step_action(before, after)
+            if step is None:
+                continue
+            action, args = step
+            atoms = {"component": comp_atoms, "connector": conn_atoms}
+            alloy_args = []
+            for kind, value in args:
+                if kind == "port":
+                    alloy_args.append(port_atoms[value])
+                elif kind == "functionality":
+                    alloy_args.append(func_atoms[value])
+                else:
+                    alloy_args.append(atoms[kind][value])
+            s, s2 = states[i], states[i + 1]
+            call = f"{action}[{s}, {s2}, {', '.join(alloy_args)}]"
+            terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
+        ok_steps = union(terms, _empty("System", "Action"))
+        text = template.render(st=PLAN_STATE, sigs=sigs, funs=funs, module_name=module_name,
+                               system_name=system.name, states=states, ok_steps=ok_steps)
         return text, names
     funs += [
         ("comps", "set Component", union(rel["comps"], "none")),

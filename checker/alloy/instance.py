@@ -65,8 +65,8 @@ PLAN_MAIN = "plan.als"
 @dataclass(frozen=True)
 class AlloyPlanVerdict:
     """Alloy's judgement of a plan: `valid[i]` for each configuration, and for each step i
-    (configuration i to i+1) the actions whose pre/post-conditions it meets (empty when
-    the step is no single action)."""
+    (configuration i to i+1) the action it performs when that action's pre/post-conditions
+    hold (empty when they do not, or when the step is not a single action)."""
 
     valid: tuple[bool, ...]
     steps: tuple[tuple[str, ...], ...]
@@ -88,17 +88,10 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     bridge = bridge or AlloyBridge.get()
     (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
     n = len(configs)
-    valid = tuple(bool(outcome.eval(f"valid[S{i}]")) for i in range(n))
-    steps = []
-    for i in range(n - 1):
-        s, s2 = f"S{i}", f"S{i + 1}"
-        matched = []
-        for action in ACTIONS:
-            arg = {"remove": "c: Component", "create": "c: Component",
-                   "detach": "k: Connector, p: Port", "attach": "k: Connector, p: Port",
-                   "degrade": "f: Functionality", "upgrade": "f: Functionality"}[action]
-            params = ", ".join(part.split(":")[0] for part in arg.split(", "))
-            if outcome.eval(f"some {arg} | {action}[{s}, {s2}, {params}]"):
-                matched.append(action)
-        steps.append(tuple(matched))
+    valid_states = {_atom(s) for (s,) in outcome.eval("Verdicts.valid_states")}
+    did: dict[str, set[str]] = {}
+    for s, a in outcome.eval("Verdicts.ok_steps"):
+        did.setdefault(_atom(s), set()).add(_atom(a).lower())
+    valid = tuple(f"S{i}" in valid_states for i in range(n))
+    steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
     return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text)
