@@ -1,0 +1,32 @@
+"""Python and Alloy must give the same verdict — and the same failing assumptions — on every
+generated architecture and configuration (the real Alloy jar through JPype)."""
+from __future__ import annotations
+
+from hypothesis import HealthCheck, given, settings
+
+from checker.alloy import alloy_verdict
+from checker.config import Configuration
+from checker.engines import python_failing
+from checker.semantics import evaluate
+from reconf_dsl import ir
+from reconf_dsl.loader import load
+from tests.examples_table import EXAMPLES
+from tests.semantic_strategies import configured
+
+
+@given(configured())
+@settings(max_examples=220, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_python_and_alloy_agree(case: tuple[ir.System, Configuration]) -> None:
+    system, config = case
+    ev = evaluate(system, config)
+    verdict = alloy_verdict(system, config)
+    assert verdict.valid == ev.valid
+    assert tuple(sorted(verdict.unsatisfied)) == python_failing(ev)
+
+
+def test_agree_on_every_example() -> None:
+    for ex in EXAMPLES:
+        system = load([ex.file])
+        config = Configuration.initial(system)
+        assert alloy_verdict(system, config).valid == ex.safe, ex.name
+        assert evaluate(system, config).valid == ex.safe
