@@ -18,7 +18,9 @@ from lark.lexer import PatternStr
 from lark.parsers.lalr_analysis import Shift
 
 MASTER = re.compile(r"""
-  (?P<WS>[ \t\r\n\f\v]+)
+[ \t\r\n\f\v]*
+(?:
+  (?P<END>\Z)
 | (?P<LINE_COMMENT>(?://|\#)[^\n]*)
 | (?P<BLOCK_COMMENT>/\*(?:.|\n)*?\*/)
 | (?P<STRING>"(?:[^"\\\n]|\\[^\n])*")
@@ -27,9 +29,18 @@ MASTER = re.compile(r"""
 | (?P<NUMBER>[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)
 | (?P<WORD>[^\W\d]\w*(?:/[^\W\d]\w*)*)
 | (?P<PUNCT>[{}():,.=@])
-""", re.VERBOSE)
+)""", re.VERBOSE)
 
 NAMED_WORDS = {"normal": "MODE_KIND", "degraded": "MODE_KIND", "nothing": "NOTHING", "single": "SINGLE"}
+
+
+def _token(kind: str, value: str, start: int, line: int, col: int, end_col: int, pos: int,
+           _new: Any = str.__new__) -> Token:
+    """A one-line Token, built without Lark's general (and slower) constructor."""
+    t: Any = _new(Token, value)
+    t.type, t.value, t.start_pos, t.line, t.column = kind, value, start, line, col
+    t.end_line, t.end_column, t.end_pos = line, end_col, pos
+    return t  # type: ignore[no-any-return]
 
 
 class Driver:
@@ -55,37 +66,45 @@ class Driver:
         value_stack: list[Any] = []
         pos, line, line_start, end = 0, 1, 0, len(text)
         last: Optional[Token] = None
+        new_token = _token
         while True:
-            if pos < end:
-                m = match(text, pos)
-                if m is None:
-                    accepts = states[state_stack[-1]]
-                    raise UnexpectedCharacters(text, pos, line, pos - line_start + 1,
-                                               allowed={k for k in accepts if k.isupper()})
+            m = match(text, pos) if pos < end else None
+            if m is not None and m.lastgroup != "END":
                 kind = m.lastgroup or ""
-                value = m.group()
-                start, pos = pos, m.end()
+                start = m.start(kind)
+                nl = text.count("\n", pos, start)
+                if nl:
+                    line += nl
+                    line_start = text.rindex("\n", pos, start) + 1
+                value = m.group(kind)
+                pos = m.end()
                 col = start - line_start + 1
-                if kind == "WS" or kind == "BLOCK_COMMENT":
+                if kind == "BLOCK_COMMENT" or kind == "LINE_COMMENT":
                     nl = value.count("\n")
-                    if kind == "BLOCK_COMMENT":
-                        end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
-                        comments.append(Token(kind, value, start, line, col, line + nl, end_col, pos))
+                    end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
+                    comments.append(Token(kind, value, start, line, col, line + nl, end_col, pos))
                     if nl:
                         line += nl
                         line_start = start + value.rfind("\n") + 1
-                    continue
-                if kind == "LINE_COMMENT":
-                    comments.append(Token(kind, value, start, line, col, line, col + len(value), pos))
                     continue
                 if kind == "WORD":
                     kind = self._word(value, states[state_stack[-1]])
                 elif kind == "PUNCT":
                     kind = literals[value]
-                token = Token(kind, value, start, line, col, line, col + len(value), pos)
+                token = new_token(kind, value, start, line, col, col + len(value), pos)
                 last = token
                 is_end = False
+            elif m is None and pos < end:
+                rest = text[pos:]
+                at = pos + len(rest) - len(rest.lstrip(" \t\r\n\f\v"))
+                line += text.count("\n", pos, at)
+                if "\n" in text[pos:at]:
+                    line_start = text.rindex("\n", pos, at) + 1
+                accepts = states[state_stack[-1]]
+                raise UnexpectedCharacters(text, at, line, at - line_start + 1,
+                                           allowed={k for k in accepts if k.isupper()})
             else:
+                pos = end
                 token = Token.new_borrow_pos("$END", "", last) if last else Token("$END", "", 0, 1, 1)
                 is_end = True
             while True:
