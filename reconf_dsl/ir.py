@@ -179,10 +179,14 @@ class Component:
     span: Span = _span()
 
     def port(self, name: str) -> Optional[Port]:
+        return self._ports_by_name.get(name)
+
+    @cached_property
+    def _ports_by_name(self) -> dict[str, Port]:
+        by_name: dict[str, Port] = {}
         for p in self.ports:
-            if p.name == name:
-                return p
-        return None
+            by_name.setdefault(p.name, p)  # the first declaration wins, as duplicates are errors
+        return by_name
 
     @property
     def inputs(self) -> tuple[Port, ...]:
