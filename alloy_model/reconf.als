@@ -197,16 +197,18 @@ pred valid[s: System] {
 
 -- Actions ----------------------------------------------------------------------------
 
--- Remove an isolated component.
+-- Remove an isolated component. Its functionalities count as degraded from then on:
+-- every functionality of an absent component is degraded (assert AbsentDegraded), so
+-- that a later create finds them degraded.
 pred remove[s, s2: System, c: Component] {
   c in s.comps                                             --@pre remove.present
   no s.roles.(c.inputs + c.outputs)                        --@pre remove.isolated
   s2.comps = s.comps - c
-  s2.degraded = s.degraded
+  s2.degraded = s.degraded + c.funcs
   s2.roles = s.roles
 }
 
--- Create a component with all its functionalities degraded.
+-- Create a component with all its functionalities degraded (they are: it was absent).
 pred create[s, s2: System, c: Component] {
   c not in s.comps                                         --@pre create.absent
   c.funcs in s.degraded                                    --@pre create.degraded
@@ -280,6 +282,11 @@ assert SafeDetach  { all k: Connector, p: Port | valid[Pre] and detach[Pre, Post
 assert SafeAttach  { all k: Connector, p: Port | valid[Pre] and attach[Pre, Post, k, p] implies valid[Post] }
 assert SafeDegrade { all f: Functionality | valid[Pre] and degrade[Pre, Post, f] implies valid[Post] }
 assert SafeUpgrade { all f: Functionality | valid[Pre] and upgrade[Pre, Post, f] implies valid[Post] }
+-- Absent components have every functionality degraded, and each action keeps it so:
+-- this is how the configurations of the Python engine (which record no mode for an
+-- absent component) are read in Alloy.
+pred absent_degraded[s: System] { (Component - s.comps).funcs in s.degraded }
+assert AbsentDegraded { absent_degraded[Pre] and step[Pre, Post] implies absent_degraded[Post] }
 assert AttachWellTyped { all k: Connector, p: Port | attach[Pre, Post, k, p] implies well_typed[Post, k, p] }
 -- The two encodings of connector satisfaction in the shared semantics agree.
 assert ConnectorEncodingsAgree {
@@ -293,6 +300,7 @@ check SafeDetach  for 5 expect 0
 check SafeAttach  for 5 expect 0
 check SafeDegrade for 5 expect 0
 check SafeUpgrade for 5 expect 0
+check AbsentDegraded for 5 expect 0
 check AttachWellTyped for 5 expect 0
 check ConnectorEncodingsAgree for 5 expect 0
 

@@ -97,8 +97,11 @@ def _action(pre: Configuration, post: Configuration) -> str:
     post_roles = {(k, p) for k, ps in post.roles.items() for p in ps}
     steps += [f"detach {p} from {k}" for k, p in sorted(pre_roles - post_roles)]
     steps += [f"attach {p} to {k}" for k, p in sorted(post_roles - pre_roles)]
-    steps += [f"degrade {f}" for f in sorted(set(post.degraded) - set(pre.degraded))]
-    steps += [f"upgrade {f}" for f in sorted(set(pre.degraded) - set(post.degraded))]
+    # the modes of a removed or created component's functionalities belong to that action
+    moved = set(pre.components) ^ set(post.components)
+    own = [f for f in set(pre.degraded) ^ set(post.degraded) if f.split(".")[0] not in moved]
+    steps += [f"degrade {f}" for f in sorted(own) if f in post.degraded]
+    steps += [f"upgrade {f}" for f in sorted(own) if f in pre.degraded]
     return "; ".join(steps) or "(no change)"
 
 

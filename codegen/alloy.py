@@ -178,15 +178,40 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan") -> t
     return _render(system, configs, module_name, plan=True)
 
 
+def alloy_view(system: Any, config: Any) -> Any:
+    """`config` as Alloy reads it: every functionality of an absent component degraded.
+
+    The Python engine records no mode for an absent component (removing one drops its
+    entries, creating one adds them); the meta-model keeps them degraded instead (remove
+    adds them, create requires them, assert AbsentDegraded). Both say the same about
+    present components, which are all that `valid` and the actions' conditions read.
+    """
+    present = config.components
+    absent = {(c.name, f.name) for c in _all_components(system) if c.name not in present
+              for f in c.functionalities}
+    if absent <= config.degraded:
+        return config
+    return type(config)(config.components, config.degraded | frozenset(absent), config.roles)
+
+
+def _all_components(system: Any) -> list[Any]:
+    names = {c.name for c in system.components}
+    return list(system.components) + [v for v in system.versions if v.name not in names]
+
+
 def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | None:
     """The single action that the difference between two configurations would be, with its
-    arguments as (kind, DSL key), or None when the difference is not one change."""
+    arguments as (kind, DSL key), or None when the difference is not one change.
+
+    The modes of a created or removed component's functionalities are part of that action
+    (whichever way the configurations record them), not a change of their own."""
     removed = before.components - after.components
     created = after.components - before.components
+    moved = removed | created
     detached = before.roles - after.roles
     attached = after.roles - before.roles
-    degraded = after.degraded - before.degraded
-    upgraded = before.degraded - after.degraded
+    degraded = {f for f in after.degraded - before.degraded if f[0] not in moved}
+    upgraded = {f for f in before.degraded - after.degraded if f[0] not in moved}
     changes = [removed, created, detached, attached, degraded, upgraded]
     if sum(len(c) for c in changes) != 1:
         return None
@@ -214,8 +239,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
     from fractions import Fraction
 
     names: dict[str, tuple[str, ...]] = {}
-    comps = list(system.components) + [v for v in system.versions
-                                       if v.name not in {c.name for c in system.components}]
+    comps = _all_components(system)
+    configs = [alloy_view(system, c) for c in configs]
 
     # data predicates: one atom per distinct (message, rate)
     data_atoms: dict[tuple[str, Fraction | None], str] = {}

@@ -54,3 +54,14 @@ def test_action_preconditions_can_hold(outcomes: dict[str, CommandOutcome], acti
 
 def test_attach_keeps_connections_well_typed(outcomes: dict[str, CommandOutcome]) -> None:
     assert outcomes["AttachWellTyped"].as_expected
+
+
+def test_absent_components_stay_degraded(bridge: AlloyBridge, outcomes: dict[str, CommandOutcome]) -> None:
+    """The invariant that lets Alloy read Python configurations (no modes for absent
+    components): it holds, and it needs remove to degrade what it removes."""
+    assert outcomes["AbsentDegraded"].is_check and outcomes["AbsentDegraded"].as_expected
+    text = metamodel_modules(SCOPE)[MAIN]
+    assert text.count("s2.degraded = s.degraded + c.funcs") == 1
+    mutated = text.replace("s2.degraded = s.degraded + c.funcs", "s2.degraded = s.degraded")
+    (o,) = bridge.run({MAIN: mutated}, MAIN, "AbsentDegraded")
+    assert o.satisfiable
