@@ -19,10 +19,11 @@ from reconf_dsl.formatter import format_document
 from reconf_dsl.loader import Sources, load, read_source
 from reconf_dsl.parser import parse_text
 
-from . import report
+from . import formats, report
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree
-from .report import OutputFormat
+from .progress import status
+from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
 
 EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
@@ -45,7 +46,7 @@ def guarded(command: str) -> Callable[[F], F]:
     def wrap(fn: F) -> F:
         @functools.wraps(fn)
         def inner(*args: Any, **kwargs: Any) -> Any:
-            fmt: OutputFormat = kwargs.get("output_format", OutputFormat.TEXT)
+            fmt: OutputFormat | ReportFormat = kwargs.get("output_format", OutputFormat.TEXT)
             sources: Sources = kwargs.setdefault("sources", Sources())
             try:
                 return fn(*args, **kwargs)
@@ -73,18 +74,36 @@ def guarded(command: str) -> Callable[[F], F]:
     return wrap
 
 
-def emit_failure(command: str, diags: list[Diagnostic], fmt: OutputFormat, sources: Sources) -> None:
-    if fmt is OutputFormat.JSON:
+def emit_failure(command: str, diags: list[Diagnostic], fmt: OutputFormat | ReportFormat,
+                 sources: Sources) -> None:
+    if fmt.value == "json":
         click.echo(report.document(command, "error", diags))
-    else:
-        report.render_text(diags, sources, sys.stderr)
-        n = sum(1 for d in diags if d.is_error)
-        console().print(f"[bold red]✗[/] {n} error{'s' if n != 1 else ''}")
+        return
+    n = sum(1 for d in diags if d.is_error)
+    summary = f"{n} error{'s' if n != 1 else ''}"
+    if fmt.value != "text":
+        rep = formats.Report(command, "error", diags, formats.failure_cases(command, diags), summary)
+        click.echo(formats.render(rep, fmt.value), nl=False)
+    report.render_text(diags, sources, sys.stderr)
+    console().print(f"[bold red]✗[/] {summary}")
 
 
-format_option = click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
-                             default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v),
-                             help="text for people (stderr), json for machines (stdout)")
+def emit_report(rep: formats.Report, fmt: ReportFormat, sources: Sources, json_doc: Callable[[], str],
+                human: str) -> None:
+    """Machine formats on stdout; diagnostics and the one-line verdict `human` (rich markup) on stderr."""
+    if fmt is ReportFormat.JSON:
+        click.echo(json_doc())
+        return
+    if fmt is not ReportFormat.TEXT:
+        click.echo(formats.render(rep, fmt.value), nl=False)
+    report.render_text(rep.diagnostics, sources, sys.stderr)
+    console().print(human)
+
+
+format_option = click.option("--output-format", "output_format", type=click.Choice([f.value for f in ReportFormat]),
+                             default="text", show_default=True, callback=lambda c, p, v: ReportFormat(v),
+                             help="text for people (stderr); json, sarif (2.1.0), github (workflow annotations) "
+                                  "or junit (XML) on stdout")
 files_argument = click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 
 
@@ -112,7 +131,7 @@ solver_option = click.option("--solver", default="glucose", show_default=True,
 @engine_option
 @solver_option
 @guarded("check")
-def check(files: tuple[str, ...], output_format: OutputFormat, engine: str, solver: str, sources: Sources) -> None:
+def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str, sources: Sources) -> None:
     """Prove that every functionality's assumptions hold in FILES (one system; includes followed).
 
     Lists each assumption that does not hold with its chain: functionality → assumption →
@@ -121,23 +140,25 @@ def check(files: tuple[str, ...], output_format: OutputFormat, engine: str, solv
     from .engines import judge
 
     system = load(list(files), sources)
-    judged = judge(system, Configuration.initial(system), engine, solver)
+    with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
+        judged = judge(system, Configuration.initial(system), engine, solver)
     ev = judged.python
     diags = [report.assumption_diagnostic(r) for r in ev.unsatisfied]
     verdict = "safe" if judged.valid else "unsafe"
-    if output_format is OutputFormat.JSON:
-        click.echo(report.document("check", verdict, diags, system=system.name, files=list(system.files),
-                                   engines=judged.engines, assumptions=report.evaluation_json(ev)))
+    n, bad = len(ev.results), len(ev.unsatisfied)
+    summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
+                                                    (len(system.connectors), "connector"), (n, "assumption")))
+    how = judged.how()
+    if judged.valid:
+        line = f"{system.name} — {summary}, all hold{how}"
+        human = f"[bold green]✓ safe[/]: {line}"
     else:
-        report.render_text(diags, sources, sys.stderr)
-        n, bad = len(ev.results), len(ev.unsatisfied)
-        summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
-                                                        (len(system.connectors), "connector"), (n, "assumption")))
-        how = judged.how()
-        if judged.valid:
-            console().print(f"[bold green]✓ safe[/]: {system.name} — {summary}, all hold{how}")
-        else:
-            console().print(f"[bold red]✗ unsafe[/]: {system.name} — {summary}, {bad} do not hold{how}")
+        line = f"{system.name} — {summary}, {bad} do not hold{how}"
+        human = f"[bold red]✗ unsafe[/]: {line}"
+    rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")
+    emit_report(rep, output_format, sources,
+                lambda: report.document("check", verdict, diags, system=system.name, files=list(system.files),
+                                        engines=judged.engines, assumptions=report.evaluation_json(ev)), human)
     sys.exit(EXIT_OK if judged.valid else EXIT_UNSAFE)
 
 

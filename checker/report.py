@@ -11,14 +11,25 @@ from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
 from reconf_dsl.span import Span
 
+from .formats import CheckCase
 from .semantics import AssumptionResult, Evaluation
 
 FORMAT_VERSION = 1
 
 
 class OutputFormat(str, enum.Enum):
+    """Formats of every command (plans, failures)."""
     TEXT = "text"
     JSON = "json"
+
+
+class ReportFormat(str, enum.Enum):
+    """Formats of commands that report findings (`check`, `gate`): also for code scanning and CI."""
+    TEXT = "text"
+    JSON = "json"
+    SARIF = "sarif"
+    GITHUB = "github"
+    JUNIT = "junit"
 
 
 _DEPTH = {"functionality": 0, "assumption": 0, "input": 1, "environment": 1, "connector": 2, "output": 3}
@@ -30,6 +41,19 @@ def assumption_diagnostic(r: AssumptionResult) -> Diagnostic:
                     if link.kind not in ("functionality", "assumption"))
     return error("RC201", f"{r.component}.{r.functionality} assumes {r.assumption}, which does not hold",
                  r.assumption.span, related=related)
+
+
+def assumption_cases(system: str, ev: Evaluation) -> list[CheckCase]:
+    """One JUnit case per checked assumption; a failing one carries its explanation chain."""
+    cases = []
+    for r in ev.results:
+        details = "\n".join(("  " * _DEPTH.get(ln.kind, 1)) + ("✓ " if ln.ok else "✗ ") + f"{ln.text}  ({ln.span})"
+                            for ln in r.chain)
+        cases.append(CheckCase(f"{system}.{r.component}.{r.functionality}",
+                               f"assumption {r.index + 1}: {r.assumption}",
+                               None if r.holds else f"{r.component}.{r.functionality} assumes {r.assumption}, "
+                               "which does not hold", details, r.assumption.span))
+    return cases
 
 
 def snippet(sources: Sources, span: Span, gutter: int) -> list[str]:

@@ -1,0 +1,35 @@
+"""Diagnostic codes as stable rule ids: a short name and description per code or range of codes."""
+from __future__ import annotations
+
+RULES: dict[str, tuple[str, str]] = {
+    "RC000": ("internal-error", "reconf failed unexpectedly"),
+    "RC011": ("tool-missing", "An external program reconf needs is not installed"),
+    "RC201": ("assumption-not-satisfied", "An assumption of a functionality does not hold in the architecture"),
+    "RC300": ("engines-disagree", "The Python engine and the Alloy Analyzer disagree"),
+    "RC401": ("no-safe-plan", "No verified migration plan from the base architecture to the new one"),
+    "RC402": ("disruption-over-policy", "The migration plan disrupts more than the policy's max-disruption"),
+    "RC403": ("protected-functionality-degraded", "The migration degrades a functionality the policy says must "
+              "never be degraded"),
+    "RC404": ("ftm-weakened", "A fault covered by a fault-tolerance mechanism in the base is no longer covered"),
+    "RC405": ("invalid-policy", "The gate's policy cannot be read"),
+    "RC406": ("unreadable-revision", "An architecture cannot be read from the git repository"),
+    "RC407": ("unsafe-architecture", "The new architecture is not safe, so no migration to it is planned"),
+}
+
+_RANGES: list[tuple[str, str, str]] = [
+    ("RC0", "input", "The input cannot be read"),
+    ("RC1", "architecture", "The architecture is not well formed"),
+    ("RC2", "safety", "The architecture is not safe"),
+    ("RC3", "verification", "Verification could not be completed"),
+    ("RC4", "gate", "The change does not pass the gate"),
+]
+
+
+def rule(code: str) -> tuple[str, str]:
+    """(name, description) of a code; unknown codes get the description of their range."""
+    if code in RULES:
+        return RULES[code]
+    for prefix, name, text in _RANGES:
+        if code.startswith(prefix):
+            return (f"{name}-{code.lower()}", text)
+    return (code.lower(), "reconf finding")
