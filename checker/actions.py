@@ -24,9 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Iterable, Optional, Union
 
-from functools import lru_cache
 
-from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
+from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
 from reconf_dsl.ir import satisfies as _satisfies
 
 from .config import Configuration, FuncId, Role
@@ -140,10 +139,22 @@ class ActionRefused(Exception):
 
 # --- satisfaction, fast and with exclusions (the paper's *_no_* predicates) -------------
 
-@lru_cache(maxsize=65536)
+_SAT: dict[tuple[int, int], tuple[Predicate, Predicate, bool]] = {}
+
+
 def satisfies(p: Predicate, q: Predicate) -> bool:
-    """`reconf_dsl.ir.satisfies`, memoised: planners ask the same question very often."""
-    return _satisfies(p, q)
+    """`reconf_dsl.ir.satisfies`, memoised by identity: planners ask the same question very often
+    about the same IR objects, and hashing predicates (with their Fractions) costs more than
+    the answer. The entry keeps p and q alive, so their ids cannot be reused meanwhile."""
+    key = (id(p), id(q))
+    hit = _SAT.get(key)
+    if hit is not None and hit[0] is p and hit[1] is q:
+        return hit[2]
+    if len(_SAT) > 1 << 18:
+        _SAT.clear()
+    sat = _satisfies(p, q)
+    _SAT[key] = (p, q, sat)
+    return sat
 
 
 class _Catalogue:
@@ -156,6 +167,29 @@ class _Catalogue:
         self.env: list[Predicate] = [e.guarantee for e in system.environment]
         self.funcs: dict[FuncId, Functionality] = {
             (c.name, f.name): f for c in self.comps.values() for f in c.functionalities}
+        self.ports: dict[tuple[str, str], Port] = {(c.name, p.name): p for c in self.comps.values() for p in c.ports}
+        self._index: dict[tuple[frozenset[str], frozenset[Role]], _Index] = {}
+
+    def index(self, config: Configuration) -> "_Index":
+        """Who is attached where in `config`, cached: consecutive states often share their sets."""
+        key = (config.components, config.roles)
+        ix = self._index.get(key)
+        if ix is None:
+            if len(self._index) > 256:
+                self._index.clear()
+            ix = self._index[key] = _Index(self, config)
+        return ix
+
+
+class _Index:
+    def __init__(self, cat: _Catalogue, config: Configuration) -> None:
+        self.by_conn: dict[str, list[tuple[str, str]]] = {}
+        self.by_port: dict[tuple[str, str], list[str]] = {}
+        comps, conns, ports = config.components, cat.conns, cat.ports
+        for conn, comp, port in config.roles:
+            if comp in comps and conn in conns and (comp, port) in ports:
+                self.by_conn.setdefault(conn, []).append((comp, port))
+                self.by_port.setdefault((comp, port), []).append(conn)
 
 
 _CACHE: dict[int, _Catalogue] = {}
@@ -182,17 +216,18 @@ class Snapshot:
     def __init__(self, cat: _Catalogue, config: Configuration) -> None:
         self.cat = cat
         self.config = config
-        self.by_conn: dict[str, list[tuple[str, str]]] = {}
-        self.by_port: dict[tuple[str, str], list[str]] = {}
-        for conn, comp, port in config.roles:
-            if comp in config.components and conn in cat.conns and cat.comps[comp].port(port) is not None:
-                self.by_conn.setdefault(conn, []).append((comp, port))
-                self.by_port.setdefault((comp, port), []).append(conn)
+        ix = cat.index(config)
+        self.by_conn = ix.by_conn
+        self.by_port = ix.by_port
         self._conn_cache: dict[str, bool] = {}
 
     def is_output(self, comp: str, port: str) -> bool:
-        p = self.cat.comps[comp].port(port)
+        p = self.cat.ports.get((comp, port))
         return p is not None and p.kind == "output"
+
+    def readers(self, conns: Iterable[str]) -> set[str]:
+        """The present components with an input attached to one of `conns`."""
+        return {c for conn in conns for c, p in self.by_conn.get(conn, []) if not self.is_output(c, p)}
 
     def output_satisfies(self, comp: str, port: str, want: Predicate) -> bool:
         c = self.cat.comps[comp]
@@ -212,7 +247,7 @@ class Snapshot:
 
     def input_sat(self, comp: str, port: str, dead: frozenset[str] = frozenset(),
                   dead_role: Optional[Role] = None) -> bool:
-        asm = self.cat.comps[comp].port(port)
+        asm = self.cat.ports.get((comp, port))
         if asm is None or asm.assumption is None:
             return False
         for conn in self.by_port.get((comp, port), []):
@@ -224,9 +259,9 @@ class Snapshot:
 
     def holds(self, comp: str, f: Functionality, a: Predicate, dead: frozenset[str] = frozenset(),
               dead_role: Optional[Role] = None) -> bool:
-        c = self.cat.comps[comp]
+        ports = self.cat.ports
         for pname in f.ports:
-            p = c.port(pname)
+            p = ports.get((comp, pname))
             if p is None or p.kind != "input" or p.assumption is None:
                 continue
             if satisfies(p.assumption, a) and self.input_sat(comp, pname, dead, dead_role):
@@ -321,7 +356,7 @@ def _detach(st: Snapshot, a: Detach) -> list[str]:
         return []
     return [f"no other output satisfies {a.connector} without {who}, and {c}.{f} is not safe without the "
             f"inputs of {a.connector}: it assumes {asm} (safe_no_input)"
-            for c, f, asm in st.unsafe(st.config.components & set(st.cat.comps), dead=frozenset([a.connector]))]
+            for c, f, asm in st.unsafe(st.readers([a.connector]), dead=frozenset([a.connector]))]
 
 
 def _attach(st: Snapshot, a: Attach) -> list[str]:
@@ -362,14 +397,15 @@ def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> list[str]:
         dead = frozenset(affected_connectors(st, a.component, f))
         return [f"degrading {who} leaves {', '.join(sorted(dead))} unsatisfied, and {c}.{g} is not safe without "
                 f"their inputs: it assumes {asm} (safe_no_input)"
-                for c, g, asm in st.unsafe(st.config.components & set(st.cat.comps), dead=dead, exempt=fid)]
+                for c, g, asm in st.unsafe(st.readers(dead), dead=dead, exempt=fid)]
     if fid not in st.config.degraded:
         return [f"{who} is not degraded"]
     assert f.normal is not None
     problems = [f"the normal mode of {who} assumes {asm}, which does not hold now"
                 for asm in f.normal.assumptions if not st.holds(a.component, f, asm)]
-    for conn, comp, port in sorted(st.config.roles):
-        if comp == a.component and port in f.ports and st.is_output(comp, port):
+    for comp, port, conn in sorted((a.component, port, conn) for port in f.ports
+                                   for conn in st.by_port.get((a.component, port), [])):
+        if st.is_output(comp, port):
             want = st.cat.conns[conn].guarantee
             if (not satisfies(f.normal.guarantee(port), want) and st.conn_sat(conn)
                     and not st.conn_sat(conn, [(comp, port)])):
@@ -383,7 +419,7 @@ def affected_connectors(st: Snapshot, comp: str, f: Functionality) -> list[str]:
     outs = [(comp, p) for p in f.ports if st.is_output(comp, p)]
     assert f.degraded is not None
     out = []
-    for conn in sorted(st.cat.conns):
+    for conn in sorted({conn for o in outs for conn in st.by_port.get(o, [])}):
         if st.conn_sat(conn, outs):
             continue
         if any((c, p) in st.by_conn.get(conn, []) and satisfies(f.degraded.guarantee(p), st.cat.conns[conn].guarantee)

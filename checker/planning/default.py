@@ -133,19 +133,32 @@ def _closure(system: System, config: Configuration) -> set[FuncId]:
 
 
 def _order(system: System, config: Configuration, todo: set[FuncId]) -> Optional[list[Action]]:
-    """Degrade `todo` one by one, least critical first among those whose preconditions hold."""
+    """Degrade `todo` one by one, least critical first among those whose preconditions hold.
+
+    Those that publish to a reader still in `todo` are tried after the others (their degrade
+    would be refused until that reader is degraded), so a long closure is ordered in about
+    linear time instead of by trying everything at every step."""
     cat = catalogue(system)
+    st = Snapshot(cat, config)
+    by_comp: dict[str, set[FuncId]] = {}
+    for d in todo:
+        by_comp.setdefault(d[0], set()).add(d)
+    waits: dict[FuncId, set[FuncId]] = {}
+    for d in todo:
+        conns = {conn for p in cat.funcs[d].ports if st.is_output(d[0], p) for conn in st.by_port.get((d[0], p), [])}
+        waits[d] = {g for r in st.readers(conns) for g in by_comp.get(r, ())} - {d}
     out: list[Action] = []
     left = set(todo)
     while left:
         st = Snapshot(cat, config)
-        ready = [d for d in sorted(left, key=lambda d: (_weight(system, d), d)) if not check(st, Degrade(*d))]
-        if not ready:
+        first = next((d for d in sorted(left, key=lambda d: (bool(waits[d] & left), _weight(system, d), d))
+                      if not check(st, Degrade(*d))), None)
+        if first is None:
             return None
-        a = Degrade(*ready[0])
+        a = Degrade(*first)
         out.append(a)
         config = effect(system, config, a)
-        left.discard(ready[0])
+        left.discard(first)
     return out
 
 

@@ -4,7 +4,8 @@ Repeats, until nothing gets better: every step, and every pair of consecutive st
 degrade with the detach it allows), is tried at every other position; every degrade
 (upgrade) is tried away together with the upgrade (degrade) that undoes it. A candidate is
 kept when every step's preconditions hold and it reaches the goal at a lower (disruption,
-length). Each round strictly lowers the cost, and a budget bounds the candidates tried.
+length). Each round strictly lowers the cost, and budgets bound the candidates tried and the
+steps simulated.
 """
 from __future__ import annotations
 
@@ -49,11 +50,19 @@ def _variants(steps: list[Action]) -> Iterator[tuple[int, list[Action]]]:
                     yield min(i, j), rest[:j] + block + rest[j:]
 
 
+class _Budget:
+    """How many more steps may be simulated."""
+
+    def __init__(self, steps: float) -> None:
+        self.left = steps
+
+
 def _tail_cost(system: System, config: Configuration, total: int, steps: Sequence[Action], goal: Goal,
-               bound: tuple[int, int]) -> Optional[tuple[int, int]]:
+               bound: tuple[int, int], budget: _Budget) -> Optional[tuple[int, int]]:
     """Cost of running `steps` from `config` with `total` so far; None if refused or not below `bound`."""
     cat = catalogue(system)
     for a in steps:
+        budget.left -= 1
         if check(Snapshot(cat, config), a):
             return None
         config = effect(system, config, a)
@@ -64,10 +73,15 @@ def _tail_cost(system: System, config: Configuration, total: int, steps: Sequenc
 
 
 def improve(system: System, start: Configuration, steps: list[Action], goal: Goal, rounds: int = 50,
-            budget: int = 20_000) -> list[Action]:
-    """Locally better `steps`; at most `rounds` improvements and `budget` candidates tried."""
+            budget: int = 20_000, work: int = 60_000) -> list[Action]:
+    """Locally better `steps`; at most `rounds` improvements, `budget` candidates tried and `work`
+    steps simulated, quadratically fewer on systems of more than 20 components (so long plans on
+    big systems are improved only as far as that allows)."""
     if cost(system, start, steps, goal) is None:
         return steps
+    # A simulated step costs about the degree of what it touches, and long plans have
+    # quadratically many variants: beyond 20 components, far fewer steps are simulated.
+    sim = _Budget(work * min(1.0, (20 / max(1, len(start.components))) ** 2))
     for _ in range(rounds):
         states = [start]
         weights = [0]
@@ -78,9 +92,9 @@ def improve(system: System, start: Configuration, steps: list[Action], goal: Goa
         found = None
         for k, cand in _variants(steps):
             budget -= 1
-            if budget < 0:
+            if budget < 0 or sim.left < 0:
                 return steps
-            c = _tail_cost(system, states[k], weights[k], cand[k:], goal, best)
+            c = _tail_cost(system, states[k], weights[k], cand[k:], goal, best, sim)
             if c is not None and (c[0], len(cand)) < best:
                 found = cand
                 break

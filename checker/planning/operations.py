@@ -76,7 +76,8 @@ def _check_ends(problem: Problem) -> Problem:
     if short and goal.degraded:
         # A publisher that can never serve its topic is a mistake in the target, not a degradation to plan.
         said = [w.removeprefix("it ").replace("cannot hold in the target", "would not hold") for _, w in goal.why]
-        raise NoSafePlan([f"in the target, {c}.{f} {w}" for ((c, f), _), w in zip(goal.why, said)] + [f"in the target, {x}" for x in sorted(short)])
+        raise NoSafePlan([f"in the target, {c}.{f} {w}" for ((c, f), _), w in zip(goal.why, said)]
+                         + [f"in the target, {x}" for x in sorted(short)])
     return dc_replace(problem, goal=goal)
 
 

@@ -10,15 +10,17 @@ degraded for k steps costs w·k, and the empty plan costs 0.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Optional, Sequence
 
 from reconf_dsl.ir import System
 
-from ..actions import Action, catalogue, effect, failing_assumptions, preconditions
+from ..actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalogue, catalogue, effect,
+                       failing_assumptions, preconditions)
 from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
 
-__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "settle", "disruption", "state_weight", "run_actions", "verify"]
+__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "settle", "disruption", "state_weight", "run_actions", "verify",
+           "FULL_CHECK_LIMIT"]
 
 
 class NoSafePlan(Exception):
@@ -96,6 +98,7 @@ class Plan:
     goal: Goal
     renames: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    verification: str = "full"      # "full": every state evaluated; "local": see `verify`
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -118,7 +121,7 @@ class Plan:
                 "steps": [a.to_dict() for a in self.steps],
                 "states": [{"components": sorted(s.components), "degraded": [list(d) for d in sorted(s.degraded)],
                             "roles": [list(r) for r in sorted(s.roles)]} for s in self.states],
-                "renames": dict(self.renames), "notes": list(self.notes),
+                "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
                 "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
 
 
@@ -130,24 +133,62 @@ def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -
     return states
 
 
+FULL_CHECK_LIMIT = 200_000
+"""States × components up to which `verify` re-evaluates every state in full by default."""
+
+
 def verify(system: System, start: Configuration, steps: Sequence[Action], goal: Goal, strategy: str,
-           renames: dict[str, str] | None = None) -> Plan:
-    """Re-check a plan step by step: every precondition holds, every state is valid, the goal is reached."""
+           renames: dict[str, str] | None = None, full: Optional[bool] = None) -> Plan:
+    """Re-check a plan step by step: every precondition holds, every state is valid, the goal is reached.
+
+    With `full` (the default when states × components ≤ FULL_CHECK_LIMIT) every state is judged
+    by `semantics.evaluate`, the engine the planners do not use. Otherwise the last state is,
+    and each intermediate state is re-checked where its step can change anything: the
+    functionalities of the component the step touches and of every reader of a connector
+    whose publishers or attachments it changes (an assumption depends only on those). The
+    plan's `verification` says which was done."""
+    cat = catalogue(system)
+    if full is None:
+        full = (len(steps) + 1) * max(1, len(start.components)) <= FULL_CHECK_LIMIT
     states = [start]
     for i, a in enumerate(steps, 1):
-        reasons = preconditions(system, states[-1], a)
+        before = states[-1]
+        reasons = preconditions(system, before, a)
         if reasons:
             raise NoSafePlan([f"{strategy}: step {i} ({a.describe()}) is refused: " + "; ".join(reasons)])
-        states.append(effect(system, states[-1], a))
-        ev = evaluate(system, states[-1], explain=False)
-        if not ev.valid:
-            r = ev.unsatisfied[0]
-            raise NoSafePlan([f"{strategy}: after step {i} ({a.describe()}) {r.component}.{r.functionality} "
-                              f"assumes {r.assumption}, which fails"])
+        after = effect(system, before, a)
+        states.append(after)
+        if full or i == len(steps):
+            failing = [(r.component, r.functionality, r.assumption)
+                       for r in evaluate(system, after, explain=False).unsatisfied]
+        else:
+            failing = Snapshot(cat, after).unsafe(_touched(cat, before, after, a))
+        if failing:
+            c, f, asm = failing[0]
+            raise NoSafePlan([f"{strategy}: after step {i} ({a.describe()}) {c}.{f} assumes {asm}, which fails"])
     if not goal.reached(states[-1]):
         raise NoSafePlan([f"{strategy}: the plan does not reach the goal"])
+    notes = goal.residual_notes()
+    if not full:
+        notes.append(f"verification: the last state judged in full; the {len(steps) - 1} intermediate states "
+                     "re-checked where each step can change them (a full re-evaluation of every state is "
+                     f"beyond {FULL_CHECK_LIMIT:,} states × components)")
     return Plan(system, list(steps), states, strategy, disruption(system, states), goal, dict(renames or {}),
-                goal.residual_notes())
+                notes, "full" if full else "local")
+
+
+def _touched(cat: _Catalogue, before: Configuration, after: Configuration, a: Action) -> set[str]:
+    """The present components whose assumptions `a` can make fail."""
+    if isinstance(a, Remove):
+        return set()          # an isolated component: nothing reads it
+    if isinstance(a, Create):
+        return {a.component}
+    if isinstance(a, (Attach, Detach)):
+        return ({a.component} | Snapshot(cat, before).readers([a.connector])
+                | Snapshot(cat, after).readers([a.connector])) & after.components
+    st = Snapshot(cat, after)
+    outs = [(a.component, p) for p in cat.funcs[(a.component, a.functionality)].ports]
+    return {a.component} | st.readers({conn for o in outs for conn in st.by_port.get(o, [])})
 
 
 @dataclass
