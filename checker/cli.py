@@ -254,8 +254,10 @@ def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], so
 
 
 def _register() -> None:
+    from .gate import gate_cmd
     from .plan_cli import plan
     main.add_command(plan)
+    main.add_command(gate_cmd)
     try:
         from .verify_model import verify_model_cmd
     except ImportError:  # pragma: no cover - the Alloy side is part of the package

@@ -1,0 +1,121 @@
+"""`--output-format sarif|github|junit` of `check`: SARIF valid against the 2.1.0 schema,
+GitHub annotations escaped, JUnit with one case per checked assumption."""
+from __future__ import annotations
+
+import json
+import os
+import xml.etree.ElementTree as ET
+
+import jsonschema
+import pytest
+from click.testing import CliRunner
+
+from checker.cli import main
+from checker.formats import Report
+from checker.formats.github import escape_data, escape_property, to_github
+from checker.progress import enabled
+from reconf_dsl.diagnostics import Related, error
+from reconf_dsl.span import Span
+from tests.examples_table import BY_NAME, EXAMPLES, Example
+
+SCHEMA_PATH = os.path.join(os.path.dirname(__file__), "data", "sarif-schema-2.1.0.json")
+
+
+def sarif_schema() -> dict:
+    with open(SCHEMA_PATH, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def validate_sarif(text: str) -> dict:
+    doc = json.loads(text)
+    jsonschema.Draft7Validator(sarif_schema()).validate(doc)
+    return doc
+
+
+@pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
+def test_sarif_for_every_example(ex: Example) -> None:
+    result = CliRunner().invoke(main, ["check", ex.file, "--output-format", "sarif", "--engine", "python"])
+    assert result.exit_code == (0 if ex.safe else 1), result.output
+    doc = validate_sarif(result.stdout)
+    results = doc["runs"][0]["results"]
+    assert len(results) == len(ex.unsatisfied)
+    rules = [r["id"] for r in doc["runs"][0]["tool"]["driver"]["rules"]]
+    for r in results:
+        assert r["ruleId"] == "RC201" and rules[r["ruleIndex"]] == "RC201"
+        assert r["level"] == "error"
+
+
+def test_sarif_region_is_the_assumption() -> None:
+    result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "sarif"])
+    doc = validate_sarif(result.stdout)
+    (r,) = doc["runs"][0]["results"]
+    loc = r["locations"][0]["physicalLocation"]
+    assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
+    assert loc["region"] == {"startLine": 21, "startColumn": 21, "endLine": 21, "endColumn": 35}
+    assert any(rl["physicalLocation"]["region"]["startLine"] == 10 for rl in r["relatedLocations"])
+
+
+def test_sarif_for_bad_input_is_valid(tmp_path) -> None:
+    bad = tmp_path / "bad.arch"
+    bad.write_text("system x\ncomponent {\n", encoding="utf-8")
+    result = CliRunner().invoke(main, ["check", str(bad), "--output-format", "sarif"])
+    assert result.exit_code == 2
+    doc = validate_sarif(result.stdout)
+    assert doc["runs"][0]["results"] and doc["runs"][0]["invocations"][0]["executionSuccessful"] is False
+
+
+def test_schema_rejects_what_it_should() -> None:
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({"version": "2.1.0", "runs": [{"tool": {"driver": {"name": "x"}},
+                                                           "results": [{"level": "fatal", "message": {"text": "m"}}]}]},
+                            sarif_schema())
+
+
+def test_github_annotations_escape() -> None:
+    assert escape_data("50% done\r\nnext") == "50%25 done%0D%0Anext"
+    assert escape_property("a:b,c%") == "a%3Ab%2Cc%25"
+    d = error("RC201", "x: 100% wrong,\nreally", Span("dir,1/a:b.arch", 3, 5, 3, 9),
+              related=(Related(Span("a.arch", 1, 1, 1, 2), "because"),))
+    text = to_github(Report("check", "unsafe", [d]))
+    assert text == ("::error file=dir%2C1/a%3Ab.arch,line=3,col=5,endLine=3,endColumn=9,title=reconf RC201::"
+                    "x: 100%25 wrong,%0Areally%0A- because\n")
+
+
+def test_github_format_of_check() -> None:
+    result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "github"])
+    assert result.exit_code == 1
+    first = result.stdout.splitlines()[0]
+    assert first.startswith("::error file=examples/chatter_slow.arch,line=21,col=21,")
+    assert "title=reconf RC201::listener.listen assumes String @ 10 Hz" in first
+
+
+@pytest.mark.parametrize("name", ["robot", "robot_slow"])
+def test_junit_one_case_per_assumption(name: str) -> None:
+    ex = BY_NAME[name]
+    result = CliRunner().invoke(main, ["check", ex.file, "--output-format", "junit"])
+    root = ET.fromstring(result.stdout)
+    js = json.loads(CliRunner().invoke(main, ["check", ex.file, "--output-format", "json"]).stdout)
+    cases = root.findall(".//testcase")
+    assert len(cases) == len(js["assumptions"]) == int(root.get("tests", "0"))
+    failed = {c.get("classname") for c in cases if c.find("failure") is not None}
+    assert {n.split(".", 1)[1] for n in failed} == ex.unsatisfied
+    assert int(root.get("failures", "0")) == sum(1 for a in js["assumptions"] if not a["holds"])
+
+
+def test_junit_for_bad_input(tmp_path) -> None:
+    result = CliRunner().invoke(main, ["check", str(tmp_path / "missing.arch"), "--output-format", "junit"])
+    assert result.exit_code == 2
+    root = ET.fromstring(result.stdout)
+    assert root.get("errors") == "1" and root.find(".//error") is not None
+
+
+def test_progress_only_for_people() -> None:
+    class Tty:
+        def isatty(self) -> bool:
+            return True
+
+    assert enabled(Tty(), {})  # type: ignore[arg-type]
+    assert not enabled(Tty(), {"CI": "true"})  # type: ignore[arg-type]
+    assert not enabled(Tty(), {"NO_COLOR": "1"})  # type: ignore[arg-type]
+    assert not enabled(Tty(), {"TERM": "dumb"})  # type: ignore[arg-type]
+    assert not enabled(open(os.devnull, "w"), {})
