@@ -114,9 +114,10 @@ def _bitwidth(top: int) -> int:
 
 
 def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] = None,
-                   module_name: str = "planner") -> tuple[str, dict[str, tuple[str, ...]]]:
-    """The planning module for `problem` (its goal settled), traces of at most `max_steps`
-    steps, and with `bound` a bound on disruption; and the map from atom to DSL name."""
+                   module_name: str = "planner", min_steps: int = 0) -> tuple[str, dict[str, tuple[str, ...]]]:
+    """The planning module for `problem` (its goal settled), traces of `min_steps` to
+    `max_steps` steps, and with `bound` a bound on disruption; and the map from atom to
+    DSL name."""
     import codegen.alloy as gen
 
     system, start, goal = problem.system, problem.start, problem.goal
@@ -149,7 +150,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     text = template.render(
         st=gen.PLAN_STATE, sigs=sigs, funs=funs, module_name=module_name, system_name=system.name,
         actions=_two_state_actions(), single=single, crit=crit, bound=bound, start_weight=start_weight,
-        bitwidth=bitwidth, states=max_steps + 1,
+        bitwidth=bitwidth, states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
         start={"comps": comps(start.components), "roles": roles(start.roles),
                "degraded": funcs(_alloy_degraded(system, start.components, start.degraded))},
         goal={"comps": comps(goal.components), "roles": roles(goal.roles), "degraded": funcs(goal.degraded)},
@@ -257,6 +258,19 @@ class AlloySearch:
                 f"{self.seconds:.1f} s)")
 
 
+def _fewest_steps(problem: Problem) -> int:
+    """A lower bound on the steps of any plan: every attachment, component and mode that
+    differs between start and goal takes a step of its own (a created component's
+    functionalities start degraded)."""
+    system, start, goal = problem.system, problem.start, problem.goal
+    cat = catalogue(system)
+    staying = start.components & goal.components
+    arriving = [(c, f.name) for c in goal.components - start.components for f in cat.comps[c].functionalities]
+    modes = {d for d in start.degraded ^ goal.degraded if d[0] in staying}
+    return (len(start.roles ^ goal.roles) + len(start.components ^ goal.components) + len(modes)
+            + len([d for d in arriving if d not in goal.degraded]))
+
+
 def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER,
                  bridge: Optional[AlloyBridge] = None, minimise: bool = True) -> AlloySearch:
     """Plan `problem` (its goal settled, see `plan_with_alloy`) in Alloy; see the module
@@ -271,8 +285,9 @@ def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SO
     best: Optional[list[Action]] = None
     best_cost = 0
     bound: Optional[int] = None
+    fewest = _fewest_steps(problem)  # then: no plan is shorter than the first one found
     while True:
-        text, names = render_planner(problem, max_steps, bound)
+        text, names = render_planner(problem, max_steps, bound, min_steps=fewest)
         states, seconds = _solve(text, names, solver, bridge)
         if states is None:
             solves.append(Solve(bound, False, 0, 0, seconds))
@@ -283,6 +298,7 @@ def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SO
         if bound is not None and cost > bound:
             raise AlloyError(f"the Alloy plan's disruption {cost} exceeds its bound {bound}")
         best, best_cost = steps, cost
+        fewest = max(fewest, len(steps))
         if not minimise or cost == 0:
             break
         bound = cost - 1

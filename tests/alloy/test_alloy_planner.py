@@ -72,7 +72,7 @@ def test_alloy_plan_is_safe_and_least_disruptive(bridge: AlloyBridge, name: str,
 
 def test_generated_systems(bridge: AlloyBridge) -> None:
     cases = _generated()
-    assert len(cases) >= 3
+    compared = 0
     for name, problem in cases:
         try:
             optimum = solve(problem, "exhaustive")
@@ -80,11 +80,13 @@ def test_generated_systems(bridge: AlloyBridge) -> None:
             with pytest.raises(NoSafePlan):
                 alloy_search(problem, max_steps=6, bridge=bridge)
             continue
-        if len(optimum) > 6:
+        if len(optimum) > 8:
             continue
-        search = alloy_search(problem, max_steps=6, bridge=bridge)
+        search = alloy_search(problem, max_steps=len(optimum), bridge=bridge)
         plan = verify(problem.system, problem.start, search.steps, problem.goal, "alloy")
         assert plan.disruption == optimum.disruption, name
+        compared += 1
+    assert compared >= 3
 
 
 def test_plan_with_alloy_returns_a_checked_plan(bridge: AlloyBridge) -> None:
