@@ -15,9 +15,13 @@ Search, for `max_steps` steps at most:
    of at most `max_steps` steps, and among those the shortest: the order of the
    `exhaustive` strategy (disruption, then steps).
 
+Traces start at a lower bound on the steps (each differing attachment, component and mode
+takes a step of its own) and, once a plan is found, at its length.
+
 Disruption (checker.planning.plan.disruption) is an integer sum over the states; the
-module keeps a running total `spent` as a `var` Int, with a bit width large enough for
-`max_steps` states of every functionality degraded, so no sum overflows.
+module keeps a running total `spent` as a `var` Int, with a bit width that holds the bound
+plus one state's weight: a trace whose total goes beyond is over the bound anyway, and
+the analyzer (overflow forbidden) discards it. Decoded plans are costed again in Python.
 
 Configurations are read in Alloy as in the meta-model: every functionality of an absent
 component counts as degraded. Decoded plans use the Python engine's configurations again.
