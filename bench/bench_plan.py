@@ -98,7 +98,7 @@ def time_table(shapes: list[str], sizes: list[int], seed: int) -> bool:
 
 
 def _cases(count: int, sizes: tuple[int, ...]) -> list[tuple[str, int, int]]:
-    out = []
+    out: list[tuple[str, int, int]] = []
     seed = 0
     while len(out) < count:
         for n in sizes:

@@ -119,17 +119,25 @@ def _unserved(st: Snapshot, goal: Goal, comp: str) -> int:
                if c == comp and not st.is_output(c, p) and not st.conn_sat(conn))
 
 
-def _closure(system: System, config: Configuration) -> set[FuncId]:
-    """The functionalities that must be degraded for `config` to be valid, grown to a fixpoint."""
+def _closure(system: System, config: Configuration, suspects: Optional[set[str]] = None) -> set[FuncId]:
+    """The functionalities that must be degraded for `config` to be valid, grown to a fixpoint.
+
+    With `suspects`, `config` is one step away from a valid configuration and only those
+    components can have lost an assumption; then only the readers of what each round
+    degrades are looked at next (nothing else can change)."""
     cat = catalogue(system)
     extra: set[FuncId] = set()
+    look = set(suspects) if suspects is not None else set(config.components)
     while True:
         trial = Configuration(config.components, config.degraded | extra, config.roles)
         st = Snapshot(cat, trial)
-        failing = {(c, f) for c, f, _ in st.unsafe(trial.components & set(cat.comps))}
-        if not failing - extra:
+        failing = {(c, f) for c, f, _ in st.unsafe(look & trial.components & set(cat.comps))} - extra
+        if not failing:
             return extra
         extra |= failing
+        if suspects is not None:
+            look = st.readers({conn for d in failing for p in cat.funcs[d].ports if st.is_output(d[0], p)
+                               for conn in st.by_port.get((d[0], p), [])})
 
 
 def _order(system: System, config: Configuration, todo: set[FuncId]) -> Optional[list[Action]]:
@@ -168,7 +176,9 @@ def _unblock(system: System, config: Configuration, goal: Goal) -> list[Action]:
     reasons: list[str] = []
     for conn, c, p in sorted(config.roles - goal.roles):
         detach = Detach(conn, c, p)
-        todo = _closure(system, effect(system, config, detach))
+        st = Snapshot(cat, config)
+        suspects = {c} | (st.readers([conn]) if st.is_output(c, p) else set())
+        todo = _closure(system, effect(system, config, detach), suspects)
         degrades = _order(system, config, todo)
         if degrades is None:
             reasons.append(f"{detach.describe()} needs {', '.join(f'{x}.{y}' for x, y in sorted(todo))} degraded "

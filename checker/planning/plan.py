@@ -133,7 +133,7 @@ def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -
     return states
 
 
-FULL_CHECK_LIMIT = 200_000
+FULL_CHECK_LIMIT = 10_000
 """States × components up to which `verify` re-evaluates every state in full by default."""
 
 
