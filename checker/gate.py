@@ -44,12 +44,13 @@ class Revisions:
     """Trees of git revisions extracted to temporary directories, and how to name their files."""
 
     roots: dict[str, str] = field(default_factory=dict)        # ref → extracted tree
-    renames: dict[str, str] = field(default_factory=dict)      # shown prefix of a tree → shown prefix in the work tree
+    renames: dict[str, str] = field(default_factory=dict)      # shown prefix of a tree → the work tree's root
 
     def rename(self, file: str) -> str:
-        for tmp, shown in self.renames.items():
+        """A file of an extracted revision as the same file of the work tree is shown."""
+        for tmp, top in self.renames.items():
             if file.startswith(tmp):
-                return shown + file[len(tmp):]
+                return display_path(os.path.join(top, file[len(tmp):]))
         return file
 
     def span(self, s: Span) -> Span:
@@ -105,12 +106,12 @@ def resolve(spec: str, revs: Revisions) -> str:
         path = os.path.normpath(os.path.join(prefix, path))
     git(["cat-file", "-e", f"{ref}:{path}"], cwd, spec)
     if ref not in revs.roots:
-        tree = git(["archive", "--format=tar", ref], cwd, spec)
+        tree = git(["archive", "--format=tar", ref], top, spec)
         root = tempfile.mkdtemp(prefix="reconf-rev-")
         with tarfile.open(fileobj=io.BytesIO(tree)) as tar:
             tar.extractall(root, filter="data")
         revs.roots[ref] = root
-        revs.renames[display_path(root) + os.sep] = display_path(top) + os.sep if display_path(top) != "." else ""
+        revs.renames[display_path(root) + os.sep] = top
     return os.path.join(revs.roots[ref], path)
 
 
