@@ -293,12 +293,12 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
     if clash:
         raise DiagnosticError([error("RC409", f"expanding '{s}' needs component '{clash[0]}', which is taken",
                                      span)])
-    comps = []
-    for c in system.components:
-        if c.name == s:
+    comps: list[ir.Component] = []
+    for other in system.components:
+        if other.name == s:
             comps.extend(b.components)
         else:
-            comps.append(c)
+            comps.append(other)
     have = {m.name for m in system.messages}
     msgs = system.messages + tuple(ir.MessageType(n, r, span) for n, r in FTM_MESSAGES if n not in have)
     info.components = [c.name for c in b.components]

@@ -1,0 +1,300 @@
+"""FTM transitions as verified plans (paper 000 §6: suspend, substitute, link, resume).
+
+A transition is a migration between two expanded architectures: the old FTM's graph and the
+new one's. `checker.planning.plan_migrate` keeps every node whose definition is unchanged
+(PBR → LFR keeps the Proxy, the Protocols, the Proceeds, the crash detectors and Recovery, and
+replaces the Befores and Afters; PBR → PBR(TR) substitutes each Proceed by TR's Protocol with
+its Before/Proceed/After; adding SEC inserts a layer on both sides) and plans the rest.
+
+Suspension: a surviving Protocol whose *neighbourhood* changes — its own attachments, or any
+node below it on its replica (its Before, After, inner layers, Proceed, the application
+replica) — must be degraded (suspended) before the first step that disturbs a running node of that
+neighbourhood (removes it, detaches it, attaches a publisher; creating the new nodes and
+attaching their inputs may come earlier: they start degraded and publish nothing),
+and normal again at the end. When the planner's own order does not already do so, the protocols
+are suspended first (with whatever depends on them, in an order the preconditions accept)
+and the migration is planned from there; the whole sequence is verified again.
+
+No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
+mode guarantees the reply type without rate), so the Proxy, and the client-facing connector,
+stay satisfied in every state: `client_side_ok` checks it on every state of a plan.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from dataclasses import replace as dc_replace
+from typing import Optional, Union
+
+from reconf_dsl import ir
+from reconf_dsl.parser import parse_text
+
+from ..actions import Action, Attach, Degrade, Detach, Remove, Upgrade, failing_assumptions, preconditions
+from ..config import Configuration, FuncId
+from ..planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
+from ..planning.plan import settle, verify
+from ..semantics import evaluate
+from .expand import ExpansionInfo, expand
+from .library import LAYER_ORDER
+
+__all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
+           "suspension_problems", "client_side_ok"]
+
+
+def parse_ftm(text: str) -> ir.FtmExpr:
+    """`"SEC(PBR(TR))"` → FtmExpr, through the DSL's own grammar."""
+    doc = parse_text(f"system x\ncomponent c {{ ftm {text} }}\n", "<ftm>")
+    comp = next(i for i in doc.items if isinstance(i, ir.Component))
+    assert comp.ftm is not None
+    return comp.ftm.expr
+
+
+def with_ftm(system: ir.System, component: str, expr: Optional[ir.FtmExpr],
+             hosts: Optional[tuple[str, ...]] = None) -> ir.System:
+    """`system` with `component`'s FTM set to `expr` (None removes it), on `hosts` (default: as before)."""
+    comps = []
+    found = False
+    for c in system.components:
+        if c.name == component:
+            found = True
+            old_hosts = c.ftm.hosts if c.ftm is not None else ()
+            decl = None if expr is None else ir.FtmDecl(expr, hosts if hosts is not None else old_hosts,
+                                                        c.ftm.span if c.ftm is not None else c.span)
+            c = dc_replace(c, ftm=decl)
+        comps.append(c)
+    if not found:
+        raise NoSafePlan([f"no deployed component '{component}'"])
+    return dc_replace(system, components=tuple(comps))
+
+
+def expand_for_planning(system: ir.System) -> tuple[ir.System, list[ExpansionInfo]]:
+    """The architecture the planners work on: every FTM expanded."""
+    return expand(system)
+
+
+@dataclass
+class Transition:
+    plan: Plan
+    old: ir.System                     # expanded
+    new: ir.System                     # expanded
+    old_infos: list[ExpansionInfo]
+    new_infos: list[ExpansionInfo]
+    suspended: list[str] = field(default_factory=list)   # protocols that had to be suspended
+    presuspended: bool = False                         # whether suspension was added before planning
+
+
+def _layer_of(name: str, info: ExpansionInfo) -> tuple[int, int]:
+    rest = name[len(info.server) + 2:]          # r0_dup_protocol
+    replica, layer = rest.split("_")[0], rest.split("_")[1]
+    return int(replica[1:]), LAYER_ORDER.index(layer)
+
+
+def _region(info: ExpansionInfo, replica: int, depth: int) -> set[str]:
+    """Names of the nodes of `replica` at layer index ≥ depth, and the replica's application."""
+    out = set()
+    prefix = f"{info.server}__r{replica}_"
+    for n in info.components:
+        if n.startswith(prefix):
+            tail = n[len(prefix):]
+            layer = tail.split("_")[0]
+            if layer in LAYER_ORDER and LAYER_ORDER.index(layer) >= depth:
+                out.add(n)
+            elif tail == "app":
+                out.add(n)
+        if replica == 0 and n == info.server:
+            out.add(n)
+    return out
+
+
+def _roles_of(system: ir.System, names: set[str]) -> set[tuple[str, str, str]]:
+    return {(c.name, r.component, r.port) for c in system.connectors for r in c.roles if r.component in names}
+
+
+def affected_protocols(old: ir.System, new: ir.System, old_info: ExpansionInfo,
+                       new_info: ExpansionInfo) -> dict[str, set[str]]:
+    """Surviving protocols whose neighbourhood changes → the names (old and new) of that neighbourhood."""
+    out: dict[str, set[str]] = {}
+    for p in old_info.protocols:
+        if p not in new_info.protocols or old.component(p) != new.component(p):
+            continue
+        replica, depth = _layer_of(p, old_info)
+        hood = _region(old_info, replica, depth) | _region(new_info, replica, depth) | {p}
+        olds = {n: old.component(n) for n in hood}
+        news = {n: new.component(n) for n in hood}
+        if olds != news or _roles_of(old, hood) != _roles_of(new, hood):
+            out[p] = hood
+    return out
+
+
+def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, str]) -> bool:
+    """Whether `a` disturbs a running node of `hood`: removes one, detaches a port, or attaches a
+    publisher (attaching a new node's input only prepares it)."""
+    if isinstance(a, (Remove, Detach)):
+        name = a.component
+    elif isinstance(a, Attach):
+        comp = system.component(a.component)
+        port = comp.port(a.port) if comp is not None else None
+        if port is None or port.kind != "output":
+            return False
+        name = a.component
+    else:
+        return False
+    return name in hood or renames.get(name, name) in hood
+
+
+def _func(system: ir.System, comp: str) -> FuncId:
+    c = system.component(comp)
+    assert c is not None and c.functionalities
+    return (comp, c.functionalities[0].name)
+
+
+def suspension_problems(plan: Plan, hoods: dict[str, set[str]]) -> list[str]:
+    """Why `plan` does not keep each affected protocol suspended while its neighbourhood changes:
+    every step that disturbs a running node of the neighbourhood (or attaches or detaches one of
+    the protocol's inputs) must run while the protocol is degraded, and the protocol must be
+    normal at the end. Moving the protocol's own outputs is its restart and may follow."""
+    out = []
+    for p, hood in sorted(hoods.items()):
+        fid = _func(plan.system, p)
+        comp = plan.system.component(p)
+        assert comp is not None
+        for i, a in enumerate(plan.steps):
+            own = isinstance(a, (Attach, Detach)) and a.component == p and \
+                (comp.port(a.port) or _NOPORT).kind == "input"
+            if (own or _touches(plan.system, a, hood - {p}, plan.renames)) and fid not in plan.states[i].degraded:
+                out.append(f"{p} is not suspended at step {i + 1} ({a.describe()})")
+                break
+        if fid in plan.states[-1].degraded:
+            out.append(f"{p} is not resumed at the end")
+    return out
+
+
+class _NoPort:
+    kind = "none"
+
+
+_NOPORT = _NoPort()
+
+
+def _suspend_steps(system: ir.System, start: Configuration, funcs: list[FuncId]) -> list[Action]:
+    """Degrade `funcs` and everything that would lose an assumption, in an order the
+    preconditions accept (most dependent first)."""
+    want = set(funcs)
+    while True:
+        failing = failing_assumptions(system, Configuration(start.components, frozenset(want), start.roles))
+        new = {(c, f) for c, f, _ in failing} - want
+        if not new:
+            break
+        want |= new
+    steps: list[Action] = []
+    config = start
+    pending = sorted(want - set(config.degraded))
+    while pending:
+        for fid in pending:
+            a = Degrade(*fid)
+            if not preconditions(system, config, a):
+                steps.append(a)
+                config = Configuration(config.components, config.degraded | {fid}, config.roles)
+                pending.remove(fid)
+                break
+        else:
+            raise NoSafePlan([f"cannot suspend {', '.join(f'{c}.{f}' for c, f in pending)}"])
+    return steps
+
+
+def _resume_steps(system: ir.System, config: Configuration) -> list[Action]:
+    """Upgrade every degraded functionality, each as soon as its preconditions hold."""
+    steps: list[Action] = []
+    pending = sorted(config.degraded)
+    while pending:
+        for fid in pending:
+            a = Upgrade(*fid)
+            if not preconditions(system, config, a):
+                steps.append(a)
+                config = Configuration(config.components, config.degraded - {fid}, config.roles)
+                pending.remove(fid)
+                break
+        else:
+            raise NoSafePlan([f"cannot resume {', '.join(f'{c}.{f}' for c, f in pending)}"])
+    return steps
+
+
+def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
+          strategy: str) -> Transition:
+    hoods: dict[str, set[str]] = {}
+    by_server = {i.server: i for i in new_infos}
+    for oi in old_infos:
+        ni = by_server.get(oi.server)
+        if ni is not None:
+            hoods.update(affected_protocols(old, new, oi, ni))
+    plan = plan_migrate(old, new, strategy)
+    if not suspension_problems(plan, hoods):
+        return Transition(plan, old, new, old_infos, new_infos, sorted(hoods))
+    # Suspend, substitute and link with the protocols kept suspended, resume.
+    system, start = plan.system, plan.states[0]
+    funcs = [_func(system, p) for p in sorted(hoods)]
+    pre = _suspend_steps(system, start, funcs)
+    mid = start
+    for a in pre:
+        assert isinstance(a, Degrade)
+        mid = Configuration(mid.components, mid.degraded | {(a.component, a.functionality)}, mid.roles)
+    final = plan.goal
+    # While the protocols are suspended, what depends on them is degraded too and cannot be linked
+    # where its degraded guarantee falls short: those new outputs are linked after the resume.
+    # Their old outputs stay linked until then, so whatever reads them (the proxy) keeps a publisher.
+    keep = {r for r in start.roles - final.roles if r[1] in hoods
+            and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"}  # type: ignore[union-attr]
+    late: set[tuple[str, str, str]] = set()
+    while True:
+        settled = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
+        down = {c for c, _ in settled.degraded}
+        more = {r for r in final.roles - start.roles if r[1] in down
+                and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"} - late  # type: ignore[union-attr]
+        if not more:
+            break
+        late |= more
+    kept = Goal(final.components, (final.roles - late) | keep, frozenset(funcs))
+    olds = {c.name for c in old.components}
+    replaced = [(plan.renames[n], n) for n in plan.renames if plan.renames[n] in olds and n in final.components]
+    added = [n for n in final.components if n not in olds and (n, n) not in replaced and n not in plan.renames]
+    added += [n for n in plan.renames if plan.renames[n] not in olds and n in final.components]
+    removed = [n for n in olds if n not in final.components and n not in plan.renames.values()]
+    middle = solve(Problem(system, mid, kept, replaced=replaced, removed=removed, added=added,
+                           renames=dict(plan.renames)), strategy)
+    post = solve(Problem(system, middle.states[-1], final, renames=dict(plan.renames)), strategy).steps \
+        if late or keep else _resume_steps(system, middle.states[-1])
+    whole = verify(system, start, pre + middle.steps + post, final, strategy, plan.renames)
+    whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + middle.notes
+    problems = suspension_problems(whole, hoods)
+    if problems:
+        raise NoSafePlan(problems)
+    return Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True)
+
+
+def plan_transition(system: ir.System, component: str, new_ftm: Union[str, ir.FtmExpr, None],
+                    hosts: Optional[tuple[str, ...]] = None, strategy: str = "default") -> Transition:
+    """Plan the change of `component`'s FTM to `new_ftm` (None: remove it) in `system`."""
+    expr = parse_ftm(new_ftm) if isinstance(new_ftm, str) else new_ftm
+    old, old_infos = expand(system)
+    new, new_infos = expand(with_ftm(system, component, expr, hosts))
+    return _plan(old, new, old_infos, new_infos, strategy)
+
+
+def plan_ftm_migrate(old_system: ir.System, new_system: ir.System, strategy: str = "default") -> Transition:
+    """`reconf plan migrate` for architectures with FTMs: both expanded, then migrated."""
+    old, old_infos = expand(old_system)
+    new, new_infos = expand(new_system)
+    return _plan(old, new, old_infos, new_infos, strategy)
+
+
+def client_side_ok(t: Transition) -> list[str]:
+    """Every state in which a client-facing connector is unsatisfied or a Proxy degraded."""
+    out = []
+    watched = [(i.connector, i.proxy) for i in t.old_infos if any(j.server == i.server for j in t.new_infos)]
+    for k, state in enumerate(t.plan.states):
+        ev = evaluate(t.plan.system, state, explain=False)
+        for conn, proxy in watched:
+            if not ev.connectors.get(conn, False):
+                out.append(f"state {k}: {conn} is unsatisfied")
+            if any(c == proxy for c, _ in state.degraded):
+                out.append(f"state {k}: {proxy} is degraded")
+    return out
