@@ -14,10 +14,11 @@ from typing import Any, Callable, Optional, TypeVar
 import click
 from rich.console import Console
 
-from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
 from reconf_dsl.formatter import format_document
 from reconf_dsl.loader import Sources, load, read_source
 from reconf_dsl.parser import parse_text
+from reconf_dsl.span import Span
 
 from . import formats, report
 from .config import Configuration
@@ -233,24 +234,96 @@ def write_atomically(path: str, text: str) -> None:
         raise
 
 
+PICTURE_FORMATS = ["dot", "svg", "mermaid", "markdown"]
+picture_format_option = click.option(
+    "--format", "picture_format", type=click.Choice(PICTURE_FORMATS), default="dot", show_default=True,
+    help="dot (Graphviz source), svg (through Graphviz `dot`), mermaid, or markdown (Mermaid in a fenced block, "
+         "for pull-request comments)")
+
+
+def draw(pics: list[Any], picture_format: str) -> str:
+    """Pictures as one text: DOT graphs one after the other, SVG documents, or Mermaid blocks."""
+    from codegen.graph import to_dot, to_mermaid
+
+    from .pictures import GraphvizUnavailable, to_svg
+    if picture_format == "mermaid" and len(pics) == 1:
+        return to_mermaid(pics[0])
+    if picture_format in ("mermaid", "markdown"):
+        return "\n".join((f"**{p.title}**\n\n" if len(pics) > 1 else "") + "```mermaid\n" + to_mermaid(p) + "```\n"
+                         for p in pics)
+    dots = [to_dot(p) for p in pics]
+    if picture_format == "dot":
+        return "".join(dots)
+    try:
+        return "".join(to_svg(d) for d in dots)
+    except GraphvizUnavailable as e:
+        raise Failure([Diagnostic("RC011", Severity.ERROR, str(e), Span.unknown("<graphviz>"),
+                                  notes=("install Graphviz (e.g. `apt-get install graphviz` or `brew install graphviz`), "
+                                         "or use --format dot, mermaid or markdown",))]) from None
+
+
+def write_pictures(texts: list[str], picture_format: str, output: Optional[str]) -> None:
+    """One text to stdout or OUTPUT; several to OUTPUT's stem with -01, -02… when OUTPUT is given."""
+    if not output:
+        click.echo("".join(texts) if picture_format in ("dot", "svg") else "\n".join(texts), nl=False)
+        return
+    if len(texts) == 1:
+        write_atomically(output, texts[0])
+        console().print(f"wrote {output}")
+        return
+    stem, ext = os.path.splitext(output)
+    for i, text in enumerate(texts, 1):
+        write_atomically(f"{stem}-{i:02d}{ext}", text)
+    console().print(f"wrote {stem}-01{ext} … {stem}-{len(texts):02d}{ext}")
+
+
 @main.command()
 @files_argument
-@click.option("--format", "picture_format", type=click.Choice(["dot", "mermaid"]), default="dot", show_default=True)
+@picture_format_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to a file instead of stdout")
 @guarded("graph")
 def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], sources: Sources,
           output_format: OutputFormat = OutputFormat.TEXT) -> None:
-    """Draw the architecture: DOT in the rqt_graph look (nodes ellipses, topics boxes), or Mermaid."""
-    from codegen.graph import to_dot, to_mermaid
-
+    """Draw the architecture: DOT in the rqt_graph look (nodes ellipses, topics boxes), SVG, or Mermaid."""
     from .pictures import picture
     system = load(list(files), sources)
-    pic = picture(system)
-    text = to_dot(pic) if picture_format == "dot" else to_mermaid(pic)
-    if output:
-        write_atomically(output, text)
+    write_pictures([draw([picture(system)], picture_format)], picture_format, output)
+
+
+@main.command("graph-plan")
+@click.argument("old")
+@click.argument("new")
+@picture_format_option
+@click.option("--steps", "each_step", is_flag=True,
+              help="one picture per step instead of one annotated picture of the whole plan")
+@click.option("--strategy", type=click.Choice(["default", "paper", "exhaustive"]), default="default",
+              show_default=True)
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="write to a file (with --steps and dot or svg: FILE-01.EXT, FILE-02.EXT, …)")
+@guarded("graph")
+def graph_plan(old: str, new: str, picture_format: str, each_step: bool, strategy: str, output: Optional[str],
+               sources: Sources, output_format: OutputFormat = OutputFormat.TEXT) -> None:
+    """Draw the migration plan from OLD to NEW (paths or git:REF:PATH): created green, degraded
+    orange, removed red; one annotated picture, or one per step with --steps."""
+    from .gate import resolve, revisions
+    from .pictures import plan_picture, step_pictures
+    from .planning import NoSafePlan, plan_migrate
+    with revisions() as revs:
+        a, b = load([resolve(old, revs)], sources), load([resolve(new, revs)], sources)
+    try:
+        with status("planning…"):
+            p = plan_migrate(a, b, strategy)
+    except NoSafePlan as e:
+        raise Failure([Diagnostic("RC401", Severity.ERROR, "no safe migration plan to draw", b.span,
+                                  notes=tuple(e.reasons))], EXIT_UNSAFE) from None
+    pics = step_pictures(p) if each_step else [plan_picture(p)]
+    if not pics:
+        pics = [plan_picture(p, f"{b.name}: nothing to do")]
+    if each_step and output and picture_format in ("dot", "svg"):
+        texts = [draw([pic], picture_format) for pic in pics]
     else:
-        click.echo(text, nl=False)
+        texts = [draw(pics, picture_format)]
+    write_pictures(texts, picture_format, output)
 
 
 def _register() -> None:

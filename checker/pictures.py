@@ -1,17 +1,29 @@
-"""System + configuration → `codegen.graph.Picture` (what is degraded is decided here)."""
+"""System + configuration → `codegen.graph.Picture` (what is degraded is decided here);
+plans → one picture per step, or one picture of the whole plan."""
 from __future__ import annotations
 
-from typing import Optional
+import shutil
+import subprocess
+from typing import Any, Optional
 
 from codegen.graph import GraphEdge, GraphNode, Picture
 from reconf_dsl.ir import System
 
-from .config import Configuration
+from .config import Configuration, Role
+
+
+class GraphvizUnavailable(Exception):
+    """Graphviz `dot` is not installed (or failed): SVG cannot be drawn."""
 
 
 def picture(system: System, config: Optional[Configuration] = None, *, title: Optional[str] = None,
-            removed: frozenset[str] = frozenset(), created: frozenset[str] = frozenset()) -> Picture:
+            removed: frozenset[str] = frozenset(), created: frozenset[str] = frozenset(),
+            removed_roles: frozenset[Role] = frozenset(), created_roles: frozenset[Role] = frozenset(),
+            notes: Optional[dict[str, str]] = None) -> Picture:
+    """`notes` adds a line under a component's name. Roles in `removed_roles` are drawn (dashed,
+    red) although `config` no longer has them; `created_roles` are green."""
     config = config or Configuration.initial(system)
+    notes = notes or {}
     pic = Picture(title or system.name)
     catalogue = {c.name: c for c in system.components + system.versions}
     shown = sorted(config.components | removed)
@@ -21,23 +33,82 @@ def picture(system: System, config: Optional[Configuration] = None, *, title: Op
         status = "removed" if name in removed else "created" if name in created else \
             "degraded" if degraded else "normal"
         tip = ("degraded: " + ", ".join(degraded)) if degraded else ""
-        pic.nodes.append(GraphNode("c:" + name, name, "ellipse", status, tip))
+        label = name + (f"\n{notes[name]}" if name in notes else "")
+        pic.nodes.append(GraphNode("c:" + name, label, "ellipse", status, tip))
     for conn in system.connectors:
         label = f"{conn.name}\n{conn.guarantee}"
         pic.nodes.append(GraphNode("t:" + conn.name, label, "box"))
     for env in system.environment:
         pic.nodes.append(GraphNode("e:" + env.name, f"{env.name}\n{env.guarantee}", "note"))
     present = set(shown)
-    for conn_name, comp_name, port in sorted(config.roles):
+    for conn_name, comp_name, port in sorted(config.roles | removed_roles):
         owner = catalogue.get(comp_name)
         if owner is None or comp_name not in present:
             continue
         p = owner.port(port)
         if p is None:
             continue
-        status = "removed" if comp_name in removed else "normal"
+        role = (conn_name, comp_name, port)
+        status = "removed" if comp_name in removed or role in removed_roles else \
+            "created" if role in created_roles else "normal"
         if p.kind == "output":
             pic.edges.append(GraphEdge("c:" + comp_name, "t:" + conn_name, port, status))
         else:
             pic.edges.append(GraphEdge("t:" + conn_name, "c:" + comp_name, port, status))
     return pic
+
+
+def step_pictures(plan: Any) -> list[Picture]:
+    """The configuration after each step of `plan`: what the step created is green, what it
+    removed or detached red, what is degraded after it orange."""
+    pics = []
+    for i, (action, before, after) in enumerate(zip(plan.steps, plan.states, plan.states[1:]), 1):
+        pics.append(picture(plan.system, after, title=f"step {i}/{len(plan.steps)}: {action.symbol} {action.describe()}",
+                            removed=frozenset(before.components - after.components),
+                            created=frozenset(after.components - before.components),
+                            removed_roles=frozenset(before.roles - after.roles),
+                            created_roles=frozenset(after.roles - before.roles)))
+    return pics
+
+
+def _ranges(steps: list[int]) -> str:
+    out: list[str] = []
+    for s in steps:
+        if out and s == int(out[-1].split("–")[-1]) + 1:
+            out[-1] = f"{out[-1].split('–')[0]}–{s}"
+        else:
+            out.append(str(s))
+    return ", ".join(out)
+
+
+def plan_picture(plan: Any, title: Optional[str] = None) -> Picture:
+    """One picture of the whole plan: created green, removed red, degraded at some step orange
+    (with the steps under its name); attachments made green, detachments dashed red."""
+    first, last = plan.states[0], plan.states[-1]
+    steps: dict[tuple[str, str], list[int]] = {}
+    for i, state in enumerate(plan.states[1:], 1):
+        for d in state.degraded:
+            if d[0] in state.components:
+                steps.setdefault(d, []).append(i)
+    notes: dict[str, str] = {}
+    for (c, f), ss in sorted(steps.items()):
+        line = f"↓ {f}: step{'s' if len(ss) > 1 else ''} {_ranges(ss)}"
+        notes[c] = notes[c] + "\n" + line if c in notes else line
+    degraded = frozenset(steps) | last.degraded
+    shown = Configuration(frozenset(last.components), degraded, frozenset(last.roles))
+    return picture(plan.system, shown, title=title or f"{plan.system.name}: {plan.summary()}",
+                   removed=frozenset(first.components - last.components),
+                   created=frozenset(last.components - first.components),
+                   removed_roles=frozenset(first.roles - last.roles),
+                   created_roles=frozenset(last.roles - first.roles), notes=notes)
+
+
+def to_svg(dot: str) -> str:
+    """Render DOT through Graphviz; GraphvizUnavailable says what to install."""
+    exe = shutil.which("dot")
+    if exe is None:
+        raise GraphvizUnavailable("Graphviz `dot` is not installed, so SVG cannot be drawn")
+    done = subprocess.run([exe, "-Tsvg"], input=dot, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise GraphvizUnavailable(f"Graphviz `dot` failed: {done.stderr.strip()}")
+    return done.stdout

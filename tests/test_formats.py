@@ -119,3 +119,47 @@ def test_progress_only_for_people() -> None:
     assert not enabled(Tty(), {"NO_COLOR": "1"})  # type: ignore[arg-type]
     assert not enabled(Tty(), {"TERM": "dumb"})  # type: ignore[arg-type]
     assert not enabled(open(os.devnull, "w"), {})
+
+
+# ---------------------------------------------------------------- pictures of plans
+
+def test_plan_picture_annotates_created_degraded_removed() -> None:
+    result = CliRunner().invoke(main, ["graph-plan", BY_NAME["chatter"].file, BY_NAME["redundant"].file])
+    assert result.exit_code == 0, result.stderr
+    dot = result.stdout
+    assert dot.count("digraph ") == 1
+    assert '"c:talker" [label="talker", shape=ellipse, fillcolor="#ff6961"' in dot          # removed: red
+    assert '"c:mapper" [label="mapper\\n↓ map: steps 7–8", shape=ellipse, fillcolor="#90ee90"' in dot  # created
+    assert 'style=dashed, color="#9b1c1c"' in dot
+
+
+def test_plan_pictures_per_step(tmp_path) -> None:
+    args = ["graph-plan", BY_NAME["chatter"].file, BY_NAME["redundant"].file, "--steps"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0
+    steps = result.stdout.count("digraph ")
+    assert steps > 1 and '"step 1/' in result.stdout
+    out = tmp_path / "plan.dot"
+    assert CliRunner().invoke(main, args + ["-o", str(out)]).exit_code == 0
+    assert len(list(tmp_path.glob("plan-*.dot"))) == steps
+    md = CliRunner().invoke(main, args + ["--format", "markdown"]).stdout
+    assert md.count("```mermaid") == steps and "**step 1/" in md
+
+
+def test_degraded_is_orange_in_a_step() -> None:
+    from checker.pictures import step_pictures
+    from checker.planning import plan_migrate
+    from reconf_dsl.loader import load
+    p = plan_migrate(load([BY_NAME["chatter"].file]), load([BY_NAME["redundant"].file]))
+    assert any(n.status == "degraded" for pic in step_pictures(p) for n in pic.nodes)
+
+
+def test_svg_or_a_clear_message(monkeypatch) -> None:
+    import shutil
+    if shutil.which("dot"):
+        result = CliRunner().invoke(main, ["graph", BY_NAME["chatter"].file, "--format", "svg"])
+        assert result.exit_code == 0 and "<svg" in result.stdout
+    monkeypatch.setenv("PATH", "")
+    result = CliRunner().invoke(main, ["graph", BY_NAME["chatter"].file, "--format", "svg"])
+    assert result.exit_code == 2
+    assert "Graphviz `dot` is not installed" in result.stderr and "--format dot" in result.stderr
