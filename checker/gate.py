@@ -233,13 +233,17 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
 
 
 def alloy_evidence(p: Any, solver: str) -> dict[str, Any]:
-    from .alloy import AlloyUnavailable
+    from .alloy import AlloyError, AlloyUnavailable
     from .alloy_plan import alloy_evidence as evidence
     try:
         return evidence(p, solver)
     except AlloyUnavailable as e:
         raise EngineUnavailable(error("RC301", str(e), Span.unknown("<alloy>"),
                                       notes=("or use --engine python",))) from None
+    except AlloyError as e:
+        raise EngineUnavailable(error("RC302", f"Alloy rejected the generated plan module: {e}",
+                                      Span.unknown(e.module or "<alloy>"),
+                                      notes=("this is a bug in reconf: please report it",))) from None
 
 
 def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str) -> Outcome:
