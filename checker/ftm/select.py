@@ -106,10 +106,11 @@ class Candidate:
         return not self.reasons
 
     @property
-    def cost(self) -> tuple[int, int, int, int]:
-        """CPUs, then bandwidth, then nodes of the expanded graph, then mechanisms."""
+    def cost(self) -> tuple[int, int, int, int, int]:
+        """CPUs, then bandwidth, then nodes of the expanded graph, then mechanisms, then faults
+        covered (the least mechanism that does the job first)."""
         c = self.composition
-        return (c.cpus, bandwidth_rank(c.bandwidth), nodes(c), len(c.names))
+        return (c.cpus, bandwidth_rank(c.bandwidth), nodes(c), len(c.names), len(c.covers))
 
     def to_dict(self) -> dict[str, object]:
         c = self.composition
