@@ -26,6 +26,7 @@ from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
 from reconf_dsl import ir
+from reconf_dsl.ir import satisfies
 from reconf_dsl.parser import parse_text
 
 from ..actions import Action, Attach, Degrade, Detach, Remove, Upgrade, failing_assumptions, preconditions
@@ -218,6 +219,16 @@ def _resume_steps(system: ir.System, config: Configuration) -> list[Action]:
     return steps
 
 
+def _falls_short(system: ir.System, role: tuple[str, str, str]) -> bool:
+    """Whether `role` attaches an output whose degraded guarantee does not satisfy its connector."""
+    conn, comp, port = role
+    c, k = system.component(comp), system.connector(conn)
+    if c is None or k is None or (c.port(port) or _NOPORT).kind != "output":
+        return False
+    return not any(f.degraded is not None and satisfies(f.degraded.guarantee(port), k.guarantee)
+                   for f in c.functionalities if port in f.ports)
+
+
 def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
           strategy: str) -> Transition:
     hoods: dict[str, set[str]] = {}
@@ -247,8 +258,7 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     while True:
         settled = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
         down = {c for c, _ in settled.degraded}
-        more = {r for r in final.roles - start.roles if r[1] in down
-                and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"} - late  # type: ignore[union-attr]
+        more = {r for r in final.roles - start.roles if r[1] in down and _falls_short(system, r)} - late
         if not more:
             break
         late |= more

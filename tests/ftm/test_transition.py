@@ -1,0 +1,113 @@
+"""Transitions between FTMs as verified plans: kept nodes, suspension, no lost request."""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from checker.actions import Create, Degrade, Remove, Upgrade
+from checker.ftm.transition import (Transition, client_side_ok, plan_ftm_migrate, plan_transition,
+                                    suspension_problems, affected_protocols)
+from checker.planning.plan import verify
+from reconf_dsl.loader import load, load_text
+
+from .conftest import EXAMPLES, client_server
+
+PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
+         ("PBR", "SEC(PBR)"), ("LFR", "AD"), ("TR", "SEC(TR)"), ("LFR(TR)", "AD(TR)"), ("PBR(TR)", "LFR(TR)"),
+         ("SEC(PBR(TR))", "PBR(TR)")]
+
+_cache: dict[tuple[str, str], Transition] = {}
+
+
+def transition(a: str, b: str) -> Transition:
+    if (a, b) not in _cache:
+        _cache[(a, b)] = plan_transition(load_text(client_server(a)), "server", b)
+    return _cache[(a, b)]
+
+
+def touched(t: Transition) -> set[str]:
+    """Components created or removed (by their names in the new architecture)."""
+    out = set()
+    for a in t.plan.steps:
+        if isinstance(a, (Create, Remove)):
+            out.add(t.plan.renames.get(a.component, a.component))
+    return out
+
+
+@pytest.mark.parametrize("a, b", PAIRS)
+def test_transition_is_verified_suspends_and_loses_nothing(a: str, b: str) -> None:
+    t = transition(a, b)
+    p = t.plan
+    again = verify(p.system, p.states[0], p.steps, p.goal, p.strategy, p.renames)
+    assert again.states == p.states
+    assert not p.goal.degraded
+    assert client_side_ok(t) == []
+    hoods: dict[str, set[str]] = {}
+    for oi, ni in zip(t.old_infos, t.new_infos):
+        hoods.update(affected_protocols(t.old, t.new, oi, ni))
+    assert suspension_problems(p, hoods) == []
+    # every affected protocol is degraded before and upgraded after
+    for proto in hoods:
+        kinds = [(type(s).__name__, s.component) for s in p.steps if isinstance(s, (Degrade, Upgrade))]
+        assert ("Degrade", proto) in kinds and ("Upgrade", proto) in kinds
+        assert kinds.index(("Degrade", proto)) < len(kinds) - 1 - kinds[::-1].index(("Upgrade", proto))
+    # the proxy, the crash detectors, recovery and the application replicas survive
+    survivors = {"server__proxy", "server"}
+    if t.old_infos[0].composition.duplex and t.new_infos[0].composition.duplex:
+        survivors |= {"server__r0_cd", "server__r1_cd", "server__recovery", "server__r1_app"}
+    assert not (touched(t) & survivors)
+
+
+def test_pbr_to_lfr_changes_only_the_nodes_that_differ() -> None:
+    t = transition("PBR", "LFR")
+    assert touched(t) == {f"server__r{r}_dup_{n}" for r in (0, 1) for n in ("before", "after")}
+    assert set(t.suspended) == {"server__r0_dup_protocol", "server__r1_dup_protocol"}
+
+
+def test_adding_tr_substitutes_each_proceed() -> None:
+    t = transition("PBR", "PBR(TR)")
+    removed = {s.component for s in t.plan.steps if isinstance(s, Remove)}
+    created = {t.plan.renames.get(s.component, s.component) for s in t.plan.steps if isinstance(s, Create)}
+    assert removed == {"server__r0_dup_proceed", "server__r1_dup_proceed"}
+    assert created == {f"server__r{r}_tr_{n}" for r in (0, 1) for n in ("protocol", "before", "proceed", "after")}
+
+
+def test_adding_sec_works_on_both_sides_and_removes_nothing() -> None:
+    t = transition("PBR(TR)", "SEC(PBR(TR))")
+    assert not any(isinstance(s, Remove) for s in t.plan.steps)
+    created = {t.plan.renames.get(s.component, s.component) for s in t.plan.steps if isinstance(s, Create)}
+    assert {"server__sec_client_before", "server__sec_client_after", "server__ca",
+            "server__r0_sec_protocol", "server__r1_sec_protocol"} <= created
+
+
+def test_bandwidth_drop_migrates_pbr_to_lfr() -> None:
+    t = plan_ftm_migrate(load([f"{EXAMPLES}/deterministic_pbr.arch"]), load([f"{EXAMPLES}/deterministic_lfr.arch"]))
+    assert touched(t) == {f"server__r{r}_dup_{n}" for r in (0, 1) for n in ("before", "after")}
+    assert client_side_ok(t) == []
+
+
+def test_editing_only_fault_model_or_resources_needs_no_step() -> None:
+    old = load_text(client_server("PBR", faults="crash"))
+    new = load_text(client_server("PBR", faults="crash", resources="cpus: 4"))
+    assert plan_ftm_migrate(old, new).plan.steps == []
+
+
+def test_protecting_an_unprotected_server() -> None:
+    t = plan_ftm_migrate(load_text(client_server(None)), load_text(client_server("PBR")))
+    assert "server__proxy" in touched(t)
+    assert not t.plan.goal.degraded
+
+
+def test_alloy_verifies_a_nested_transition(bridge) -> None:  # type: ignore[no-untyped-def]
+    from checker.alloy_plan import alloy_evidence
+    ev = alloy_evidence(transition("TR", "SEC(TR)").plan)
+    assert ev["valid"], ev["reason"]
+
+
+@pytest.mark.skipif(not os.environ.get("RECONF_SLOW_TESTS"), reason="about 40 s each; set RECONF_SLOW_TESTS=1")
+@pytest.mark.parametrize("a, b", [("PBR", "LFR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))")])
+def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # type: ignore[no-untyped-def]
+    from checker.alloy_plan import alloy_evidence
+    ev = alloy_evidence(transition(a, b).plan)
+    assert ev["valid"], ev["reason"]
