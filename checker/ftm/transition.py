@@ -6,14 +6,15 @@ new one's. `checker.planning.plan_migrate` keeps every node whose definition is 
 replaces the Befores and Afters; PBR → PBR(TR) substitutes each Proceed by TR's Protocol with
 its Before/Proceed/After; adding SEC inserts a layer on both sides) and plans the rest.
 
-Suspension: a surviving Protocol whose *neighbourhood* changes — its own attachments, or any
-node below it on its replica (its Before, After, inner layers, Proceed, the application
-replica) — must be degraded (suspended) before the first step that disturbs a running node of that
-neighbourhood (removes it, detaches it, attaches a publisher; creating the new nodes and
-attaching their inputs may come earlier: they start degraded and publish nothing),
-and normal again at the end. When the planner's own order does not already do so, the protocols
-are suspended first (with whatever depends on them, in an order the preconditions accept)
-and the migration is planned from there; the whole sequence is verified again.
+Suspension: a surviving Protocol whose *neighbourhood* changes (its own inputs, or any node
+below it on its replica: its Before, After, inner layers, Proceed, the application replica)
+must be degraded (suspended) while any step disturbs a running node of that neighbourhood
+(removes it, detaches it, attaches a publisher; creating the new nodes and attaching their
+inputs may come earlier: they start degraded and publish nothing), and normal at the end.
+The plan has three parts: suspend the protocols (with whatever depends on them, in an order
+the preconditions accept); substitute and link with them kept suspended (the planner's goal
+keeps them degraded; new outputs that a degraded node cannot serve wait); resume and link the
+rest. The whole sequence is verified again, step by step.
 
 No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
 mode guarantees the reply type without rate), so the Proxy, and the client-facing connector,
@@ -237,9 +238,13 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         ni = by_server.get(oi.server)
         if ni is not None:
             hoods.update(affected_protocols(old, new, oi, ni))
-    plan = plan_migrate(old, new, strategy)
-    if not suspension_problems(plan, hoods):
-        return Transition(plan, old, new, old_infos, new_infos, sorted(hoods))
+    if not hoods:
+        return Transition(plan_migrate(old, new, strategy), old, new, old_infos, new_infos, [])
+    # The combined system, the target and the renames, from the cheapest planner that succeeds.
+    try:
+        plan = plan_migrate(old, new, "paper")
+    except NoSafePlan:
+        plan = plan_migrate(old, new, strategy)
     # Suspend, substitute and link with the protocols kept suspended, resume.
     system, start = plan.system, plan.states[0]
     funcs = [_func(system, p) for p in sorted(hoods)]

@@ -1,0 +1,90 @@
+"""FTM benchmark: N services, each protected by PBR(TR), expanded and checked; then a
+transition of one of them planned and verified.
+
+    python -m bench.bench_ftm [--services 20] [--ftm "PBR(TR)"] [--to "SEC(PBR(TR))"] [--alloy]
+
+Figures (one process, after imports):
+  parse    load the generated .arch text (N servers, N clients, 2 hosts)
+  expand   `checker.ftm.expand.expand` (every FTM into its computation graph)
+  rules    `checker.ftm.rules.ftm_diagnostics` (the RC4xx rules)
+  check    `checker.semantics.evaluate` on the expanded architecture
+  plan     `checker.ftm.transition.plan_transition` for service 0 (planning, suspension, and the
+           step-by-step verification every plan passes in the Python engine)
+  alloy    with --alloy: the same plan verified as a whole in the Alloy Analyzer
+           (`checker.alloy_plan.alloy_evidence`), JVM start excluded
+
+Targets: expand + check of 20 × PBR(TR) < 3 s; one transition planned and verified < 5 s.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+from checker.config import Configuration
+from checker.ftm.expand import expand
+from checker.ftm.rules import ftm_diagnostics
+from checker.ftm.transition import plan_transition
+from checker.semantics import evaluate
+from reconf_dsl.loader import load_text
+
+
+def generate(n: int, ftm: str) -> str:
+    lines = ["system ftm_bench", "message Reply = std_msgs/msg/String",
+             "host master { cpus: 1 bandwidth: high }", "host slave { cpus: 1 bandwidth: high }"]
+    for i in range(n):
+        lines += [f"component server{i} {{", "  faults crash, transient",
+                  "  application deterministic, state_access", f"  ftm {ftm} on master, slave",
+                  "  output reply: Reply", "  functionality serve (reply) {",
+                  "    normal { reply: Reply @ 10 Hz }", "    degraded { reply: nothing }", "  }", "}",
+                  f"component client{i} {{", "  input reply: Reply @ 10 Hz", "  functionality use (reply) {",
+                  "    normal { assume Reply @ 10 Hz }", "    degraded { }", "  }", "}",
+                  f"service /compute{i}: Reply @ 10 Hz {{ server{i}.reply -> client{i}.reply }}"]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--services", type=int, default=20)
+    ap.add_argument("--ftm", default="PBR(TR)")
+    ap.add_argument("--to", default="SEC(PBR(TR))", help="the FTM service 0 moves to")
+    ap.add_argument("--alloy", action="store_true", help="also verify the plan in Alloy")
+    args = ap.parse_args()
+    text = generate(args.services, args.ftm)
+    t0 = time.perf_counter()
+    system = load_text(text, "<bench>")
+    t1 = time.perf_counter()
+    expanded, infos = expand(system)
+    t2 = time.perf_counter()
+    diags = ftm_diagnostics(system)
+    t3 = time.perf_counter()
+    ev = evaluate(expanded, Configuration.initial(expanded), explain=False)
+    t4 = time.perf_counter()
+    assert ev.valid and not diags
+    tr = plan_transition(system, "server0", args.to)
+    t5 = time.perf_counter()
+    rows = [("services", str(args.services)), ("ftm", f"{args.ftm} → {args.to} (service 0)"),
+            ("components expanded", str(len(expanded.components))),
+            ("connectors expanded", str(len(expanded.connectors))),
+            ("parse s", f"{t1 - t0:.3f}"), ("expand s", f"{t2 - t1:.3f}"), ("rules s", f"{t3 - t2:.3f}"),
+            ("check s", f"{t4 - t3:.3f}"), ("expand+rules+check s", f"{t4 - t1:.3f}"),
+            ("plan+verify s", f"{t5 - t4:.3f}"), ("plan steps", str(len(tr.plan.steps))),
+            ("disruption", str(tr.plan.disruption)), ("suspended", ", ".join(tr.suspended) or "-")]
+    if args.alloy:
+        from checker.alloy import AlloyBridge
+        from checker.alloy_plan import alloy_evidence
+        AlloyBridge.get()
+        t6 = time.perf_counter()
+        evidence = alloy_evidence(tr.plan)
+        t7 = time.perf_counter()
+        rows += [("alloy valid", str(evidence["valid"])), ("alloy s (solve)", f"{evidence['seconds']:.3f}"),
+                 ("alloy s (total)", f"{t7 - t6:.3f}")]
+    width = max(len(k) for k, _ in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}")
+    print(f"targets: expand+check < 3 s: {'ok' if t4 - t1 < 3 else 'MISSED'}; "
+          f"plan+verify < 5 s: {'ok' if t5 - t4 < 5 else 'MISSED'}")
+    del infos
+
+
+if __name__ == "__main__":
+    main()
