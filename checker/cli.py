@@ -23,6 +23,7 @@ from reconf_dsl.span import Span
 from . import formats, report
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree
+from .ftm.rules import ftm_diagnostics
 from .progress import status
 from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
@@ -144,23 +145,27 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         judged = judge(system, Configuration.initial(system), engine, solver)
     ev = judged.python
-    diags = [report.assumption_diagnostic(r) for r in ev.unsatisfied]
-    verdict = "safe" if judged.valid else "unsafe"
+    ftm = ftm_diagnostics(system)
+    diags = ftm + [report.assumption_diagnostic(r) for r in ev.unsatisfied]
+    safe = judged.valid and not any(d.is_error for d in ftm)
+    verdict = "safe" if safe else "unsafe"
     n, bad = len(ev.results), len(ev.unsatisfied)
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                     (len(system.connectors), "connector"), (n, "assumption")))
     how = judged.how()
-    if judged.valid:
-        line = f"{system.name} — {summary}, all hold{how}"
+    ftm_note = f"; {plural(len(ftm), 'fault-tolerance finding')}" if ftm else ""
+    if safe:
+        line = f"{system.name} — {summary}, all hold{ftm_note}{how}"
         human = f"[bold green]✓ safe[/]: {line}"
     else:
-        line = f"{system.name} — {summary}, {bad} do not hold{how}"
+        held = f"{bad} do not hold" if bad else "all hold"
+        line = f"{system.name} — {summary}, {held}{ftm_note}{how}"
         human = f"[bold red]✗ unsafe[/]: {line}"
     rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")
     emit_report(rep, output_format, sources,
                 lambda: report.document("check", verdict, diags, system=system.name, files=list(system.files),
                                         engines=judged.engines, assumptions=report.evaluation_json(ev)), human)
-    sys.exit(EXIT_OK if judged.valid else EXIT_UNSAFE)
+    sys.exit(EXIT_OK if safe else EXIT_UNSAFE)
 
 
 @main.command("alloy")
@@ -314,7 +319,7 @@ def graph_plan(old: str, new: str, picture_format: str, each_step: bool, strateg
         with status("planning…"):
             p = plan_migrate(a, b, strategy)
     except NoSafePlan as e:
-        raise Failure([Diagnostic("RC401", Severity.ERROR, "no safe migration plan to draw", b.span,
+        raise Failure([Diagnostic("RC501", Severity.ERROR, "no safe migration plan to draw", b.span,
                                   notes=tuple(e.reasons))], EXIT_UNSAFE) from None
     pics = step_pictures(p) if each_step else [plan_picture(p)]
     if not pics:
@@ -327,10 +332,13 @@ def graph_plan(old: str, new: str, picture_format: str, each_step: bool, strateg
 
 
 def _register() -> None:
+    from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
     from .plan_cli import plan
+    plan.add_command(transition_cmd)
     main.add_command(plan)
     main.add_command(gate_cmd)
+    main.add_command(ftm_group)
     try:
         from .verify_model import verify_model_cmd
     except ImportError:  # pragma: no cover - the Alloy side is part of the package

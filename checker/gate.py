@@ -66,11 +66,11 @@ def git(args: list[str], cwd: str, what: str) -> bytes:
     try:
         done = subprocess.run(["git", *args], cwd=cwd, capture_output=True, check=False)
     except FileNotFoundError:
-        raise DiagnosticError([error("RC406", f"cannot read {what}: git is not installed",
+        raise DiagnosticError([error("RC506", f"cannot read {what}: git is not installed",
                                      Span.unknown("<git>"))]) from None
     if done.returncode != 0:
         msg = done.stderr.decode("utf-8", "replace").strip().splitlines()
-        raise DiagnosticError([error("RC406", f"cannot read {what}: {msg[-1] if msg else 'git failed'}",
+        raise DiagnosticError([error("RC506", f"cannot read {what}: {msg[-1] if msg else 'git failed'}",
                                      Span.unknown("<git>"))])
     return done.stdout
 
@@ -79,7 +79,7 @@ def split_ref(spec: str) -> tuple[str, str]:
     body = spec[len(GIT_PREFIX):]
     ref, sep, path = body.rpartition(":")
     if not sep or not ref or not path:
-        raise DiagnosticError([error("RC406", f"'{spec}' is not git:REF:PATH", Span.unknown("<command line>"),
+        raise DiagnosticError([error("RC506", f"'{spec}' is not git:REF:PATH", Span.unknown("<command line>"),
                                      notes=("for example git:origin/main:examples/robot.arch",))])
     return ref, path
 
@@ -156,7 +156,7 @@ def ftm_findings(old: System, new: System, policy: Policy, out: Outcome) -> None
         was = str(c.ftm.expr) if c.ftm else "none"
         now = str(n.ftm.expr) if n.ftm else "no FTM"
         out.fail("gate.policy", name, error(
-            "RC404", f"{c.name}: {', '.join(lost)} fault{'s' if len(lost) > 1 else ''} no longer covered "
+            "RC504", f"{c.name}: {', '.join(lost)} fault{'s' if len(lost) > 1 else ''} no longer covered "
             f"({was} → {now}); keep-ftm in {policy.where} forbids weakening it",
             n.ftm.span if n.ftm else n.span,
             related=(Related(c.ftm.span if c.ftm else c.span, f"covered by {was} in the base"),
@@ -193,7 +193,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
             p = plan_migrate(old, new, policy.strategy)
         except NoSafePlan as e:
             out.fail("gate.policy", "a verified migration plan exists", error(
-                "RC401", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy)",
+                "RC501", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy)",
                 new.span, notes=tuple(e.reasons)))
             return
         evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
@@ -201,7 +201,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
             evidence["alloy"] = alloy_evidence(p, solver)
     if use_alloy and not evidence["alloy"].get("valid", False):
         out.fail("gate.policy", "a verified migration plan exists", error(
-            "RC401", f"Alloy refuted the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
+            "RC501", f"Alloy refuted the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
         return
     out.plan = p
     out.plan_doc = plan_document("migrate", old, p, evidence, new)
@@ -210,7 +210,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
         name = f"disruption at most {policy.max_disruption}"
         if p.disruption > policy.max_disruption:
             out.fail("gate.policy", name, error(
-                "RC402", f"the migration plan's disruption is {p.disruption}, over max-disruption = "
+                "RC502", f"the migration plan's disruption is {p.disruption}, over max-disruption = "
                 f"{policy.max_disruption} of {policy.where}", new.span,
                 related=(Related(policy.span("max-disruption"), f"max-disruption = {policy.max_disruption}"),),
                 notes=(f"plan: {p.summary()}", "disruption = Σ criticality × steps degraded")))
@@ -226,7 +226,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
         for (c, f), steps in hits:
             span = func_span([new, old], c, f) or new.span
             out.fail("gate.policy", f"{name} ({c}.{f})", error(
-                "RC403", f"the migration plan degrades {c}.{f} during {plural(len(steps), 'step')} "
+                "RC503", f"the migration plan degrades {c}.{f} during {plural(len(steps), 'step')} "
                 f"({', '.join(map(str, steps))}); never-degrade in {policy.where} forbids it", span,
                 related=(Related(policy.span("never-degrade"), f"never-degrade includes {entry!r}"),),
                 notes=(f"plan: {p.summary()}",)))
@@ -256,7 +256,7 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
     out.cases[:0] = report.assumption_cases(new.name, judged.python)
     out.diagnostics[:0] = [report.assumption_diagnostic(r) for r in judged.python.unsatisfied]
     if not judged.valid:
-        d = error("RC407", f"{new.name} is not safe: no migration to it is planned", new.span,
+        d = error("RC507", f"{new.name} is not safe: no migration to it is planned", new.span,
                   notes=(f"{plural(len(judged.python.unsatisfied), 'assumption')} "
                          f"{'does' if len(judged.python.unsatisfied) == 1 else 'do'} not hold; see above",))
         out.fail("gate.policy", "a verified migration plan exists", d)

@@ -140,19 +140,19 @@ def load_policy(path: Optional[str] = None) -> Policy:
         text = raw.decode("utf-8")
         data = tomllib.loads(text)
     except FileNotFoundError:
-        raise DiagnosticError([error("RC405", f"no such policy file: {shown}", Span(shown, 1, 1, 1, 1))]) from None
+        raise DiagnosticError([error("RC505", f"no such policy file: {shown}", Span(shown, 1, 1, 1, 1))]) from None
     except (OSError, UnicodeDecodeError) as e:
-        raise DiagnosticError([error("RC405", f"cannot read the policy {shown}: {e}", Span(shown, 1, 1, 1, 1))]) \
+        raise DiagnosticError([error("RC505", f"cannot read the policy {shown}: {e}", Span(shown, 1, 1, 1, 1))]) \
             from None
     except tomllib.TOMLDecodeError as e:
         line = int(m.group(1)) if (m := re.search(r"line (\d+)", str(e))) else 1
-        raise DiagnosticError([error("RC405", f"the policy {shown} is not valid TOML: {e}",
+        raise DiagnosticError([error("RC505", f"the policy {shown} is not valid TOML: {e}",
                                      Span(shown, line, 1, line, 1))]) from None
     table: dict[str, Any] = data.get("tool", {}).get("reconf", {})
     if not table and os.path.basename(path) != "pyproject.toml":
         table = {k: v for k, v in data.items() if k != "tool"}
     elif not table and explicit and "reconf" not in data.get("tool", {}):
-        raise DiagnosticError([error("RC405", f"{shown} has no [tool.reconf] table", Span(shown, 1, 1, 1, 1))])
+        raise DiagnosticError([error("RC505", f"{shown} has no [tool.reconf] table", Span(shown, 1, 1, 1, 1))])
     return parse_policy(table, shown, text)
 
 
@@ -163,18 +163,18 @@ def parse_policy(table: dict[str, Any], shown: str, text: str = "") -> Policy:
     for raw_key, value in table.items():
         key = raw_key.replace("_", "-")
         if key not in KEYS:
-            errors.append(error("RC405", f"unknown policy key '{raw_key}'", _key_span(shown, text, raw_key),
+            errors.append(error("RC505", f"unknown policy key '{raw_key}'", _key_span(shown, text, raw_key),
                                 notes=("known keys: " + ", ".join(KEYS),)))
             continue
         values[key] = value
     md = values.get("max-disruption")
     if md is not None and (isinstance(md, bool) or not isinstance(md, int) or md < 0):
-        errors.append(error("RC405", "max-disruption must be a whole number ≥ 0", spans["max-disruption"]))
+        errors.append(error("RC505", "max-disruption must be a whole number ≥ 0", spans["max-disruption"]))
     nd = values.get("never-degrade", [])
     if isinstance(nd, str):
         nd = [nd]
     if not isinstance(nd, list) or not all(isinstance(x, str) for x in nd):
-        errors.append(error("RC405", "never-degrade must be a list of COMPONENT.FUNCTIONALITY or FUNCTIONALITY names",
+        errors.append(error("RC505", "never-degrade must be a list of COMPONENT.FUNCTIONALITY or FUNCTIONALITY names",
                             spans["never-degrade"]))
         nd = []
     kf = values.get("keep-ftm", [])
@@ -185,12 +185,12 @@ def parse_policy(table: dict[str, Any], shown: str, text: str = "") -> Policy:
     elif isinstance(kf, str):
         kf = [kf]
     if not isinstance(kf, list) or not all(isinstance(x, str) for x in kf):
-        errors.append(error("RC405", "keep-ftm must be true, false, or a list of component and FTM names",
+        errors.append(error("RC505", "keep-ftm must be true, false, or a list of component and FTM names",
                             spans["keep-ftm"]))
         kf = []
     strategy = values.get("strategy", "default")
     if strategy not in STRATEGIES:
-        errors.append(error("RC405", f"unknown strategy {strategy!r}", spans["strategy"],
+        errors.append(error("RC505", f"unknown strategy {strategy!r}", spans["strategy"],
                             notes=("known: " + ", ".join(STRATEGIES),)))
     if errors:
         raise DiagnosticError(errors)

@@ -60,7 +60,7 @@ def test_unsafe_change_fails_with_sarif_at_the_offending_line(here) -> None:
     loc = rc201[0]["locations"][0]["physicalLocation"]
     assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
     assert loc["region"]["startLine"] == 21
-    assert any(r["ruleId"] == "RC407" for r in results)
+    assert any(r["ruleId"] == "RC507" for r in results)
 
 
 def test_plan_over_max_disruption_fails_naming_the_policy(here) -> None:
@@ -69,7 +69,7 @@ def test_plan_over_max_disruption_fails_naming_the_policy(here) -> None:
     assert code == 1
     doc = json.loads(out)
     (d,) = doc["diagnostics"]
-    assert d["code"] == "RC402"
+    assert d["code"] == "RC502"
     assert "max-disruption = 0" in d["message"] and "reconf.toml" in d["message"]
     assert d["related"][0]["span"] == {"file": "reconf.toml", "line": 2, "column": 1, "end_line": 2,
                                        "end_column": 19}
@@ -82,7 +82,7 @@ def test_never_degrade_from_pyproject(here) -> None:
     code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT, fmt="sarif")
     assert code == 1
     results = json.loads(out)["runs"][0]["results"]
-    assert {r["ruleId"] for r in results} == {"RC403"}
+    assert {r["ruleId"] for r in results} == {"RC503"}
     assert "never-degrade in the policy in pyproject.toml [tool.reconf]" in results[0]["message"]["text"]
 
 
@@ -99,7 +99,7 @@ def test_bad_policy_is_bad_input(here) -> None:
     code, out, _ = gate("--base", CHATTER, "--head", CHATTER)
     assert code == 2
     codes = {(d["code"], d["span"]["line"]) for d in json.loads(out)["diagnostics"]}
-    assert codes == {("RC405", 1), ("RC405", 2)}
+    assert codes == {("RC505", 1), ("RC505", 2)}
 
 
 FTM_OLD = """system s
@@ -134,7 +134,7 @@ def test_weakened_ftm_fails_at_the_ftm_line(here) -> None:
     code, out, _ = gate("--base", "old.arch", "--head", "new.arch", fmt="sarif")
     assert code == 1
     (r,) = json.loads(out)["runs"][0]["results"]
-    assert r["ruleId"] == "RC404" and "crash" in r["message"]["text"]
+    assert r["ruleId"] == "RC504" and "crash" in r["message"]["text"]
     assert r["locations"][0]["physicalLocation"]["region"]["startLine"] == 6
     code, out, _ = gate("--base", "old.arch", "--head", "same.arch")
     assert code == 0, out
@@ -179,4 +179,4 @@ def test_git_references(tmp_path, monkeypatch) -> None:
     assert code == 1 and doc["diagnostics"][0]["span"]["file"] == "chatter.arch"
     assert not [p for p in os.listdir(repo / "arch") if p.startswith("reconf-rev-")]
     code, out, _ = gate("--base", "git:nosuchref:arch/chatter.arch", "--head", "chatter.arch")
-    assert code == 2 and json.loads(out)["diagnostics"][0]["code"] == "RC406"
+    assert code == 2 and json.loads(out)["diagnostics"][0]["code"] == "RC506"
