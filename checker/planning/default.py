@@ -33,6 +33,7 @@ unwanted one, create, remove) or upgrades, so the loop terminates.
 """
 from __future__ import annotations
 
+import heapq
 from typing import Optional
 
 from reconf_dsl.ir import System
@@ -155,18 +156,42 @@ def _order(system: System, config: Configuration, todo: set[FuncId]) -> Optional
     for d in todo:
         conns = {conn for p in cat.funcs[d].ports if st.is_output(d[0], p) for conn in st.by_port.get((d[0], p), [])}
         waits[d] = {g for r in st.readers(conns) for g in by_comp.get(r, ())} - {d}
+    feeds: dict[FuncId, set[FuncId]] = {d: set() for d in todo}
+    for d, ws in waits.items():
+        for g in ws:
+            feeds[g].add(d)
+    pending = {d: len(ws) for d, ws in waits.items()}
+    ready = [(_weight(system, d), d) for d in todo if not pending[d]]
+    heapq.heapify(ready)
     out: list[Action] = []
     left = set(todo)
     while left:
         st = Snapshot(cat, config)
-        first = next((d for d in sorted(left, key=lambda d: (bool(waits[d] & left), _weight(system, d), d))
-                      if not check(st, Degrade(*d))), None)
+        first: Optional[FuncId] = None
+        refused = []
+        while ready:
+            item = heapq.heappop(ready)
+            if item[1] not in left:
+                continue
+            if not check(st, Degrade(*item[1])):
+                first = item[1]
+                break
+            refused.append(item)
+        for item in refused:
+            heapq.heappush(ready, item)
         if first is None:
-            return None
+            first = next((d for d in sorted(left, key=lambda d: (_weight(system, d), d))
+                          if not check(st, Degrade(*d))), None)
+            if first is None:
+                return None
         a = Degrade(*first)
         out.append(a)
         config = effect(system, config, a)
         left.discard(first)
+        for e in feeds[first]:
+            pending[e] -= 1
+            if not pending[e] and e in left:
+                heapq.heappush(ready, (_weight(system, e), e))
     return out
 
 
