@@ -1,25 +1,51 @@
 """`reconf ftm select|expand` and `reconf plan transition`.
 
-Register with `main.add_command(ftm_group)` and `plan.add_command(transition_cmd)`.
+Register with `main.add_command(ftm_group)` and `plan.add_command(transition_cmd)`. This
+module imports `checker.cli` only when a command runs, since `checker.cli` imports it to
+register the commands.
 """
 from __future__ import annotations
 
+import functools
 import json
 import sys
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import click
 
 from reconf_dsl.diagnostics import error
 from reconf_dsl.loader import Sources, load
 
-from ..cli import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, write_atomically
+from ..planning import STRATEGIES
 from ..report import OutputFormat
 from .expand import expand, to_text
 from .library import compose
 from .select import Candidate, profile, select
 
 __all__ = ["ftm_group", "transition_cmd"]
+
+EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+def guarded(command: str) -> Callable[[Any], Any]:
+    """`checker.cli.guarded`, looked up when the command runs."""
+    def wrap(fn: Any) -> Any:
+        @functools.wraps(fn)
+        def inner(*args: Any, **kwargs: Any) -> Any:
+            from ..cli import guarded as real
+            return real(command)(fn)(*args, **kwargs)
+        return inner
+    return wrap
+
+
+def _failure(diags: list[Any], code: int = EXIT_BAD_INPUT) -> Exception:
+    from ..cli import Failure
+    return Failure(diags, code)
+
+
+def console() -> Any:
+    from ..cli import console as real
+    return real()
 
 format_option = click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
                              default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
@@ -54,7 +80,7 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
     system = load(_files(files), sources)
     comp = system.component(component)
     if comp is None:
-        raise Failure([error("RC103", f"no component '{component}'", system.span)])
+        raise _failure([error("RC103", f"no component '{component}'", system.span)])
     prof = profile(system, comp)
     cands = select(prof)
     alloy: dict[str, Any] = {}
@@ -65,7 +91,7 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
         theirs = set(verdict.valid[component])
         alloy = {"engine": "alloy", "agrees": mine == theirs, "seconds": round(verdict.seconds, 3)}
         if mine != theirs:
-            raise Failure([error("RC499", f"Python and Alloy disagree on {component}: only Python: "
+            raise _failure([error("RC499", f"Python and Alloy disagree on {component}: only Python: "
                                           f"{sorted(mine - theirs)}, only Alloy: {sorted(theirs - mine)}",
                                  comp.span)], EXIT_BAD_INPUT)
     attached = str(compose(comp.ftm.expr)[0] or comp.ftm.expr) if comp.ftm is not None else None
@@ -126,6 +152,7 @@ def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str
         parts.append(to_dot(picture(expanded, title=f"{system.name} (FTMs expanded)")))
     text = "\n".join(parts)
     if output:
+        from ..cli import write_atomically
         write_atomically(output, text)
     else:
         click.echo(text, nl=False)
@@ -136,8 +163,19 @@ def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str
 
 
 def _with_common(fn: Any) -> Any:
-    from ..plan_cli import with_common
-    return with_common(fn)
+    """The options of every `reconf plan` command (as `checker.plan_cli.with_common` has them)."""
+    options = [
+        click.option("-f", "--file", "files", multiple=True, type=click.Path(dir_okay=False),
+                     help="the deployed architecture (repeatable; default: the one *.arch here, or $RECONF_ARCH)"),
+        click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True,
+                     help="default: least disruption found; paper: Algorithm 1 of paper 001; exhaustive: optimal"),
+        click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
+                     help="also verify the whole plan in the Alloy Analyzer"),
+        click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script"),
+        format_option]
+    for option in reversed(options):
+        fn = option(fn)
+    return fn
 
 
 @click.command("transition")

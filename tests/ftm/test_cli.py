@@ -1,0 +1,58 @@
+"""`reconf ftm select|expand` and `reconf plan transition`, through click (Alloy off where slow)."""
+from __future__ import annotations
+
+import json
+
+from click.testing import CliRunner
+
+from checker.ftm.cli import ftm_group, transition_cmd
+from reconf_dsl.loader import load_text
+
+from .conftest import EXAMPLES
+
+
+def test_select_lists_valid_ranked_and_rejected_with_alloy(bridge) -> None:  # type: ignore[no-untyped-def]
+    r = CliRunner().invoke(ftm_group, ["select", "server", "-f", f"{EXAMPLES}/deterministic_lfr.arch",
+                                       "--output-format", "json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["attached"] == "LFR" and doc["evidence"]["agrees"]
+    valid = [c["ftm"] for c in doc["valid"]]
+    assert "LFR" in valid and "PBR" not in valid
+    pbr = next(c for c in doc["rejected"] if c["ftm"] == "PBR")
+    assert pbr["reasons"][0]["code"] == "RC404"
+
+
+def test_select_text_exits_1_when_nothing_is_valid(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    text = open(f"{EXAMPLES}/client_server_pbr.arch").read().replace("faults crash", "faults crash, omission")
+    path = tmp_path / "x.arch"
+    path.write_text(text)
+    r = CliRunner().invoke(ftm_group, ["select", "server", "-f", str(path), "--no-alloy"])
+    assert r.exit_code == 1
+    assert "No valid FTM" in r.output and "omission" in r.output
+
+
+def test_expand_prints_dsl_that_reparses_and_dot() -> None:
+    r = CliRunner().invoke(ftm_group, ["expand", "--format", "dsl", f"{EXAMPLES}/client_server_sec_pbr_tr.arch"])
+    assert r.exit_code == 0, r.output
+    dsl = r.stdout
+    system = load_text(dsl)
+    assert system.component("server__r1_tr_proceed") is not None
+    r = CliRunner().invoke(ftm_group, ["expand", "--format", "dot", f"{EXAMPLES}/client_server_pbr.arch"])
+    assert r.exit_code == 0 and r.stdout.startswith("digraph") and '"c:server__recovery"' in r.stdout
+
+
+def test_plan_transition_json() -> None:
+    r = CliRunner().invoke(transition_cmd, ["server", "LFR", "-f", f"{EXAMPLES}/deterministic_pbr.arch",
+                                            "--no-alloy", "--output-format", "json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["verdict"] == "plan" and doc["operation"] == "move server from PBR to LFR"
+    kinds = [s["action"] for s in doc["plan"]["steps"]]
+    assert kinds[0] == "degrade" and kinds[-1] == "upgrade"
+
+
+def test_plan_transition_refuses_an_ill_formed_ftm() -> None:
+    r = CliRunner().invoke(transition_cmd, ["server", "TR(PBR)", "-f", f"{EXAMPLES}/client_server_pbr.arch",
+                                            "--no-alloy"])
+    assert r.exit_code == 2 and "RC401" in r.output
