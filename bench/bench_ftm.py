@@ -22,17 +22,21 @@ import time
 
 from checker.config import Configuration
 from checker.ftm.expand import expand
+from checker.ftm.library import compose
 from checker.ftm.rules import ftm_diagnostics
-from checker.ftm.transition import plan_transition
+from checker.ftm.transition import parse_ftm, plan_transition
 from checker.semantics import evaluate
 from reconf_dsl.loader import load_text
 
 
 def generate(n: int, ftm: str) -> str:
+    comp = compose(parse_ftm(ftm))[0]
+    assert comp is not None, ftm
+    faults = ", ".join(sorted(comp.covers))
     lines = ["system ftm_bench", "message Reply = std_msgs/msg/String",
              "host master { cpus: 1 bandwidth: high }", "host slave { cpus: 1 bandwidth: high }"]
     for i in range(n):
-        lines += [f"component server{i} {{", "  faults crash, transient",
+        lines += [f"component server{i} {{", f"  faults {faults}",
                   "  application deterministic, state_access", f"  ftm {ftm} on master, slave",
                   "  output reply: Reply", "  functionality serve (reply) {",
                   "    normal { reply: Reply @ 10 Hz }", "    degraded { reply: nothing }", "  }", "}",
