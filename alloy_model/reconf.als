@@ -155,14 +155,32 @@ pred conn_satisfied_no_out[s: System, k: Connector, no_o: set Output] {
 
 -- The satisfied connectors: some attached output of a present functionality guarantees,
 -- in its current mode, something that satisfies the connector's guarantee.
-fun sat_conns_def[s: System]: set Connector {
-  {k: Connector | conn_satisfied_no_out[s, k, none]}
+fun sat_conns_q[s: System]: set Connector {
+  {k: Connector | conn_satisfied_no_out_q[s, k, none]}
 }
 
 -- The satisfied inputs: attached to a satisfied connector whose guarantee satisfies the
 -- input's assumption.
-fun sat_inputs_def[s: System]: set Input {
+fun sat_inputs_q[s: System]: set Input {
   {i: Input | some k: (s.roles).i & (s.csat) | satisfy[k.cguar, i.iasm]}
+}
+
+-- The same two sets as joins (no quantifier: the solver folds them over constant data at
+-- any size; the meta-model checks the encodings agree).
+fun sat_conns_j[s: System]: set Connector {
+  (cguar & (s.roles).(out_guar[s]).(Sem.sat)).Data
+}
+
+fun sat_inputs_j[s: System]: set Input {
+  (iasm & (~((s.csat) <: (s.roles))).cguar.(Sem.sat)).Data
+}
+
+fun sat_conns_def[s: System]: set Connector {
+  sat_conns_q[s]
+}
+
+fun sat_inputs_def[s: System]: set Input {
+  sat_inputs_q[s]
 }
 
 pred conn_satisfied[s: System, k: Connector] {
@@ -186,13 +204,40 @@ pred asm_holds[s: System, f: Functionality, a: Data] {
 }
 
 -- Component c stays safe without the inputs no_i.
-pred safe_no_input[s: System, c: Component, no_i: set Input] {
+pred safe_no_input_q[s: System, c: Component, no_i: set Input] {
   all f: c.funcs, a: cur_asms[s, f] | asm_holds_no_input[s, f, a, no_i]
 }
 
+pred safe_no_input_j[s: System, c: Component, no_i: set Input] {
+  no failing_no_input[s, c.funcs, no_i]
+}
+
+pred safe_no_input[s: System, c: Component, no_i: set Input] {
+  safe_no_input_q[s, c, no_i]
+}
+
+-- What holds for f without the inputs no_i, as a join: f -> every datum that some
+-- associated, satisfied input's assumption or some environment guarantee satisfies.
+fun holds_no_input[s: System, no_i: set Input]: Functionality -> Data {
+  (assoc_in :> ((s.isat) - no_i)).iasm.(Sem.sat) + Functionality -> envg.(Sem.sat)
+}
+
+-- The current assumptions of the functionalities fs that do not hold without no_i.
+fun failing_no_input[s: System, fs: set Functionality, no_i: set Input]: Functionality -> Data {
+  ((fs - (s.degraded)) <: nasms) - holds_no_input[s, no_i]
+}
+
 -- The safety property: every assumption of every present functionality's current mode holds.
-pred valid[s: System] {
+pred valid_q[s: System] {
   all f: present_funcs[s], a: cur_asms[s, f] | asm_holds[s, f, a]
+}
+
+pred valid_j[s: System] {
+  no failing_no_input[s, present_funcs[s], none]
+}
+
+pred valid[s: System] {
+  valid_q[s]
 }
 
 -- Actions ----------------------------------------------------------------------------
@@ -294,6 +339,15 @@ assert ConnectorEncodingsAgree {
     conn_satisfied_no_out_q[Pre, k, no_o] iff conn_satisfied_no_out_j[Pre, k, no_o]
 }
 
+-- The joins that instance and plan modules use for satisfaction, the satisfied connectors and inputs,
+-- validity and safety without inputs agree with the quantified definitions.
+assert SatEncodingsAgree { Sem.sat = Nothing -> Nothing + (mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~(rate.*rate_next))) }
+assert SatisfiedEncodingsAgree { sat_conns_q[Pre] = sat_conns_j[Pre] and sat_inputs_q[Pre] = sat_inputs_j[Pre] }
+assert ValidEncodingsAgree { valid_q[Pre] iff valid_j[Pre] }
+assert SafetyEncodingsAgree {
+  all c: Component, no_i: set Input | safe_no_input_q[Pre, c, no_i] iff safe_no_input_j[Pre, c, no_i]
+}
+
 check SafeRemove  for 5 expect 0
 check SafeCreate  for 5 expect 0
 check SafeDetach  for 5 expect 0
@@ -303,6 +357,10 @@ check SafeUpgrade for 5 expect 0
 check AbsentDegraded for 5 expect 0
 check AttachWellTyped for 5 expect 0
 check ConnectorEncodingsAgree for 5 expect 0
+check SatEncodingsAgree for 5 expect 0
+check SatisfiedEncodingsAgree for 5 expect 0
+check ValidEncodingsAgree for 5 expect 0
+check SafetyEncodingsAgree for 5 expect 0
 
 -- Each action's preconditions can hold between two valid configurations.
 run Remove  { some c: Component | valid[Pre] and remove[Pre, Post, c] and valid[Post] } for 3 expect 1

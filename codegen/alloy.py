@@ -63,12 +63,15 @@ class StateAccess:
 # The meta-model: configurations are System atoms; the satisfaction relation and the
 # satisfied connectors/inputs are relations fixed by facts.
 META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
-# An instance module: one fixed configuration given by constants; the derived sets are
-# stored in the one atom `Derived` (computed once by the solver, then read by the
-# evaluator instead of being recomputed under every quantifier).
-FIXED_STATE = StateAccess(None, sat="sat", materialized=True, store="Derived", joins=True)
-# A plan module: the configurations are constant System atoms.
+# An instance module: one fixed configuration given by constants; every definition is a
+# join over them (no quantifier, no variable), which the solver folds at any size.
+FIXED_STATE = StateAccess(None, sat="sat", joins=True)
+# Configurations as System atoms whose derived sets are stored relations (the planning
+# module's `var` fields).
 PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True)
+# A plan module: the configurations are constant System atoms and every definition is a
+# join over constants, which the solver folds without a variable.
+PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True)
 
 
 def environment() -> jinja2.Environment:
@@ -362,7 +365,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
         ("nguar", "Functionality -> Output -> Data", union(rel["nguar"], _empty("Functionality", "Output", "Data"))),
         ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
         ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
-        ("envg", "set Data", union(sorted(set(rel["envg"])), "none")),
+        ("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
     ]
     if plan:
         funs += [
@@ -390,7 +393,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
             call = f"{action}[{s}, {s2}, {', '.join(alloy_args)}]"
             terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
         ok_steps = union(terms, _empty("System", "Action"))
-        text = template.render(st=PLAN_STATE, sigs=sigs, funs=funs, module_name=module_name,
+        text = template.render(st=PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
                                system_name=system.name, states=states, ok_steps=ok_steps)
         return text, names
     funs += [

@@ -88,9 +88,9 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     bridge = bridge or AlloyBridge.get()
     (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
     n = len(configs)
-    valid_states = {_atom(s) for (s,) in outcome.eval("Verdicts.valid_states")}
+    valid_states = {_atom(s) for (s,) in outcome.eval("valid_states")}
     did: dict[str, set[str]] = {}
-    for s, a in outcome.eval("Verdicts.ok_steps"):
+    for s, a in outcome.eval("ok_steps"):
         did.setdefault(_atom(s), set()).add(_atom(a).lower())
     valid = tuple(f"S{i}" in valid_states for i in range(n))
     steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
