@@ -8,9 +8,10 @@ from .errors import AlloyError, AlloyTimeout, AlloyUnavailable
 from .instance import AlloyPlanVerdict, AlloyVerdict, alloy_plan_verdict, alloy_verdict
 from .jvm import find_jar, find_jvm
 from .metamodel import metamodel_modules
+from .spans import dsl_span_for
 from .worker import run_with_timeout
 
 __all__ = [
-    "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend",
+    "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend", "dsl_span_for",
     "CommandOutcome", "find_jar", "find_jvm", "get_backend", "metamodel_modules", "run_with_timeout",
 ]

@@ -10,10 +10,15 @@ class AlloyError(Exception):
     """Alloy rejected a module (syntax or type error) or failed while solving.
 
     `module` is the key of the module in the mapping given to the bridge (e.g.
-    "main.als"), `line` and `column` are 1-based positions in it (0 when unknown).
+    "main.als"), `line` and `column` are 1-based positions in it (0 when unknown). For a
+    generated instance or plan module, `span` is the DSL declaration the position was
+    generated from (see checker.alloy.spans), when there is one.
     """
 
     def __init__(self, message: str, module: str | None = None, line: int = 0, column: int = 0):
+        from reconf_dsl.span import Span
+
+        self.span: Span | None = None
         self.message = message
         self.module = module
         self.line = line

@@ -5,6 +5,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge
+from .errors import AlloyError
+from .spans import with_span
 
 MAIN = "instance.als"
 
@@ -33,7 +35,10 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
 
     text, names = render_instance(system, config)
     bridge = bridge or AlloyBridge.get()
-    (outcome,) = bridge.run({MAIN: text}, MAIN, "Verdict", solver)
+    try:
+        (outcome,) = bridge.run({MAIN: text}, MAIN, "Verdict", solver)
+    except AlloyError as err:
+        raise with_span(err, text, names, system) from None
     pairs = outcome.eval("unsatisfied")
     valid = bool(outcome.eval("valid"))
     failing: set[tuple[str, str, int]] = set()
@@ -84,9 +89,12 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     configuration valid, each step one of the six actions with its preconditions met."""
     from codegen.alloy import render_plan
 
-    text, _ = render_plan(system, configs)
+    text, names = render_plan(system, configs)
     bridge = bridge or AlloyBridge.get()
-    (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
+    try:
+        (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
+    except AlloyError as err:
+        raise with_span(err, text, names, system) from None
     n = len(configs)
     valid_states = {_atom(s) for (s,) in outcome.eval("valid_states")}
     did: dict[str, set[str]] = {}
