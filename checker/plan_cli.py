@@ -20,6 +20,7 @@ from reconf_dsl.loader import Sources, load
 
 from . import report
 from .cli import EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from .progress import status
 from .planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from .report import OutputFormat
 
@@ -67,6 +68,10 @@ common_options: list[Callable[[Any], Any]] = [
                  help="default: least disruption found; paper: Algorithm 1 of paper 001; exhaustive: optimal search"),
     click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
                  help="also verify the whole plan in the Alloy Analyzer"),
+    click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True,
+                 help="alloy: ask Alloy 6 for a least-disruptive plan of at most --max-steps steps (small systems)"),
+    click.option("--max-steps", type=click.IntRange(1, 64), default=12, show_default=True,
+                 help="with --engine alloy: the longest plan considered"),
     click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script"),
     click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
                  default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v)),
@@ -149,6 +154,8 @@ def add_cmd(component: str, source: str, sources: Sources, **opts: Any) -> None:
 @click.argument("new", type=click.Path(dir_okay=False))
 @click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True)
 @click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True)
+@click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True)
+@click.option("--max-steps", type=click.IntRange(1, 64), default=12, show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script")
 @click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
               default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
@@ -163,10 +170,12 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
 
 def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
-        target: Optional[System] = None) -> None:
+        target: Optional[System] = None, engine: str = "python", max_steps: int = 12) -> None:
     fmt = output_format
     try:
         p = make()
+        if engine == "alloy":
+            p = alloy_planned(p, max_steps)
     except NoSafePlan as e:
         return no_plan(label, e.reasons, fmt)
     evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
@@ -186,6 +195,17 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
     else:
         show(label, p, evidence, output)
     sys.exit(EXIT_OK)
+
+
+def alloy_planned(p: Plan, max_steps: int) -> Plan:
+    """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
+    from .alloy.planner import plan_with_alloy
+    from .planning import Problem
+    with status("planning in the Alloy Analyzer…"):
+        planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
+    planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
+                         f"in {len(p.steps)} steps")
+    return planned
 
 
 def plan_document(label: str, system: System, p: Plan, evidence: dict[str, Any],

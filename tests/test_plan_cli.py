@@ -118,3 +118,21 @@ component listener""")
 def test_missing_version_is_explained() -> None:
     r = invoke("plan", "replace", "listener", "-f", CHATTER, "--no-alloy")
     assert r.exit_code == 1 and "no declared replacement" in r.stderr
+
+
+def test_alloy_engine_matches_the_optimum() -> None:
+    r = invoke("plan", "replace", "talker", "-f", CHATTER, "--engine", "alloy", "--no-alloy", "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["plan"]["strategy"] == "alloy"
+    best = invoke("plan", "replace", "talker", "-f", CHATTER, "--strategy", "exhaustive", "--no-alloy",
+                  "--output-format", "json")
+    assert doc["plan"]["disruption"] == json.loads(best.stdout)["plan"]["disruption"]
+
+
+def test_alloy_verification_is_in_the_evidence() -> None:
+    r = invoke("plan", "replace", "talker", "-f", CHATTER, "--strategy", "paper", "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    alloy = json.loads(r.stdout)["evidence"]["alloy"]
+    assert alloy["valid"] is True and alloy["states"] == 8 and alloy["transitions"] == 7
+    assert alloy["module_hash"].startswith("sha256:")

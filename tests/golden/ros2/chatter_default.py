@@ -107,6 +107,7 @@ DOC = json.loads(r"""{
  },
  "plan": {
   "disruption": 1,
+  "left_degraded": [],
   "notes": [],
   "renames": {},
   "states": [
@@ -124,7 +125,8 @@ DOC = json.loads(r"""{
    {"action": "detach", "component": "talker", "connector": "/chatter", "port": "out"},
    {"action": "remove", "component": "talker"}
   ],
-  "strategy": "default"
+  "strategy": "default",
+  "verification": "full"
  },
  "system": "chatter"
 }""")

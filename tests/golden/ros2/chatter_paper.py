@@ -107,6 +107,7 @@ DOC = json.loads(r"""{
  },
  "plan": {
   "disruption": 7,
+  "left_degraded": [],
   "notes": [],
   "renames": {},
   "states": [
@@ -128,7 +129,8 @@ DOC = json.loads(r"""{
    {"action": "attach", "component": "talker_v2", "connector": "/chatter", "port": "out"},
    {"action": "upgrade", "component": "listener", "functionality": "listen"}
   ],
-  "strategy": "paper"
+  "strategy": "paper",
+  "verification": "full"
  },
  "system": "chatter"
 }""")
