@@ -6,14 +6,22 @@ RULES: dict[str, tuple[str, str]] = {
     "RC011": ("tool-missing", "An external program reconf needs is not installed"),
     "RC201": ("assumption-not-satisfied", "An assumption of a functionality does not hold in the architecture"),
     "RC300": ("engines-disagree", "The Python engine and the Alloy Analyzer disagree"),
-    "RC401": ("no-safe-plan", "No verified migration plan from the base architecture to the new one"),
-    "RC402": ("disruption-over-policy", "The migration plan disrupts more than the policy's max-disruption"),
-    "RC403": ("protected-functionality-degraded", "The migration degrades a functionality the policy says must "
+    "RC301": ("alloy-unavailable", "Java or the Alloy jar is missing"),
+    "RC302": ("alloy-rejected-module", "The Alloy Analyzer rejected a generated module"),
+    "RC401": ("ftm-ill-formed", "A fault-tolerance mechanism expression is not well formed"),
+    "RC402": ("ftm-fault-not-covered", "The attached fault-tolerance mechanism does not tolerate a declared fault"),
+    "RC403": ("ftm-application-mismatch", "The mechanism needs an application characteristic the component lacks"),
+    "RC404": ("ftm-bandwidth", "The mechanism needs more bandwidth than is available"),
+    "RC405": ("ftm-cpus", "The mechanism needs more CPUs than are available"),
+    "RC406": ("ftm-placement", "A duplex mechanism's replicas are not on distinct hosts"),
+    "RC501": ("no-safe-plan", "No verified migration plan from the base architecture to the new one"),
+    "RC502": ("disruption-over-policy", "The migration plan disrupts more than the policy's max-disruption"),
+    "RC503": ("protected-functionality-degraded", "The migration degrades a functionality the policy says must "
               "never be degraded"),
-    "RC404": ("ftm-weakened", "A fault covered by a fault-tolerance mechanism in the base is no longer covered"),
-    "RC405": ("invalid-policy", "The gate's policy cannot be read"),
-    "RC406": ("unreadable-revision", "An architecture cannot be read from the git repository"),
-    "RC407": ("unsafe-architecture", "The new architecture is not safe, so no migration to it is planned"),
+    "RC504": ("ftm-weakened", "A fault covered by a fault-tolerance mechanism in the base is no longer covered"),
+    "RC505": ("invalid-policy", "The gate's policy cannot be read"),
+    "RC506": ("unreadable-revision", "An architecture cannot be read from the git repository"),
+    "RC507": ("unsafe-architecture", "The new architecture is not safe, so no migration to it is planned"),
 }
 
 _RANGES: list[tuple[str, str, str]] = [
@@ -21,7 +29,8 @@ _RANGES: list[tuple[str, str, str]] = [
     ("RC1", "architecture", "The architecture is not well formed"),
     ("RC2", "safety", "The architecture is not safe"),
     ("RC3", "verification", "Verification could not be completed"),
-    ("RC4", "gate", "The change does not pass the gate"),
+    ("RC4", "fault-tolerance", "A fault-tolerance mechanism does not fit the component"),
+    ("RC5", "gate", "The change does not pass the gate"),
 ]
 
 
