@@ -22,7 +22,7 @@ when rule (iii) on modes is violated.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Iterable, Optional, Union
+from typing import ClassVar, Iterable, Optional, TypeVar, Union
 
 
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
@@ -169,27 +169,106 @@ class _Catalogue:
             (c.name, f.name): f for c in self.comps.values() for f in c.functionalities}
         self.ports: dict[tuple[str, str], Port] = {(c.name, p.name): p for c in self.comps.values() for p in c.ports}
         self._index: dict[tuple[frozenset[str], frozenset[Role]], _Index] = {}
+        # The same indexes by identity of the two sets: an action's effect derives the next
+        # configuration's index from the current one, so a plan step costs its own size only.
+        self._ident: dict[tuple[int, int], tuple[frozenset[str], frozenset[Role], _Index]] = {}
+        self._room = max(16, min(256, 4_000_000 // (len(system.connectors) + len(self.ports) + 1)))
 
     def index(self, config: Configuration) -> "_Index":
         """Who is attached where in `config`, cached: consecutive states often share their sets."""
-        key = (config.components, config.roles)
+        comps, roles = config.components, config.roles
+        hit = self._ident.get((id(comps), id(roles)))
+        if hit is not None and hit[0] is comps and hit[1] is roles:
+            return hit[2]
+        key = (comps, roles)
         ix = self._index.get(key)
         if ix is None:
-            if len(self._index) > 256:
-                self._index.clear()
-            ix = self._index[key] = _Index(self, config)
+            ix = _Index.build(self, config)
+            self._store(config, ix)
+        else:
+            self._remember(config, ix)
         return ix
+
+    def _remember(self, config: Configuration, ix: "_Index") -> None:
+        if len(self._ident) > self._room:
+            self._ident.clear()
+        self._ident[(id(config.components), id(config.roles))] = (config.components, config.roles, ix)
+
+    def _store(self, config: Configuration, ix: "_Index") -> None:
+        if len(self._index) > self._room:
+            self._index.clear()
+        self._index[(config.components, config.roles)] = ix
+        self._remember(config, ix)
+
+    def derive(self, before: Configuration, after: Configuration, action: "Action") -> None:
+        """Index `after` from the index of `before` when `action` changes attachments or removes."""
+        if isinstance(action, (Attach, Detach)):
+            role = (action.connector, action.component, action.port)
+            if ((role in before.roles) == isinstance(action, Attach) or action.component not in before.components
+                    or action.connector not in self.conns or (action.component, action.port) not in self.ports):
+                ix = self.index(before)
+            else:
+                ix = self.index(before).changed(self, [role], isinstance(action, Attach))
+        elif isinstance(action, Remove):
+            ix = self.index(before)
+            if action.component in before.components:
+                gone = [(conn, action.component, p.name) for p in self.comps[action.component].ports
+                        for conn in ix.by_port.get((action.component, p.name), [])]
+                if gone:
+                    ix = ix.changed(self, gone, False)
+        else:
+            return
+        self._store(after, ix)
 
 
 class _Index:
-    def __init__(self, cat: _Catalogue, config: Configuration) -> None:
-        self.by_conn: dict[str, list[tuple[str, str]]] = {}
-        self.by_port: dict[tuple[str, str], list[str]] = {}
+    def __init__(self, by_conn: dict[str, list[tuple[str, str]]], by_port: dict[tuple[str, str], list[str]],
+                 pubs: dict[str, list[tuple[str, str]]], subs: dict[str, list[tuple[str, str]]]) -> None:
+        self.by_conn = by_conn      # every attached (component, port), per connector
+        self.by_port = by_port      # the connectors of each attached port
+        self.pubs = pubs            # the attached outputs, per connector
+        self.subs = subs            # the attached inputs, per connector
+
+    @staticmethod
+    def build(cat: _Catalogue, config: Configuration) -> "_Index":
+        by_conn: dict[str, list[tuple[str, str]]] = {}
+        by_port: dict[tuple[str, str], list[str]] = {}
+        pubs: dict[str, list[tuple[str, str]]] = {}
+        subs: dict[str, list[tuple[str, str]]] = {}
         comps, conns, ports = config.components, cat.conns, cat.ports
         for conn, comp, port in config.roles:
             if comp in comps and conn in conns and (comp, port) in ports:
-                self.by_conn.setdefault(conn, []).append((comp, port))
-                self.by_port.setdefault((comp, port), []).append(conn)
+                by_conn.setdefault(conn, []).append((comp, port))
+                by_port.setdefault((comp, port), []).append(conn)
+                (pubs if ports[(comp, port)].kind == "output" else subs).setdefault(conn, []).append((comp, port))
+        return _Index(by_conn, by_port, pubs, subs)
+
+    def changed(self, cat: _Catalogue, roles: list[Role], add: bool) -> "_Index":
+        """A copy with `roles` (indexed ones, all absent if `add`, all present otherwise) added or removed."""
+        by_conn, by_port, pubs, subs = dict(self.by_conn), dict(self.by_port), dict(self.pubs), dict(self.subs)
+        for conn, comp, port in roles:
+            side = pubs if cat.ports[(comp, port)].kind == "output" else subs
+            if add:
+                by_conn[conn] = by_conn.get(conn, []) + [(comp, port)]
+                by_port[(comp, port)] = by_port.get((comp, port), []) + [conn]
+                side[conn] = side.get(conn, []) + [(comp, port)]
+                continue
+            _drop(by_conn, conn, (comp, port))
+            _drop(by_port, (comp, port), conn)
+            _drop(side, conn, (comp, port))
+        return _Index(by_conn, by_port, pubs, subs)
+
+
+_K = TypeVar("_K")
+_V = TypeVar("_V")
+
+
+def _drop(d: dict[_K, list[_V]], key: _K, value: _V) -> None:
+    rest = [x for x in d[key] if x != value]
+    if rest:
+        d[key] = rest
+    else:
+        del d[key]
 
 
 _CACHE: dict[int, _Catalogue] = {}
@@ -219,6 +298,8 @@ class Snapshot:
         ix = cat.index(config)
         self.by_conn = ix.by_conn
         self.by_port = ix.by_port
+        self.pubs = ix.pubs
+        self.subs = ix.subs
         self._conn_cache: dict[str, bool] = {}
 
     def is_output(self, comp: str, port: str) -> bool:
@@ -227,7 +308,8 @@ class Snapshot:
 
     def readers(self, conns: Iterable[str]) -> set[str]:
         """The present components with an input attached to one of `conns`."""
-        return {c for conn in conns for c, p in self.by_conn.get(conn, []) if not self.is_output(c, p)}
+        subs = self.subs
+        return {c for conn in conns for c, _ in subs.get(conn, ())}
 
     def output_satisfies(self, comp: str, port: str, want: Predicate) -> bool:
         c = self.cat.comps[comp]
@@ -239,8 +321,7 @@ class Snapshot:
         if not excluded and conn in self._conn_cache:
             return self._conn_cache[conn]
         want = self.cat.conns[conn].guarantee
-        sat = any(self.is_output(c, p) and self.output_satisfies(c, p, want)
-                  for c, p in self.by_conn.get(conn, []) if (c, p) not in excluded)
+        sat = any(self.output_satisfies(c, p, want) for c, p in self.pubs.get(conn, ()) if (c, p) not in excluded)
         if not excluded:
             self._conn_cache[conn] = sat
         return sat
@@ -377,7 +458,7 @@ def _attach(st: Snapshot, a: Attach) -> list[str]:
         problems.append(f"the current guarantee of {who} ({', '.join(now)}) does not satisfy the guarantee "
                         f"{conn.guarantee} of {a.connector}")
     if conn.single_publisher:
-        others = [f"{c}.{p}" for c, p in sorted(st.by_conn.get(a.connector, [])) if st.is_output(c, p)]
+        others = [f"{c}.{p}" for c, p in sorted(st.pubs.get(a.connector, []))]
         if others:
             problems.append(f"{a.connector} takes a single publisher and already has {', '.join(others)}")
     return problems
@@ -433,6 +514,13 @@ def affected_connectors(st: Snapshot, comp: str, f: Functionality) -> list[str]:
 
 def effect(system: System, config: Configuration, action: Action) -> Configuration:
     """The configuration after `action`, preconditions not checked."""
+    after = _effect(system, config, action)
+    if isinstance(action, (Attach, Detach, Remove)):
+        catalogue(system).derive(config, after, action)
+    return after
+
+
+def _effect(system: System, config: Configuration, action: Action) -> Configuration:
     if isinstance(action, Remove):
         return Configuration(config.components - {action.component},
                              frozenset(d for d in config.degraded if d[0] != action.component), config.roles)
