@@ -78,9 +78,21 @@ def settle(system: System, goal: Goal) -> Goal:
                 tuple(sorted((d, w) for d, w in why.items() if d in degraded)))
 
 
+_WEIGHTS: dict[tuple[int, int, int], tuple[System, frozenset[str], frozenset[FuncId], int]] = {}
+
+
 def state_weight(system: System, config: Configuration) -> int:
+    """Memoised by identity of the sets: consecutive states mostly share them."""
+    key = (id(system), id(config.components), id(config.degraded))
+    hit = _WEIGHTS.get(key)
+    if hit is not None and hit[0] is system and hit[1] is config.components and hit[2] is config.degraded:
+        return hit[3]
     funcs = catalogue(system).funcs
-    return sum(funcs[d].criticality for d in config.degraded if d[0] in config.components and d in funcs)
+    w = sum(funcs[d].criticality for d in config.degraded if d[0] in config.components and d in funcs)
+    if len(_WEIGHTS) > 512:
+        _WEIGHTS.clear()
+    _WEIGHTS[key] = (system, config.components, config.degraded, w)
+    return w
 
 
 def disruption(system: System, states: Sequence[Configuration]) -> int:
