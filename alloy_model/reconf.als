@@ -342,7 +342,9 @@ assert ConnectorEncodingsAgree {
 -- The joins that instance and plan modules use for satisfaction, the satisfied connectors and inputs,
 -- validity and safety without inputs agree with the quantified definitions.
 assert SatEncodingsAgree { Sem.sat = Nothing -> Nothing + (mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~(rate.*rate_next))) }
-assert SatisfiedEncodingsAgree { sat_conns_q[Pre] = sat_conns_j[Pre] and sat_inputs_q[Pre] = sat_inputs_j[Pre] }
+-- (with ConnectorEncodingsAgree, sat_conns_j = sat_conns_q)
+assert ConnectorsEncodingsAgree { sat_conns_j[Pre] = {k: Connector | conn_satisfied_no_out_j[Pre, k, none]} }
+assert InputsEncodingsAgree { sat_inputs_q[Pre] = sat_inputs_j[Pre] }
 assert ValidEncodingsAgree { valid_q[Pre] iff valid_j[Pre] }
 assert SafetyEncodingsAgree {
   all c: Component, no_i: set Input | safe_no_input_q[Pre, c, no_i] iff safe_no_input_j[Pre, c, no_i]
@@ -358,7 +360,8 @@ check AbsentDegraded for 5 expect 0
 check AttachWellTyped for 5 expect 0
 check ConnectorEncodingsAgree for 5 expect 0
 check SatEncodingsAgree for 5 expect 0
-check SatisfiedEncodingsAgree for 5 expect 0
+check ConnectorsEncodingsAgree for 5 expect 0
+check InputsEncodingsAgree for 5 expect 0
 check ValidEncodingsAgree for 5 expect 0
 check SafetyEncodingsAgree for 5 expect 0
 
