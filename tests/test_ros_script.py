@@ -24,7 +24,7 @@ import pytest
 from checker.actions import Action, Degrade, Detach, Upgrade
 from checker.config import Configuration
 from checker.planning import Plan, plan_replace
-from checker.planning.plan import run_actions
+from checker.planning.plan import Goal, run_actions
 from checker.semantics import evaluate
 from codegen.ros2 import model_data, plan_document, render_plan_script
 from reconf_dsl.ir import Predicate, Rate, System
@@ -96,7 +96,8 @@ def printed_safety(stdout: str) -> dict[int, bool]:
 
 def doc_for(system: System, steps: list[Action], start: Configuration, name: str = "variant") -> dict[str, Any]:
     states = run_actions(system, start, steps)
-    plan = Plan(system, list(steps), states, name, 0, None)  # type: ignore[arg-type]
+    end = states[-1]
+    plan = Plan(system, list(steps), states, name, 0, Goal(end.components, end.roles, end.degraded))
     return {"format_version": 1, "system": system.name, "fingerprint": "sha256:test", "evidence": {},
             "plan": plan.to_dict(), "model": model_data(system)}
 
