@@ -157,7 +157,7 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
     by `semantics.evaluate`, the engine the planners do not use. Otherwise the last state is,
     and each intermediate state is re-checked where its step can change anything: the
     functionalities of the component the step touches and of every reader of a connector
-    whose publishers or attachments it changes (an assumption depends only on those). The
+    whose satisfaction it changes (an assumption depends only on those). The
     plan's `verification` says which was done."""
     cat = catalogue(system)
     if full is None:
@@ -190,17 +190,21 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
 
 
 def _touched(cat: _Catalogue, before: Configuration, after: Configuration, a: Action) -> set[str]:
-    """The present components whose assumptions `a` can make fail."""
+    """The present components whose assumptions `a` can make fail: the one it touches, and the
+    readers of each connector whose satisfaction it changes (an input assumption depends only
+    on the satisfaction of the connectors its port is attached to)."""
     if isinstance(a, Remove):
         return set()          # an isolated component: nothing reads it
     if isinstance(a, Create):
         return {a.component}
+    s0, s1 = Snapshot(cat, before), Snapshot(cat, after)
     if isinstance(a, (Attach, Detach)):
-        return ({a.component} | Snapshot(cat, before).readers([a.connector])
-                | Snapshot(cat, after).readers([a.connector])) & after.components
-    st = Snapshot(cat, after)
-    outs = [(a.component, p) for p in cat.funcs[(a.component, a.functionality)].ports]
-    return {a.component} | st.readers({conn for o in outs for conn in st.by_port.get(o, [])})
+        conns = [a.connector] if a.connector in cat.conns else []
+    else:
+        outs = [(a.component, p) for p in cat.funcs[(a.component, a.functionality)].ports]
+        conns = sorted({conn for o in outs for conn in s1.by_port.get(o, [])})
+    changed = [conn for conn in conns if s0.conn_sat(conn) != s1.conn_sat(conn)]
+    return ({a.component} | s0.readers(changed) | s1.readers(changed)) & after.components
 
 
 @dataclass
