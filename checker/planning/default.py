@@ -90,7 +90,8 @@ def _weight(system: System, fid: FuncId) -> int:
 def _free(system: System, config: Configuration, goal: Goal, make_first: bool) -> Optional[Action]:
     cat = catalogue(system)
     st = Snapshot(cat, config)
-    ups = sorted(config.degraded, key=lambda d: (-_weight(system, d), d))
+    funcs = cat.funcs
+    ups = sorted(config.degraded, key=lambda d: (-funcs[d].criticality, d))
     for c, f in ups:
         if c in config.components and (c, f) not in goal.degraded and not check(st, Upgrade(c, f)):
             return Upgrade(c, f)
