@@ -10,8 +10,10 @@ Figures (one process, after imports):
   check    `checker.semantics.evaluate` on the expanded architecture
   plan     `checker.ftm.transition.plan_transition` for service 0 (planning, suspension, and the
            step-by-step verification every plan passes in the Python engine)
-  alloy    with --alloy: the same plan verified as a whole in the Alloy Analyzer
-           (`checker.alloy_plan.alloy_evidence`), JVM start excluded
+  alloy    with --alloy: the same plan verified in the Alloy Analyzer
+           (`checker.alloy_plan.alloy_evidence`), JVM start excluded, on the slice of the
+           architecture the plan can affect (`checker.ftm.slicing`; the whole 420-component
+           architecture took over 300 s here)
 
 Targets: expand + check of 20 × PBR(TR) < 3 s; one transition planned and verified < 5 s.
 """
@@ -78,9 +80,12 @@ def main() -> None:
         from checker.alloy_plan import alloy_evidence
         AlloyBridge.get()
         t6 = time.perf_counter()
-        evidence = alloy_evidence(tr.plan)
+        from checker.ftm.slicing import slice_plan
+        sliced = slice_plan(tr.plan)
+        evidence = alloy_evidence(sliced)
         t7 = time.perf_counter()
-        rows += [("alloy valid", str(evidence["valid"])), ("alloy s (solve)", f"{evidence['seconds']:.3f}"),
+        rows += [("alloy slice", f"{len(sliced.system.components + sliced.system.versions)} components"),
+                 ("alloy valid", str(evidence["valid"])), ("alloy s (solve)", f"{evidence['seconds']:.3f}"),
                  ("alloy s (total)", f"{t7 - t6:.3f}")]
     width = max(len(k) for k, _ in rows)
     for k, v in rows:

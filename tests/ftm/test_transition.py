@@ -111,3 +111,17 @@ def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # t
     from checker.alloy_plan import alloy_evidence
     ev = alloy_evidence(transition(a, b).plan)
     assert ev["valid"], ev["reason"]
+
+
+def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) -> None:  # type: ignore[no-untyped-def]
+    from bench.bench_ftm import generate
+    from checker.alloy_plan import alloy_evidence
+    from checker.ftm.slicing import slice_plan
+    t = plan_transition(load_text(generate(3, "TR")), "server1", "SEC(TR)")
+    sliced = slice_plan(t.plan)
+    names = {c.name for c in sliced.system.components + sliced.system.versions}
+    assert not any(n.startswith(("server0", "server2", "client0", "client2")) for n in names)
+    again = verify(sliced.system, sliced.states[0], sliced.steps, sliced.goal, "slice")
+    assert len(again.states) == len(t.plan.states)
+    ev = alloy_evidence(sliced)
+    assert ev["valid"], ev["reason"]

@@ -1,0 +1,69 @@
+"""The part of a plan's architecture that the plan can affect, for verifying it in Alloy.
+
+T: every component an action names. R: every component reading (in some state) a connector
+that a component of T publishes on (in some state). P: every other component publishing on a
+connector that T ∪ R reads. The slice keeps T ∪ R as they are, and P as *stubs*: same outputs
+and guarantees, no assumptions, no inputs attached (their modes and attachments never change
+in the plan, so what they offer T ∪ R is exactly what they offer in the whole architecture).
+
+Why the slice suffices: a component outside T ∪ R reads only connectors on which no component
+of T ever publishes, and only T changes modes or attachments, so its assumptions hold in every
+state exactly when they hold in the first (which the Python engine checks on the whole
+architecture, as it checks every state). The assumptions of T ∪ R, and the preconditions of
+each action (on the acting component and on the readers of the connectors it affects, all in
+T ∪ R), depend only on connectors whose every publisher is in the slice.
+"""
+from __future__ import annotations
+
+from dataclasses import replace as dc_replace
+
+from reconf_dsl import ir
+
+from ..config import Configuration
+from ..planning import Plan
+
+__all__ = ["slice_plan"]
+
+
+def slice_plan(plan: Plan) -> Plan:
+    system = plan.system
+    touched = {getattr(a, "component") for a in plan.steps}
+    roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
+    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
+    pubs: dict[str, set[str]] = {}
+    reads: dict[str, set[str]] = {}
+    for conn, comp, port in roles:
+        (pubs if kinds.get((comp, port)) == "output" else reads).setdefault(conn, set()).add(comp)
+    core = set(touched)
+    for conn, ps in pubs.items():
+        if ps & touched:
+            core |= reads.get(conn, set())
+    stubs = set()
+    for conn, rs in reads.items():
+        if rs & core:
+            stubs |= pubs.get(conn, set()) - core
+    keep = core | stubs
+
+    def cut(c: ir.Component) -> ir.Component:
+        if c.name not in stubs:
+            return c
+        funcs = tuple(dc_replace(f, normal=dc_replace(f.normal, assumptions=()) if f.normal else None)
+                      for f in c.functionalities)
+        return dc_replace(c, functionalities=funcs)
+
+    def project(s: Configuration) -> Configuration:
+        return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep),
+                             frozenset(r for r in s.roles if r[1] in core
+                                       or (r[1] in stubs and kinds.get((r[1], r[2])) == "output")))
+
+    states = [project(s) for s in plan.states]
+    used = {r[0] for s in states for r in s.roles}
+    sliced = dc_replace(system, components=tuple(cut(c) for c in system.components if c.name in keep),
+                        versions=tuple(cut(c) for c in system.versions if c.name in keep),
+                        connectors=tuple(dc_replace(k, publishers=tuple(r for r in k.publishers if r.component in keep),
+                                                    subscribers=tuple(r for r in k.subscribers if r.component in core))
+                                         for k in system.connectors if k.name in used))
+    goal = dc_replace(plan.goal, components=states[-1].components, roles=states[-1].roles,
+                      degraded=states[-1].degraded)
+    return Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
+                list(plan.notes))
