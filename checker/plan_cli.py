@@ -164,8 +164,16 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
     """Move the deployed OLD architecture to NEW: any mix of added, removed, replaced and rewired
     components and changed guarantees."""
     a, b = load([old], sources), load([new], sources)
-    run(f"migrate {os.path.basename(old)} → {os.path.basename(new)}", a,
-        lambda: plan_migrate(a, b, opts["strategy"]), sources, target=b, **opts)
+    label = f"migrate {os.path.basename(old)} → {os.path.basename(new)}"
+    if any(c.ftm is not None for c in a.components + b.components):
+        # Fault-tolerance mechanisms are planned on their expansions: the nodes that differ change,
+        # the protocols around them are suspended meanwhile, and the rest is kept.
+        from .ftm.expand import expand
+        from .ftm.transition import plan_ftm_migrate
+        run(label, expand(a)[0], lambda: plan_ftm_migrate(a, b, opts["strategy"]).plan, sources,
+            target=expand(b)[0], **opts)
+        return
+    run(label, a, lambda: plan_migrate(a, b, opts["strategy"]), sources, target=b, **opts)
 
 
 def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, *, strategy: str,

@@ -136,3 +136,17 @@ def test_alloy_verification_is_in_the_evidence() -> None:
     alloy = json.loads(r.stdout)["evidence"]["alloy"]
     assert alloy["valid"] is True and alloy["states"] == 8 and alloy["transitions"] == 7
     assert alloy["module_hash"].startswith("sha256:")
+
+
+def test_migrate_between_ftms_plans_on_the_expansions() -> None:
+    ftm = os.path.join(os.path.dirname(CHATTER), "ftm")
+    r = invoke("plan", "migrate", os.path.join(ftm, "deterministic_pbr.arch"),
+               os.path.join(ftm, "deterministic_lfr.arch"), "--no-alloy", "--output-format", "json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    steps = [s for s in doc["plan"]["steps"]]
+    touched = {s.get("component", "") for s in steps}
+    assert any("__r0_dup_protocol" in c for c in touched)           # the protocols are suspended
+    assert not any(c.endswith("_proceed") for c in touched)           # the application replicas are kept
+    kinds = [s["action"] for s in steps]
+    assert kinds[0] == "degrade" and kinds[-1] == "upgrade"
