@@ -315,10 +315,22 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
         at = f"{states[i]} -> " if plan else ""
         if plan:
             names[states[i]] = ("state", str(i))
-        rel["comps"] += [at + comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
-        rel["degraded"] += [at + func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
-        rel["roles"] += [f"{at}{conn_atoms[k]} -> {port_atoms[c, p]}" for k, c, p in sorted(config.roles)
-                         if k in conn_atoms and (c, p) in port_atoms]
+        # grouped (a state -> a union of atoms, a connector -> a union of ports): fewer
+        # products for Alloy to type-check
+        by_conn: dict[str, list[str]] = {}
+        for k, c, p in sorted(config.roles):
+            if k in conn_atoms and (c, p) in port_atoms:
+                by_conn.setdefault(conn_atoms[k], []).append(port_atoms[c, p])
+        groups = {
+            "comps": [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms],
+            "degraded": [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms],
+            "roles": [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()],
+        }
+        for key, terms in groups.items():
+            if plan and terms:
+                rel[key].append(f"{at}{union(terms, 'none')}")
+            else:
+                rel[key] += terms
 
     rate_atoms = []
     for i, hz in enumerate(sorted(rates)):
@@ -350,6 +362,16 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
         if not children:
             sigs.append(f"fact no_{parent} {{ no {parent} }}")
 
+    def grouped(pairs: list[str]) -> list[str]:
+        """`a -> x` terms as `a -> (x + y + ...)`, one per distinct `a` (order kept)."""
+        by_left: dict[str, list[str]] = {}
+        for term in pairs:
+            left, right = term.split(" -> ", 1)
+            by_left.setdefault(left, []).append(right)
+        return [f"{a} -> {union(rs, 'none')}" if len(rs) > 1 else f"{a} -> {rs[0]}" for a, rs in by_left.items()]
+
+    for key in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms", "nguar", "dguar"):
+        rel[key] = grouped(rel[key])
     funs = [
         ("rate_next", "Rate -> Rate", union([f"{a} -> {b}" for (_, a), (_, b) in zip(rate_atoms, rate_atoms[1:])],
                                             _empty("Rate", "Rate"))),
