@@ -40,7 +40,8 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     except AlloyError as err:
         raise with_span(err, text, names, system) from None
     pairs = outcome.eval("unsatisfied")
-    valid = bool(outcome.eval("valid"))
+    # the module's `valid` is `no unsatisfied` (valid_j): one evaluation instead of two
+    valid = not pairs
     failing: set[tuple[str, str, int]] = set()
     for f_atom, a_atom in pairs:
         _, comp, func = names[_atom(f_atom)]
