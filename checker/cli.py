@@ -146,7 +146,7 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
         judged = judge(system, Configuration.initial(system), engine, solver)
     ev = judged.python
     ftm = ftm_diagnostics(system)
-    diags = ftm + [report.assumption_diagnostic(r) for r in ev.unsatisfied]
+    diags = judged.warnings + ftm + [report.assumption_diagnostic(r) for r in ev.unsatisfied]
     safe = judged.valid and not any(d.is_error for d in ftm)
     verdict = "safe" if safe else "unsafe"
     n, bad = len(ev.results), len(ev.unsatisfied)

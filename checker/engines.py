@@ -23,6 +23,10 @@ class EngineUnavailable(Exception):
         self.diagnostic = diagnostic
 
 
+class AlloyTooLarge(EngineUnavailable):
+    """The system is beyond what this Alloy build can translate (its atom capacity, or the heap)."""
+
+
 class EnginesDisagree(Exception):
     def __init__(self, diagnostic: Diagnostic):
         self.diagnostic = diagnostic
@@ -33,11 +37,14 @@ class Judgement:
     python: Evaluation
     valid: bool
     engines: dict[str, Any] = field(default_factory=dict)
+    warnings: list[Diagnostic] = field(default_factory=list)
 
     def how(self) -> str:
         al = self.engines.get("alloy")
         if al is None:
             return " (Python engine)"
+        if al.get("verdict") == "not run":
+            return " (Python engine; too large for Alloy, see the warning)"
         if "python" not in self.engines:
             return f" (Alloy, {al['solver']}, {al['seconds']:.2f} s)"
         return f" (proved by Alloy, {al['solver']}, {al['seconds']:.2f} s; explained by the Python engine)"
@@ -57,7 +64,15 @@ def judge(system: System, config: Configuration, engine: str = "both", solver: s
                              "unsatisfied": [list(x) for x in python_failing(ev)]}
     if engine == "python":
         return Judgement(ev, ev.valid, engines)
-    valid, failing, info = alloy_judgement(system, config, solver)
+    try:
+        valid, failing, info = alloy_judgement(system, config, solver)
+    except AlloyTooLarge as e:
+        if engine != "both":
+            raise
+        # Both engines were asked for, the Python one has answered: say plainly that this answer
+        # has no Alloy proof behind it, rather than refuse to answer.
+        engines["alloy"] = {"verdict": "not run", "reason": e.diagnostic.message}
+        return Judgement(ev, ev.valid, engines, [e.diagnostic])
     engines["alloy"] = info
     if engine == "both" and (valid != ev.valid or failing != python_failing(ev)):
         raise EnginesDisagree(Diagnostic(
@@ -77,15 +92,33 @@ def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple
     except AlloyUnavailable as e:
         raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
                                            notes=("or use --engine python",))) from None
-    except AlloyError as e:
-        raise EngineUnavailable(Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the generated module: {e}",
-                                           Span.unknown(e.module or "<alloy>"),
-                                           notes=("this is a bug in reconf: please report it",))) from None
+    except Exception as e:  # noqa: BLE001 - Java errors arrive as JPype exceptions
+        if not _too_large(e):
+            if isinstance(e, AlloyError):
+                raise EngineUnavailable(Diagnostic(
+                    "RC302", Severity.ERROR, f"Alloy rejected the generated module: {e}",
+                    getattr(e, "span", None) or Span.unknown(e.module or "<alloy>"),
+                    notes=("this is a bug in reconf: please report it",))) from None
+            raise
+        raise AlloyTooLarge(Diagnostic(
+            "RC303", Severity.WARNING,
+            f"{system.name} is too large for the Alloy Analyzer here ({_first_line(e)}); "
+            "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
+            notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
     from .alloy.bridge import AlloyBridge
     used = getattr(AlloyBridge.get(), "last_solver", solver)
     return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
                                                     "seconds": round(v.seconds, 4), "solver": used,
                                                     "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
+
+
+def _too_large(e: BaseException) -> bool:
+    text = f"{type(e).__name__}: {e}"
+    return "capacity exceeded" in text or "OutOfMemoryError" in text
+
+
+def _first_line(e: BaseException) -> str:
+    return (str(e).strip().splitlines() or [type(e).__name__])[0][:160]
 
 
 def unavailable_diagnostic(e: Exception) -> Optional[Diagnostic]:

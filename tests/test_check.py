@@ -106,3 +106,18 @@ def test_redundant_publisher_keeps_topic_satisfied() -> None:
 def path_of(name: str) -> str:
     from tests.examples_table import BY_NAME
     return BY_NAME[name].file
+
+
+def test_too_large_for_alloy_falls_back_to_python_with_a_warning(tmp_path: "object") -> None:
+    import os
+    from bench.gen import generate
+    path = os.path.join(str(tmp_path), "big.arch")
+    with open(path, "w") as f:
+        f.write(generate("fanin", 1000, 1))
+    result = CliRunner().invoke(main, ["check", path, "--output-format", "json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["engines"]["alloy"]["verdict"] == "not run"
+    assert doc["diagnostics"][0]["code"] == "RC303" and doc["diagnostics"][0]["severity"] == "warning"
+    result = CliRunner().invoke(main, ["check", path, "--engine", "alloy"])
+    assert result.exit_code == 2 and "RC303" in result.stderr

@@ -8,6 +8,7 @@ RULES: dict[str, tuple[str, str]] = {
     "RC300": ("engines-disagree", "The Python engine and the Alloy Analyzer disagree"),
     "RC301": ("alloy-unavailable", "Java or the Alloy jar is missing"),
     "RC302": ("alloy-rejected-module", "The Alloy Analyzer rejected a generated module"),
+    "RC303": ("alloy-too-large", "The system is too large for the Alloy Analyzer; the verdict is the Python engine's"),
     "RC401": ("ftm-ill-formed", "A fault-tolerance mechanism expression is not well formed"),
     "RC402": ("ftm-fault-not-covered", "The attached fault-tolerance mechanism does not tolerate a declared fault"),
     "RC403": ("ftm-application-mismatch", "The mechanism needs an application characteristic the component lacks"),
