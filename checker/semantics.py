@@ -13,6 +13,7 @@ from typing import Iterable, Optional
 import networkx as nx
 
 from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, format_number, satisfies
+from reconf_dsl.gcpause import gc_paused
 from reconf_dsl.span import Span
 
 from .config import Configuration, FuncId
@@ -134,6 +135,12 @@ def build_graph(system: System, config: Configuration) -> "nx.DiGraph[tuple[str,
 def evaluate(system: System, config: Configuration, only: Optional[Iterable[FuncId]] = None,
              explain: bool = True) -> Evaluation:
     """Judge every assumption of every present functionality's current mode."""
+    with gc_paused():
+        return _evaluate(system, config, only, explain)
+
+
+def _evaluate(system: System, config: Configuration, only: Optional[Iterable[FuncId]],
+              explain: bool) -> Evaluation:
     g = build_graph(system, config)
     ev = Evaluation(system, config)
     ev.connectors = {n[1]: d["sat"] for n, d in g.nodes(data=True) if n[0] == "conn"}

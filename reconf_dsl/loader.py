@@ -8,6 +8,7 @@ from typing import Optional
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, Related, error
+from .gcpause import gc_paused
 from .parser import parse_text
 from .resolve import resolve
 from .span import Span
@@ -110,11 +111,13 @@ def load_documents(paths: list[str], sources: Sources) -> list[ir.Document]:
 def load(paths: list[str], sources: Optional[Sources] = None) -> ir.System:
     """Read, parse, merge and resolve. Raises DiagnosticError with every error found."""
     sources = sources if sources is not None else Sources()
-    return resolve(load_documents(paths, sources))
+    with gc_paused():
+        return resolve(load_documents(paths, sources))
 
 
 def load_text(text: str, file: str = "<input>", sources: Optional[Sources] = None) -> ir.System:
     """Parse and resolve one in-memory file (includes are not allowed here)."""
     if sources is not None:
         sources.texts[file] = text
-    return resolve([parse_text(text, file)])
+    with gc_paused():
+        return resolve([parse_text(text, file)])

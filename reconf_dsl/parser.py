@@ -5,7 +5,6 @@ names are resolved in `resolve`.
 """
 from __future__ import annotations
 
-import gc
 from fractions import Fraction
 from functools import lru_cache
 from importlib import resources
@@ -16,6 +15,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
+from .gcpause import gc_paused
 from .lexer import Driver
 from .span import Span
 
@@ -338,14 +338,8 @@ class Parser:
         self._ir.sink = DiagnosticSink()
         self._comments.clear()
         try:
-            # The IR is many small objects that all live on: the cyclic collector only costs time here.
-            paused = gc.isenabled()
-            gc.disable()
-            try:
+            with gc_paused():
                 items: list[Any] = self._driver.parse(text)
-            finally:
-                if paused:
-                    gc.enable()
         except UnexpectedInput as e:
             raise DiagnosticError([syntax_diagnostic(e, text, file)]) from None
         self._ir.sink.raise_if_errors()
