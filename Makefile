@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/reconf check examples/chatter.arch
-	-$(BIN)/reconf check examples/chatter_slow.arch
+	$(BIN)/reconf check examples/chatter_slow.arch || echo "(exit $$?: unsafe, as expected for this variant)"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
