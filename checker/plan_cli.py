@@ -20,8 +20,9 @@ from reconf_dsl.loader import Sources, load
 
 from . import report
 from .cli import EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from .plan_options import with_common, with_plan_options
 from .progress import status
-from .planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
+from .planning import NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from .report import OutputFormat
 
 PLAN_FORMAT_VERSION = 1
@@ -59,29 +60,6 @@ def default_files() -> list[str]:
         return found
     raise click.UsageError("say which architecture to plan on with -f FILE "
                            f"({'no' if not found else 'several'} .arch files here)")
-
-
-common_options: list[Callable[[Any], Any]] = [
-    click.option("-f", "--file", "files", multiple=True, type=click.Path(dir_okay=False),
-                 help="the deployed architecture (repeatable; default: the one *.arch here, or $RECONF_ARCH)"),
-    click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True,
-                 help="default: least disruption found; paper: Algorithm 1 of paper 001; exhaustive: optimal search"),
-    click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
-                 help="also verify the whole plan in the Alloy Analyzer"),
-    click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True,
-                 help="alloy: ask Alloy 6 for a least-disruptive plan of at most --max-steps steps (small systems)"),
-    click.option("--max-steps", type=click.IntRange(1, 64), default=12, show_default=True,
-                 help="with --engine alloy: the longest plan considered"),
-    click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script"),
-    click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
-                 default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v)),
-]
-
-
-def with_common(fn: Callable[..., Any]) -> Callable[..., Any]:
-    for option in reversed(common_options):
-        fn = option(fn)
-    return fn
 
 
 @click.group()
@@ -152,13 +130,7 @@ def add_cmd(component: str, source: str, sources: Sources, **opts: Any) -> None:
 @plan.command("migrate")
 @click.argument("old", type=click.Path(dir_okay=False))
 @click.argument("new", type=click.Path(dir_okay=False))
-@click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True)
-@click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True)
-@click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True)
-@click.option("--max-steps", type=click.IntRange(1, 64), default=12, show_default=True)
-@click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script")
-@click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
-              default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
+@with_plan_options
 @guarded("plan")
 def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
     """Move the deployed OLD architecture to NEW: any mix of added, removed, replaced and rewired

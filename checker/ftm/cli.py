@@ -16,7 +16,7 @@ import click
 from reconf_dsl.diagnostics import error
 from reconf_dsl.loader import Sources, load
 
-from ..planning import STRATEGIES
+from ..plan_options import with_common
 from ..report import OutputFormat
 from .expand import expand, to_text
 from .library import compose
@@ -162,27 +162,11 @@ def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str
     sys.exit(EXIT_OK)
 
 
-def _with_common(fn: Any) -> Any:
-    """The options of every `reconf plan` command (as `checker.plan_cli.with_common` has them)."""
-    options = [
-        click.option("-f", "--file", "files", multiple=True, type=click.Path(dir_okay=False),
-                     help="the deployed architecture (repeatable; default: the one *.arch here, or $RECONF_ARCH)"),
-        click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True,
-                     help="default: least disruption found; paper: Algorithm 1 of paper 001; exhaustive: optimal"),
-        click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
-                     help="also verify the whole plan in the Alloy Analyzer"),
-        click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script"),
-        format_option]
-    for option in reversed(options):
-        fn = option(fn)
-    return fn
-
-
 @click.command("transition")
 @click.argument("component")
 @click.argument("new_ftm")
 @click.option("--on", "hosts", help="hosts of the new FTM's replicas, comma-separated (default: as now)")
-@_with_common
+@with_common
 @guarded("plan")
 def transition_cmd(component: str, new_ftm: str, hosts: Optional[str], sources: Sources, **opts: Any) -> None:
     """Change COMPONENT's FTM to NEW_FTM (`LFR`, `PBR(TR)`, `SEC(PBR(TR))`, `none`): a verified plan
