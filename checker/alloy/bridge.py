@@ -32,6 +32,16 @@ SOLVER_ALIASES = {
 
 Tuples = set[tuple[str, ...]]
 
+# A4Options.SatSolver id -> the kodkod SATFactory constant behind it (probed cheaply)
+_SAT_FACTORIES = {
+    "glucose(jni)": "Glucose",
+    "glucose 4.1(jni)": "Glucose41",
+    "minisat(jni)": "MiniSat",
+    "minisatprover(jni)": "MiniSatProver",
+    "lingeling(jni)": "Lingeling",
+    "cryptominisat(jni)": "CryptoMiniSat",
+}
+
 
 @dataclass
 class CommandOutcome:
@@ -142,6 +152,15 @@ class AlloyBridge:
     def _probe(self, solver_id: str) -> bool:
         if solver_id == FALLBACK_SOLVER:
             return True
+        factory = _SAT_FACTORIES.get(solver_id)
+        if factory is not None:
+            # Kodkod loads the native library and reports whether it works; no solve needed
+            from kodkod.engine.satlab import SATFactory  # type: ignore[import-not-found]
+
+            try:
+                return bool(SATFactory.available(getattr(SATFactory, factory)))
+            except Exception:
+                return False
         try:
             probe = "sig A {}\nrun { some A } for 2 expect 1\n"
             outcomes = self._run_checked({"probe.als": probe}, "probe.als", None, solver_id)

@@ -36,12 +36,14 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     text, names = render_instance(system, config)
     bridge = bridge or AlloyBridge.get()
     try:
-        (outcome,) = bridge.run({MAIN: text}, MAIN, "Verdict", solver)
+        # `check Valid` first: over constants the solver folds `valid` to true or false
+        # while translating, so a valid configuration costs no evaluation at all; only a
+        # counterexample is asked which assumptions fail.
+        (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver)
     except AlloyError as err:
         raise with_span(err, text, names, system) from None
-    pairs = outcome.eval("unsatisfied")
-    # the module's `valid` is `no unsatisfied` (valid_j): one evaluation instead of two
-    valid = not pairs
+    valid = not outcome.satisfiable
+    pairs = set() if valid else outcome.eval("unsatisfied")
     failing: set[tuple[str, str, int]] = set()
     for f_atom, a_atom in pairs:
         _, comp, func = names[_atom(f_atom)]
