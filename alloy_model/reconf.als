@@ -119,15 +119,19 @@ fun present_funcs[s: System]: set Functionality {
   (s.comps).funcs
 }
 
+-- The normal and the degraded guarantees of the functionalities fs, per output.
+fun nguar_of[fs: set Functionality]: Output -> Data { fs.nguar }
+fun dguar_of[fs: set Functionality]: Output -> Data { fs.dguar }
+
 -- The guarantee on output o of f in f's current mode.
 fun cur_guar[s: System, f: Functionality, o: Output]: lone Data {
-  f in (s.degraded) implies o.(f.dguar) else o.(f.nguar)
+  f in (s.degraded) implies o.(dguar_of[f]) else o.(nguar_of[f])
 }
 
 -- What each output guarantees now: the current guarantees of the present functionalities.
 fun out_guar[s: System]: Output -> Data {
-  (present_funcs[s] & (s.degraded)).dguar
-  + (present_funcs[s] - (s.degraded)).nguar
+  dguar_of[present_funcs[s] & (s.degraded)]
+  + nguar_of[present_funcs[s] - (s.degraded)]
 }
 
 -- The assumptions of f's current mode (the degraded mode assumes nothing).
@@ -288,7 +292,7 @@ pred degrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre degrade.present
   f not in s.degraded                                      --@pre degrade.normal
   let aff = { k: Connector | not conn_satisfied_no_out[s, k, f.assoc_out]
-                             and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(f.dguar), k.cguar] } |
+                             and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(dguar_of[f]), k.cguar] } |
     all c: s.comps | safe_no_input[s, c, aff.(s.roles) & Input]  --@pre degrade.safe
   s2.comps = s.comps
   s2.degraded = s.degraded + f

@@ -40,6 +40,7 @@ class StateAccess:
     sat: str = "sat"
     store: str | None = None
     joins: bool = False  # connector satisfaction as a join rather than quantifiers
+    guar_atoms: bool = False  # guarantees as atoms (binary relations) rather than a ternary field
 
     def head(self, name: str, params: str) -> str:
         decls = [p for p in ((f"{self.var}: {self.sig}" if self.var else ""), params) if p]
@@ -65,13 +66,13 @@ class StateAccess:
 META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
 # An instance module: one fixed configuration given by constants; every definition is a
 # join over them (no quantifier, no variable), which the solver folds at any size.
-FIXED_STATE = StateAccess(None, sat="sat", joins=True)
+FIXED_STATE = StateAccess(None, sat="sat", joins=True, guar_atoms=True)
 # Configurations as System atoms whose derived sets are stored relations (the planning
 # module's `var` fields).
-PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True)
+PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True, guar_atoms=True)
 # A plan module: the configurations are constant System atoms and every definition is a
 # join over constants, which the solver folds without a variable.
-PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True)
+PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True)
 
 
 def environment() -> jinja2.Environment:
@@ -266,10 +267,12 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
         return data_atoms[key]
 
     comp_atoms, port_atoms, func_atoms = {}, {}, {}
-    inputs, outputs = [], []
+    inputs: list[str] = []
+    outputs: list[str] = []
+    guar_atoms: list[str] = []
     rel: dict[str, list[str]] = {k: [] for k in (
-        "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "nguar",
-        "dguar", "cguar", "envg", "comps", "degraded", "roles")}
+        "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
+        "gout", "gn", "gd", "cguar", "envg", "comps", "degraded", "roles")}
     for c in comps:
         ca = comp_atoms[c.name] = mangle("component", c.name)
         names[ca] = ("component", c.name)
@@ -296,9 +299,14 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
                     rel["assoc_in"].append(f"{fa} -> {pa}")
                 else:
                     rel["assoc_out"].append(f"{fa} -> {pa}")
-                    for mode, key in ((f.normal, "nguar"), (f.degraded, "dguar")):
+                    ga = f"g_{len(guar_atoms)}"
+                    guar_atoms.append(ga)
+                    names[ga] = ("guarantee", c.name, f.name, pname)
+                    rel["gfunc"].append(f"{ga} -> {fa}")
+                    rel["gout"].append(f"{ga} -> {pa}")
+                    for mode, key in ((f.normal, "gn"), (f.degraded, "gd")):
                         guar = mode.guarantee(pname) if mode is not None else None
-                        rel[key].append(f"{fa} -> {pa} -> {data(guar)}")
+                        rel[key].append(f"{ga} -> {data(guar)}")
             if f.normal is not None:
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
@@ -355,10 +363,11 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
     sigs += _one_sigs("Output", outputs, "extends Port ")
     sigs += _one_sigs("Functionality", list(func_atoms.values()))
     sigs += _one_sigs("Connector", list(conn_atoms.values()))
+    sigs += _one_sigs("Guar", guar_atoms)
     # an abstract sig without children could still hold atoms: forbid them
     for parent, children in (("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
                              ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
-                             ("Functionality", func_atoms), ("Connector", conn_atoms)):
+                             ("Functionality", func_atoms), ("Connector", conn_atoms), ("Guar", guar_atoms)):
         if not children:
             sigs.append(f"fact no_{parent} {{ no {parent} }}")
 
@@ -370,7 +379,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
             by_left.setdefault(left, []).append(right)
         return [f"{a} -> {union(rs, 'none')}" if len(rs) > 1 else f"{a} -> {rs[0]}" for a, rs in by_left.items()]
 
-    for key in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms", "nguar", "dguar"):
+    for key in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms"):
         rel[key] = grouped(rel[key])
     funs = [
         ("rate_next", "Rate -> Rate", union([f"{a} -> {b}" for (_, a), (_, b) in zip(rate_atoms, rate_atoms[1:])],
@@ -384,8 +393,10 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
         ("assoc_in", "Functionality -> Input", union(rel["assoc_in"], _empty("Functionality", "Input"))),
         ("assoc_out", "Functionality -> Output", union(rel["assoc_out"], _empty("Functionality", "Output"))),
         ("nasms", "Functionality -> Data", union(rel["nasms"], _empty("Functionality", "Data"))),
-        ("nguar", "Functionality -> Output -> Data", union(rel["nguar"], _empty("Functionality", "Output", "Data"))),
-        ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
+        ("gfunc", "Guar -> Functionality", union(rel["gfunc"], _empty("Guar", "Functionality"))),
+        ("gout", "Guar -> Output", union(rel["gout"], _empty("Guar", "Output"))),
+        ("gn", "Guar -> Data", union(rel["gn"], _empty("Guar", "Data"))),
+        ("gd", "Guar -> Data", union(rel["gd"], _empty("Guar", "Data"))),
         ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
         ("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
     ]
