@@ -10,6 +10,7 @@ definitions reach a configuration.
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,7 +76,10 @@ PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", join
 PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True)
 
 
+@functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
+    """The templates' environment, made once: it caches the compiled templates, and a
+    large architecture renders one module per slice."""
     return jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TEMPLATES)),
         undefined=jinja2.StrictUndefined,
@@ -168,10 +172,28 @@ def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
     return out
 
 
-def render_instance(system: Any, config: Any, module_name: str = "instance") -> tuple[str, dict[str, tuple[str, ...]]]:
+def render_instance(system: Any, config: Any, module_name: str = "instance",
+                    focus: Any = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
-    (checker.config.Configuration); see `_render`."""
-    return _render(system, [config], module_name, plan=False)
+    (checker.config.Configuration); see `_render`.
+
+    With `focus` (a set of component names), the module is the slice that judges only
+    those components: `valid` holds in it exactly when every assumption of the focus's
+    present functionalities holds. It has the focus whole, the connectors their inputs
+    are attached to, and the components publishing on those (their functionalities and
+    outputs, without inputs or assumptions: only their guarantees count). Validity is
+    local (an assumption reads its component's inputs, their connectors and what is
+    attached to them), so the whole configuration is valid exactly when every slice of a
+    partition of its components is."""
+    if focus is None:
+        return _render(system, [config], module_name, plan=False)
+    focus = set(focus)
+    kinds = {(c.name, p.name): p.kind for c in _all_components(system) for p in c.ports}
+    read = {k for k, c, p in config.roles if c in focus and kinds.get((c, p)) == "input"}
+    context = {(c, p) for k, c, p in config.roles
+               if k in read and c not in focus and kinds.get((c, p)) == "output"}
+    return _render(system, [config], module_name, plan=False,
+                   slice_=(focus, context, read))
 
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan") -> tuple[str, dict[str, tuple[str, ...]]]:
@@ -229,7 +251,8 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
     return ("degrade" if degraded else "upgrade"), [("functionality", f)]
 
 
-def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tuple[str, dict[str, tuple[str, ...]]]:
+def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
+            slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -244,6 +267,13 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
 
     names: dict[str, tuple[str, ...]] = {}
     comps = _all_components(system)
+    # a slice (see render_instance): the focus whole; of the other components only the
+    # outputs attached to the connectors the focus reads, and the functionalities
+    # behind them; only those connectors
+    focus, context, read = slice_ if slice_ is not None else (None, set(), None)
+    if focus is not None:
+        publishing = {c for c, _ in context}
+        comps = [c for c in comps if c.name in focus or c.name in publishing]
     configs = [alloy_view(system, c) for c in configs]
 
     # data predicates: one atom per distinct (message, rate)
@@ -276,7 +306,10 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
     for c in comps:
         ca = comp_atoms[c.name] = mangle("component", c.name)
         names[ca] = ("component", c.name)
+        judged = focus is None or c.name in focus
         for p in c.ports:
+            if not judged and (p.kind == "input" or (c.name, p.name) not in context):
+                continue
             pa = port_atoms[c.name, p.name] = mangle("port", c.name, p.name)
             names[pa] = ("port", c.name, p.name)
             if p.kind == "input":
@@ -287,12 +320,14 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
                 outputs.append(pa)
                 rel["outputs"].append(f"{ca} -> {pa}")
         for f in c.functionalities:
+            if not judged and not any((c.name, pname) in port_atoms for pname in f.ports):
+                continue
             fa = func_atoms[c.name, f.name] = mangle("functionality", c.name, f.name)
             names[fa] = ("functionality", c.name, f.name)
             rel["funcs"].append(f"{ca} -> {fa}")
             for pname in f.ports:
                 port = c.port(pname)
-                if port is None:
+                if port is None or (c.name, pname) not in port_atoms:
                     continue
                 pa = port_atoms[c.name, pname]
                 if port.kind == "input":
@@ -307,11 +342,13 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool) -> tu
                     for mode, key in ((f.normal, "gn"), (f.degraded, "gd")):
                         guar = mode.guarantee(pname) if mode is not None else None
                         rel[key].append(f"{ga} -> {data(guar)}")
-            if f.normal is not None:
+            if f.normal is not None and judged:
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
     conn_atoms = {}
     for k in system.connectors:
+        if read is not None and k.name not in read:
+            continue
         ka = conn_atoms[k.name] = mangle("connector", k.name)
         names[ka] = ("connector", k.name)
         rel["cguar"].append(f"{ka} -> {data(k.guarantee)}")

@@ -30,3 +30,18 @@ def test_agree_on_every_example() -> None:
         config = Configuration.initial(system)
         assert alloy_verdict(system, config).valid == ex.safe, ex.name
         assert evaluate(system, config).valid == ex.safe
+
+
+@given(configured())
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_slices_give_the_whole_modules_verdict(case: tuple[ir.System, Configuration]) -> None:
+    """Judged in slices of one or two components (each with the connectors it reads and
+    only the outputs publishing on them), a configuration gets the same verdict and the
+    same failing assumptions as in one module, and as the Python engine."""
+    system, config = case
+    whole = alloy_verdict(system, config, slice_size=10_000)
+    for size in (1, 2):
+        sliced = alloy_verdict(system, config, slice_size=size)
+        assert sliced.valid == whole.valid
+        assert sliced.unsatisfied == whole.unsatisfied
+    assert tuple(sorted(whole.unsatisfied)) == python_failing(evaluate(system, config))

@@ -108,12 +108,30 @@ def path_of(name: str) -> str:
     return BY_NAME[name].file
 
 
-def test_too_large_for_alloy_falls_back_to_python_with_a_warning(tmp_path: "object") -> None:
+def test_a_thousand_components_are_judged_by_alloy_in_slices(tmp_path: "object") -> None:
     import os
     from bench.gen import generate
     path = os.path.join(str(tmp_path), "big.arch")
     with open(path, "w") as f:
-        f.write(generate("fanin", 1000, 1))
+        f.write(generate("fanin", 1000, 1, unsafe=True))
+    result = CliRunner().invoke(main, ["check", path, "--output-format", "json"])
+    assert result.exit_code == 1, result.output
+    doc = json.loads(result.stdout)
+    alloy = doc["engines"]["alloy"]
+    assert alloy["verdict"] == "unsafe" and alloy["unsatisfied"], alloy
+    assert [d["code"] for d in doc["diagnostics"]] and all(d["code"] == "RC201" for d in doc["diagnostics"])
+
+
+def test_too_large_for_alloy_falls_back_to_python_with_a_warning(monkeypatch: "object") -> None:
+    import checker.alloy
+    from checker.alloy import AlloyError
+
+    def too_large(*args: object, **kwargs: object) -> None:
+        # what the analyzer says when a module's atoms exceed what it can index
+        raise AlloyError("Translation capacity exceeded. In this scope, universe contains 50000 atoms")
+
+    monkeypatch.setattr(checker.alloy, "alloy_verdict", too_large)  # type: ignore[attr-defined]
+    path = path_of("chatter")
     result = CliRunner().invoke(main, ["check", path, "--output-format", "json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)

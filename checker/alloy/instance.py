@@ -11,15 +11,29 @@ from .spans import with_span
 MAIN = "instance.als"
 
 
+# Components judged per module. The analyzer's front end is quadratic in the number of
+# atoms (every signature resolves against all the others), so a large architecture is
+# judged as a partition of slices of about this many components each (render_instance
+# with `focus`); validity is local, so the configuration is valid exactly when every
+# slice is.
+SLICE = 32
+
+
 @dataclass(frozen=True)
 class AlloyVerdict:
     """`valid` as Alloy judges it; `unsatisfied` lists (component, functionality,
-    assumption index) of every assumption that does not hold, sorted."""
+    assumption index) of every assumption that does not hold, sorted. `texts` are the
+    modules the analyzer judged: the whole architecture, or one slice each."""
 
     valid: bool
     unsatisfied: tuple[tuple[str, str, int], ...]
     seconds: float
-    text: str  # the instance module, for reports and golden files
+    texts: tuple[str, ...]
+
+    @property
+    def text(self) -> str:
+        """The judged module, or the slices one after another."""
+        return "\n".join(self.texts)
 
 
 def _atom(name: str) -> str:
@@ -27,23 +41,49 @@ def _atom(name: str) -> str:
     return name[:-2] if name.endswith("$0") else name
 
 
+def slices(system: Any, config: Any, size: int = SLICE) -> list[set[str]] | None:
+    """A partition of the present components into slices of `size` in declaration
+    order (neighbours in the file tend to read each other), or None when one module
+    will do."""
+    present = [c.name for c in system.components if c.name in config.components]
+    present += sorted(config.components - set(present))
+    if len(present) <= size:
+        return None
+    return [set(present[i:i + size]) for i in range(0, len(present), size)]
+
+
 def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
-                  bridge: AlloyBridge | None = None) -> AlloyVerdict:
+                  bridge: AlloyBridge | None = None, slice_size: int = SLICE) -> AlloyVerdict:
     """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
-    in Alloy, through an instance module rendered from the shared semantics."""
+    in Alloy, through instance modules rendered from the shared semantics."""
     from codegen.alloy import render_instance
 
-    text, names = render_instance(system, config)
     bridge = bridge or AlloyBridge.get()
-    try:
-        # `check Valid` first: over constants the solver folds `valid` to true or false
-        # while translating, so a valid configuration costs no evaluation at all; only a
-        # counterexample is asked which assumptions fail.
-        (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver)
-    except AlloyError as err:
-        raise with_span(err, text, names, system) from None
-    valid = not outcome.satisfiable
-    pairs = set() if valid else outcome.eval("unsatisfied")
+    parts = slices(system, config, slice_size)
+    focuses: list[set[str] | None] = list(parts) if parts else [None]
+    failing: set[tuple[str, str, int]] = set()
+    texts: list[str] = []
+    seconds = 0.0
+    for focus in focuses:
+        text, names = render_instance(system, config, focus=focus)
+        texts.append(text)
+        try:
+            # `check Valid` first: over constants the solver folds `valid` to true or
+            # false while translating, so a valid configuration costs no evaluation; only
+            # a counterexample is asked which assumptions fail.
+            (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver)
+        except AlloyError as err:
+            raise with_span(err, text, names, system) from None
+        seconds += outcome.elapsed
+        if outcome.satisfiable:
+            failing |= _failing(system, outcome.eval("unsatisfied"), text, names)
+            if not failing:  # a counterexample with nothing failing: say so, not "valid"
+                failing.add(("", "", -1))
+    valid = not failing
+    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts))
+
+
+def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
     failing: set[tuple[str, str, int]] = set()
     for f_atom, a_atom in pairs:
         _, comp, func = names[_atom(f_atom)]
@@ -53,7 +93,7 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
         for index, a in enumerate(functionality.normal.assumptions):
             if _data_atom(a, text, names) == want:
                 failing.add((comp, func, index))
-    return AlloyVerdict(valid, tuple(sorted(failing)), outcome.elapsed, text)
+    return failing
 
 
 def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
