@@ -223,6 +223,12 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
     if al:
         out.print(f"              [green]✓[/] Alloy: {al['states']} states valid, {al['transitions']} transitions "
                   f"are instances of their actions ({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
+        if al.get("slice"):
+            sl = al["slice"]
+            out.print(f"                (on the {plural(sl['components'], 'component')} the plan can affect; "
+                      f"the other {sl['judged_once']} read nothing it changes and were judged once)")
+        if al.get("lossless"):
+            out.print(f"              [green]✓[/] Alloy: no request lost: {'; '.join(al['lossless'])} in every state")
     else:
         out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
     for note in p.notes:

@@ -196,12 +196,15 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
                    slice_=(focus, context, read))
 
 
-def render_plan(system: Any, configs: list[Any], module_name: str = "plan") -> tuple[str, dict[str, tuple[str, ...]]]:
+def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
+                serving: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
-    in the `Verdict` instance."""
-    return _render(system, configs, module_name, plan=True)
+    in the `Verdict` instance. With `serving` ((connector, proxy component) pairs,
+    `Plan.serving`), `lossless_states` are the configurations in which every such proxy is
+    present and normal and every such connector satisfied: no request is lost."""
+    return _render(system, configs, module_name, plan=True, serving=list(serving))
 
 
 def alloy_view(system: Any, config: Any) -> Any:
@@ -252,7 +255,8 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
-            slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
+            serving: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -463,8 +467,16 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             call = f"{action}[{s}, {s2}, {', '.join(alloy_args)}]"
             terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
         ok_steps = union(terms, _empty("System", "Action"))
+        watch = None
+        if serving:
+            proxies = [func_atoms[c, f.name] for _, c in serving for comp in comps if comp.name == c
+                       for f in comp.functionalities if (c, f.name) in func_atoms]
+            conns = [conn_atoms[k] for k, _ in serving if k in conn_atoms]
+            if len(conns) != len(serving) or not proxies:
+                raise ValueError(f"serving names what the architecture lacks: {serving}")
+            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none")}
         text = template.render(st=PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
-                               system_name=system.name, states=states, ok_steps=ok_steps)
+                               system_name=system.name, states=states, ok_steps=ok_steps, serving=watch)
         return text, names
     funs += [
         ("comps", "set Component", union(rel["comps"], "none")),

@@ -41,25 +41,28 @@ def _atom(name: str) -> str:
     return name[:-2] if name.endswith("$0") else name
 
 
-def slices(system: Any, config: Any, size: int = SLICE) -> list[set[str]] | None:
-    """A partition of the present components into slices of `size` in declaration
-    order (neighbours in the file tend to read each other), or None when one module
-    will do."""
-    present = [c.name for c in system.components if c.name in config.components]
-    present += sorted(config.components - set(present))
-    if len(present) <= size:
+def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> list[set[str]] | None:
+    """A partition of the present components (of those in `only`, if given) into slices of
+    `size` in declaration order (neighbours in the file tend to read each other), or None
+    when one module of the whole architecture will do."""
+    judged = config.components if only is None else config.components & set(only)
+    present = [c.name for c in system.components if c.name in judged]
+    present += sorted(judged - set(present))
+    if len(present) <= size and only is None:
         return None
     return [set(present[i:i + size]) for i in range(0, len(present), size)]
 
 
 def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
-                  bridge: AlloyBridge | None = None, slice_size: int = SLICE) -> AlloyVerdict:
+                  bridge: AlloyBridge | None = None, slice_size: int = SLICE,
+                  only: Any = None) -> AlloyVerdict:
     """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
-    in Alloy, through instance modules rendered from the shared semantics."""
+    in Alloy, through instance modules rendered from the shared semantics. With `only` (a
+    set of component names), judge the assumptions of those components alone."""
     from codegen.alloy import render_instance
 
     bridge = bridge or AlloyBridge.get()
-    parts = slices(system, config, slice_size)
+    parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
     failing: set[tuple[str, str, int]] = set()
     texts: list[str] = []
@@ -120,19 +123,23 @@ class AlloyPlanVerdict:
     steps: tuple[tuple[str, ...], ...]
     seconds: float
     text: str
+    # per configuration: no request lost (every `serving` proxy normal, connector satisfied);
+    # all True when the plan names nothing to keep serving
+    lossless: tuple[bool, ...] = ()
 
     @property
     def ok(self) -> bool:
-        return all(self.valid) and all(self.steps)
+        return all(self.valid) and all(self.steps) and all(self.lossless)
 
 
 def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
-                       bridge: AlloyBridge | None = None) -> AlloyPlanVerdict:
+                       bridge: AlloyBridge | None = None, serving: Any = ()) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
-    configuration valid, each step one of the six actions with its preconditions met."""
+    configuration valid, each step one of the six actions with its preconditions met, and,
+    with `serving` ((connector, proxy) pairs), each configuration lossless."""
     from codegen.alloy import render_plan
 
-    text, names = render_plan(system, configs)
+    text, names = render_plan(system, configs, serving=serving)
     bridge = bridge or AlloyBridge.get()
     try:
         (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
@@ -145,4 +152,8 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
         did.setdefault(_atom(s), set()).add(_atom(a).lower())
     valid = tuple(f"S{i}" in valid_states for i in range(n))
     steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
-    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text)
+    lossless = tuple(True for _ in range(n))
+    if serving:
+        kept = {_atom(s) for (s,) in outcome.eval("lossless_states")}
+        lossless = tuple(f"S{i}" in kept for i in range(n))
+    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text, lossless)

@@ -23,8 +23,7 @@ The encoding, in one place:
 - `transition`: a change of FTM (or of the file: `plan_ftm_migrate`) is a migration between
   the two expansions, planned by `checker.planning.plan_migrate` (unchanged nodes kept) in
   three parts: suspend the affected protocols, substitute and link, resume.
-- `slicing`: a plan cut down to the components it can affect, so Alloy verifies a
-  transition among many services in seconds.
+  Every state of a transition keeps the proxies serving (`Plan.serving`): Alloy checks it.
 - `cli`: `reconf ftm select|expand` (`ftm_group`) and `reconf plan transition` (`transition_cmd`).
 
 See docs/ftm.md.

@@ -239,7 +239,9 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         if ni is not None:
             hoods.update(affected_protocols(old, new, oi, ni))
     if not hoods:
-        return Transition(plan_migrate(old, new, strategy), old, new, old_infos, new_infos, [])
+        simple = plan_migrate(old, new, strategy)
+        simple.serving = serving(old_infos, new_infos)
+        return Transition(simple, old, new, old_infos, new_infos, [])
     # The combined system, the target and the renames, from the cheapest planner that succeeds.
     try:
         plan = plan_migrate(old, new, "paper")
@@ -278,10 +280,15 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     post = solve(Problem(system, middle.states[-1], final, renames=dict(plan.renames)), strategy).steps \
         if late or keep else _resume_steps(system, middle.states[-1])
     whole = verify(system, start, pre + middle.steps + post, final, strategy, plan.renames)
-    whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + middle.notes
+    # what the middle part leaves degraded is only so while the protocols are suspended; the
+    # whole plan's own residual notes say what stays degraded at the end
+    passing = set(middle.goal.residual_notes())
+    whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + whole.notes \
+        + [n for n in middle.notes if n not in passing and n not in whole.notes and not n.startswith("verification:")]
     problems = suspension_problems(whole, hoods)
     if problems:
         raise NoSafePlan(problems)
+    whole.serving = serving(old_infos, new_infos)
     return Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True)
 
 
@@ -299,6 +306,15 @@ def plan_ftm_migrate(old_system: ir.System, new_system: ir.System, strategy: str
     old, old_infos = expand(old_system)
     new, new_infos = expand(new_system)
     return _plan(old, new, old_infos, new_infos, strategy)
+
+
+def serving(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[tuple[str, str]]:
+    """(client-facing connector, proxy) of every server protected before and after whose
+    mechanism changes: these must serve their clients in every state of the transition
+    (`Plan.serving`). Servers whose expansion stays as it is are untouched by the plan."""
+    after = {j.server: j for j in new_infos}
+    return [(i.connector, i.proxy) for i in old_infos if i.server in after
+            and (i.composition, sorted(i.components)) != (after[i.server].composition, sorted(after[i.server].components))]
 
 
 def client_side_ok(t: Transition) -> list[str]:

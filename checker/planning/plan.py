@@ -111,6 +111,10 @@ class Plan:
     renames: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     verification: str = "full"      # "full": every state evaluated; "local": see `verify`
+    # (connector, proxy component) pairs that must serve their clients in every state: the
+    # proxy stays in its normal mode and the connector satisfied, so no request is lost
+    # (FTM transitions: a suspended protocol queues requests, see checker.ftm.transition)
+    serving: list[tuple[str, str]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.steps)

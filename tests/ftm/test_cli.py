@@ -56,3 +56,19 @@ def test_plan_transition_refuses_an_ill_formed_ftm() -> None:
     r = CliRunner().invoke(transition_cmd, ["server", "TR(PBR)", "-f", f"{EXAMPLES}/client_server_pbr.arch",
                                             "--no-alloy"])
     assert r.exit_code == 2 and "RC401" in r.output
+
+
+def test_plan_transition_among_services_is_verified_in_alloy_on_its_slice_and_loses_nothing(
+        tmp_path, bridge) -> None:  # type: ignore[no-untyped-def]
+    from bench.bench_ftm import generate
+    path = tmp_path / "services.arch"
+    path.write_text(generate(3, "TR"))
+    r = CliRunner().invoke(transition_cmd, ["server1", "SEC(TR)", "-f", str(path), "--output-format", "json"])
+    assert r.exit_code == 0, r.output
+    alloy = json.loads(r.stdout)["evidence"]["alloy"]
+    assert alloy["valid"], alloy["reason"]
+    assert alloy["lossless"] == ["server1__proxy serves /compute1"]
+    # the other services read nothing the plan changes: judged once, not in every state
+    assert alloy["slice"]["judged_once"] >= 2 * 3  # server0, client0, server2, client2 and their nodes
+    r = CliRunner().invoke(transition_cmd, ["server1", "SEC(TR)", "-f", str(path)])
+    assert r.exit_code == 0 and "no request lost" in r.output

@@ -105,18 +105,44 @@ def test_alloy_verifies_a_nested_transition(bridge) -> None:  # type: ignore[no-
     assert ev["valid"], ev["reason"]
 
 
-@pytest.mark.skipif(not os.environ.get("RECONF_SLOW_TESTS"), reason="about 40 s each; set RECONF_SLOW_TESTS=1")
 @pytest.mark.parametrize("a, b", [("PBR", "LFR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))")])
 def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # type: ignore[no-untyped-def]
     from checker.alloy_plan import alloy_evidence
-    ev = alloy_evidence(transition(a, b).plan)
+    t = transition(a, b)
+    assert t.plan.serving
+    ev = alloy_evidence(t.plan, slice_=False)
     assert ev["valid"], ev["reason"]
+    assert ev["lossless"] and "slice" not in ev
+
+
+def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  # type: ignore[no-untyped-def]
+    """The same states with the proxy degraded in one of them: Alloy finds that state not
+    lossless (requests would reach a proxy that no longer forwards them), and refuses the plan."""
+    from dataclasses import replace as dc_replace
+
+    from checker.alloy import alloy_plan_verdict
+    from checker.config import Configuration
+    t = transition("PBR", "LFR")
+    p = t.plan
+    ((_, proxy),) = p.serving
+    proxy_funcs = {(proxy, f.name) for f in p.system.component(proxy).functionalities}  # type: ignore[union-attr]
+    states = list(p.states)
+    k = len(states) // 2
+    s = states[k]
+    states[k] = Configuration(s.components, s.degraded | frozenset(proxy_funcs), s.roles)
+    verdict = alloy_plan_verdict(p.system, states, serving=p.serving)
+    assert verdict.lossless[k] is False and all(v for i, v in enumerate(verdict.lossless) if i != k)
+    assert not verdict.ok
+    from checker.alloy_plan import alloy_evidence
+    broken = dc_replace(p, states=states)
+    ev = alloy_evidence(broken, slice_=False)
+    assert not ev["valid"] and ev["reason"], ev
 
 
 def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) -> None:  # type: ignore[no-untyped-def]
     from bench.bench_ftm import generate
     from checker.alloy_plan import alloy_evidence
-    from checker.ftm.slicing import slice_plan
+    from checker.planning.slicing import slice_plan
     t = plan_transition(load_text(generate(3, "TR")), "server1", "SEC(TR)")
     sliced = slice_plan(t.plan)
     names = {c.name for c in sliced.system.components + sliced.system.versions}

@@ -9,7 +9,7 @@ in the plan, so what they offer T ∪ R is exactly what they offer in the whole 
 Why the slice suffices: a component outside T ∪ R reads only connectors on which no component
 of T ever publishes, and only T changes modes or attachments, so its assumptions hold in every
 state exactly when they hold in the first (which the Python engine checks on the whole
-architecture, as it checks every state). The assumptions of T ∪ R, and the preconditions of
+architecture, as it checks every state, and Alloy in `checker.alloy_plan`). The assumptions of T ∪ R, and the preconditions of
 each action (on the acting component and on the readers of the connectors it affects, all in
 T ∪ R), depend only on connectors whose every publisher is in the slice.
 """
@@ -20,24 +20,39 @@ from dataclasses import replace as dc_replace
 from reconf_dsl import ir
 
 from ..config import Configuration
-from ..planning import Plan
+from .plan import Plan
 
-__all__ = ["slice_plan"]
+__all__ = ["affected", "slice_plan"]
 
 
-def slice_plan(plan: Plan) -> Plan:
+def _attachments(plan: Plan) -> tuple[dict[tuple[str, str], str], dict[str, set[str]], dict[str, set[str]]]:
     system = plan.system
-    touched = {getattr(a, "component") for a in plan.steps}
     roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
-    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
+    kinds: dict[tuple[str, str], str] = {(c.name, p.name): p.kind for c in system.components + system.versions
+                                         for p in c.ports}
     pubs: dict[str, set[str]] = {}
     reads: dict[str, set[str]] = {}
     for conn, comp, port in roles:
         (pubs if kinds.get((comp, port)) == "output" else reads).setdefault(conn, set()).add(comp)
-    core = set(touched)
+    return kinds, pubs, reads
+
+
+def affected(plan: Plan) -> set[str]:
+    """T ∪ R (see above), with the proxies the plan must keep serving (`Plan.serving`):
+    the components whose assumptions the slice judges."""
+    _, pubs, reads = _attachments(plan)
+    touched = {getattr(a, "component") for a in plan.steps}
+    core = touched | {proxy for _, proxy in plan.serving}
     for conn, ps in pubs.items():
         if ps & touched:
             core |= reads.get(conn, set())
+    return core
+
+
+def slice_plan(plan: Plan) -> Plan:
+    system = plan.system
+    kinds, pubs, reads = _attachments(plan)
+    core = affected(plan)
     stubs = set()
     for conn, rs in reads.items():
         if rs & core:
@@ -66,4 +81,4 @@ def slice_plan(plan: Plan) -> Plan:
     goal = dc_replace(plan.goal, components=states[-1].components, roles=states[-1].roles,
                       degraded=states[-1].degraded)
     return Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
-                list(plan.notes))
+                list(plan.notes), plan.verification, list(plan.serving))
