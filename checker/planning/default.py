@@ -70,31 +70,75 @@ def _loop(system: System, start: Configuration, goal: Goal, make_first: bool) ->
     steps: list[Action] = []
     limit = 10 * (len(start.roles | goal.roles) + len(start.components | goal.components)
                   + len(cat.funcs)) + 20
+    # Upgrades refused in an earlier turn, kept until a step touches what they depend on
+    # (see _touched): without it every turn re-tries every degraded functionality, and a
+    # plan of thousands of degrades would take quadratic time.
+    blocked: set[FuncId] = set()
     for _ in range(limit):
         if goal.reached(config):
             return steps
-        action = _free(system, config, goal, make_first)
+        action = _free(system, config, goal, make_first, blocked)
         macro = [action] if action is not None else _unblock(system, config, goal)
         for a in macro:
-            reasons = check(Snapshot(cat, config), a)
+            st = Snapshot(cat, config)
+            reasons = check(st, a)
             assert not reasons, (a, reasons)
             steps.append(a)
+            touched = _touched(st, a)
             config = effect(system, config, a)
+            if blocked:
+                blocked = {d for d in blocked if d[0] not in touched}
     raise NoSafePlan(["default: no progress (internal limit reached)"])
+
+
+def _touched(st: Snapshot, a: Action) -> set[str]:
+    """The components whose upgrades `a` (applied in `st`) can make possible or impossible:
+    an upgrade of f reads f's component (present, f's mode) and the satisfaction of the
+    connectors its inputs are attached to, which changes only when a publisher on one of
+    them is attached, detached, degraded or upgraded."""
+    comp = getattr(a, "component")
+    out = {comp}
+    if isinstance(a, (Attach, Detach)):
+        out |= st.readers([a.connector])
+    elif isinstance(a, (Degrade, Upgrade)):
+        conns = [k for p in st.cat.comps[comp].ports if p.kind == "output"
+                 for k in st.by_port.get((comp, p.name), [])]
+        out |= st.readers(conns)
+    return out
 
 
 def _weight(system: System, fid: FuncId) -> int:
     return catalogue(system).funcs[fid].criticality
 
 
-def _free(system: System, config: Configuration, goal: Goal, make_first: bool) -> Optional[Action]:
+_ORDER: dict[int, tuple[System, dict[FuncId, int]]] = {}
+
+
+def _upgrade_order(system: System) -> dict[FuncId, int]:
+    """Upgrades are tried most critical first, then by name: each functionality's rank in
+    that order, made once per system (sorting by a key built per call dominated long plans)."""
+    hit = _ORDER.get(id(system))
+    if hit is None or hit[0] is not system:
+        if len(_ORDER) > 16:
+            _ORDER.clear()
+        funcs = catalogue(system).funcs
+        order = sorted(funcs, key=lambda d: (-funcs[d].criticality, d))
+        hit = _ORDER[id(system)] = (system, {d: i for i, d in enumerate(order)})
+    return hit[1]
+
+
+def _free(system: System, config: Configuration, goal: Goal, make_first: bool,
+          blocked: Optional[set[FuncId]] = None) -> Optional[Action]:
     cat = catalogue(system)
     st = Snapshot(cat, config)
     funcs = cat.funcs
-    ups = sorted(config.degraded, key=lambda d: (-funcs[d].criticality, d))
+    blocked = set() if blocked is None else blocked
+    ups = sorted(config.degraded - goal.degraded - blocked, key=_upgrade_order(system).__getitem__)
     for c, f in ups:
-        if c in config.components and (c, f) not in goal.degraded and not check(st, Upgrade(c, f)):
-            return Upgrade(c, f)
+        if c in config.components:
+            if not check(st, Upgrade(c, f)):
+                return Upgrade(c, f)
+            blocked.add((c, f))
     wanted = sorted(r for r in goal.roles - config.roles if r[1] in config.components)
     hurting = {c for c, _ in config.degraded}
     groups = [[r for r in wanted if not st.is_output(r[1], r[2]) and r[1] in hurting],

@@ -15,7 +15,7 @@ from reconf_dsl.ir import System
 
 from ..actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
 from ..config import Configuration
-from .plan import Goal, state_weight
+from .plan import Goal, next_weight, state_weight
 
 __all__ = ["improve", "cost"]
 
@@ -23,12 +23,14 @@ __all__ = ["improve", "cost"]
 def cost(system: System, start: Configuration, steps: Sequence[Action], goal: Goal) -> Optional[tuple[int, int]]:
     """(disruption, length) of `steps`, or None when a step is refused or the goal is missed."""
     cat = catalogue(system)
-    config, total = start, 0
+    config, total, weight = start, 0, state_weight(system, start)
     for a in steps:
         if check(Snapshot(cat, config), a):
             return None
-        config = effect(system, config, a)
-        total += state_weight(system, config)
+        after = effect(system, config, a)
+        weight = next_weight(system, config, weight, a, after)
+        config = after
+        total += weight
     return (total, len(steps)) if goal.reached(config) else None
 
 
@@ -61,12 +63,15 @@ def _tail_cost(system: System, config: Configuration, total: int, steps: Sequenc
                bound: tuple[int, int], budget: _Budget) -> Optional[tuple[int, int]]:
     """Cost of running `steps` from `config` with `total` so far; None if refused or not below `bound`."""
     cat = catalogue(system)
+    weight = state_weight(system, config)
     for a in steps:
         budget.left -= 1
         if check(Snapshot(cat, config), a):
             return None
-        config = effect(system, config, a)
-        total += state_weight(system, config)
+        after = effect(system, config, a)
+        weight = next_weight(system, config, weight, a, after)
+        config = after
+        total += weight
         if total > bound[0]:
             return None
     return (total, bound[1]) if goal.reached(config) else None
@@ -85,9 +90,11 @@ def improve(system: System, start: Configuration, steps: list[Action], goal: Goa
     for _ in range(rounds):
         states = [start]
         weights = [0]
+        weight = state_weight(system, start)
         for a in steps:
             states.append(effect(system, states[-1], a))
-            weights.append(weights[-1] + state_weight(system, states[-1]))
+            weight = next_weight(system, states[-2], weight, a, states[-1])
+            weights.append(weights[-1] + weight)
         best = (weights[-1], len(steps))
         found = None
         for k, cand in _variants(steps):

@@ -95,9 +95,38 @@ def state_weight(system: System, config: Configuration) -> int:
     return w
 
 
-def disruption(system: System, states: Sequence[Configuration]) -> int:
-    """Σ over the states after each step of the criticality of its degraded functionalities."""
-    return sum(state_weight(system, s) for s in states[1:])
+def next_weight(system: System, before: Configuration, weight: int, action: Any, after: Configuration) -> int:
+    """`state_weight(system, after)` from `weight`, the weight of `before`, and the action
+    between them: only what the action changes is counted (a degrade or upgrade changes
+    one functionality, a create or remove one component's), so a long plan is weighed in
+    time linear in its length rather than in length times degradation."""
+    funcs = catalogue(system).funcs
+    kind = getattr(action, "kind", "")
+    if kind in ("attach", "detach"):
+        return weight
+    c = getattr(action, "component", None)
+    comp = catalogue(system).comps.get(c) if c is not None else None
+    if comp is None or kind not in ("degrade", "upgrade", "create", "remove"):
+        return state_weight(system, after)
+
+    def part(config: Configuration) -> int:
+        if c not in config.components:
+            return 0
+        return sum(funcs[(c, f.name)].criticality for f in comp.functionalities if (c, f.name) in config.degraded)
+
+    return weight - part(before) + part(after)
+
+
+def disruption(system: System, states: Sequence[Configuration], steps: Optional[Sequence[Any]] = None) -> int:
+    """Σ over the states after each step of the criticality of its degraded functionalities
+    (weighed step by step when the steps between the states are given)."""
+    if steps is None or len(steps) != len(states) - 1 or not states:
+        return sum(state_weight(system, s) for s in states[1:])
+    total, weight = 0, state_weight(system, states[0])
+    for before, a, after in zip(states, steps, states[1:]):
+        weight = next_weight(system, before, weight, a, after)
+        total += weight
+    return total
 
 
 @dataclass
@@ -189,7 +218,7 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
         notes.append(f"verification: the last state judged in full; the {len(steps) - 1} intermediate states "
                      "re-checked where each step can change them (a full re-evaluation of every state is "
                      f"beyond {FULL_CHECK_LIMIT:,} states × components)")
-    return Plan(system, list(steps), states, strategy, disruption(system, states), goal, dict(renames or {}),
+    return Plan(system, list(steps), states, strategy, disruption(system, states, steps), goal, dict(renames or {}),
                 notes, "full" if full else "local")
 
 
