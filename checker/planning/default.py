@@ -74,10 +74,15 @@ def _loop(system: System, start: Configuration, goal: Goal, make_first: bool) ->
     # (see _touched): without it every turn re-tries every degraded functionality, and a
     # plan of thousands of degrades would take quadratic time.
     blocked: set[FuncId] = set()
+    # The degraded functionalities to try upgrading, as a heap in upgrade order (entries
+    # may be stale: _free skips what is no longer degraded or is blocked).
+    rank = _upgrade_order(system)
+    pool = [(rank[d], d) for d in start.degraded if d in rank]
+    heapq.heapify(pool)
     for _ in range(limit):
         if goal.reached(config):
             return steps
-        action = _free(system, config, goal, make_first, blocked)
+        action = _free(system, config, goal, make_first, blocked, pool)
         macro = [action] if action is not None else _unblock(system, config, goal)
         for a in macro:
             st = Snapshot(cat, config)
@@ -85,9 +90,15 @@ def _loop(system: System, start: Configuration, goal: Goal, make_first: bool) ->
             assert not reasons, (a, reasons)
             steps.append(a)
             touched = _touched(st, a)
-            config = effect(system, config, a)
-            if blocked:
-                blocked = {d for d in blocked if d[0] not in touched}
+            after = effect(system, config, a)
+            for d in after.degraded - config.degraded if isinstance(a, (Degrade, Create)) else ():
+                heapq.heappush(pool, (rank[d], d))
+            config = after
+            released = {d for d in blocked if d[0] in touched}
+            if released:
+                blocked -= released
+                for d in released:
+                    heapq.heappush(pool, (rank[d], d))
     raise NoSafePlan(["default: no progress (internal limit reached)"])
 
 
@@ -128,17 +139,36 @@ def _upgrade_order(system: System) -> dict[FuncId, int]:
 
 
 def _free(system: System, config: Configuration, goal: Goal, make_first: bool,
-          blocked: Optional[set[FuncId]] = None) -> Optional[Action]:
+          blocked: Optional[set[FuncId]] = None,
+          pool: Optional[list[tuple[int, FuncId]]] = None) -> Optional[Action]:
+    """The next action that needs nothing degraded first: the most critical upgrade that
+    holds, else an attach, else a create or a clean-up step. `blocked` and `pool` carry
+    what earlier turns learnt (see _loop); without them every candidate is tried."""
     cat = catalogue(system)
     st = Snapshot(cat, config)
-    funcs = cat.funcs
     blocked = set() if blocked is None else blocked
-    ups = sorted(config.degraded - goal.degraded - blocked, key=_upgrade_order(system).__getitem__)
-    for c, f in ups:
-        if c in config.components:
-            if not check(st, Upgrade(c, f)):
-                return Upgrade(c, f)
-            blocked.add((c, f))
+    if pool is None:
+        rank = _upgrade_order(system)
+        pool = [(rank[d], d) for d in config.degraded if d in rank]
+        heapq.heapify(pool)
+    aside = []
+    found: Optional[Action] = None
+    while pool:
+        item = heapq.heappop(pool)
+        d = item[1]
+        if d not in config.degraded or d in goal.degraded or d in blocked:
+            continue
+        if d[0] not in config.components:
+            aside.append(item)
+            continue
+        if not check(st, Upgrade(*d)):
+            found = Upgrade(*d)
+            break
+        blocked.add(d)
+    for item in aside:
+        heapq.heappush(pool, item)
+    if found is not None:
+        return found
     wanted = sorted(r for r in goal.roles - config.roles if r[1] in config.components)
     hurting = {c for c, _ in config.degraded}
     groups = [[r for r in wanted if not st.is_output(r[1], r[2]) and r[1] in hurting],
