@@ -9,10 +9,13 @@ architecture in a fresh process (wall time, JVM start included; the median of --
 runs), and, in another fresh process, the same work split: JVM start (import and start
 of the bridge), alloy (render, parse and judge every slice: `alloy_verdict`), of which
 solve (the analyzer's commands), and the number of slices (modules) judged.
-Table (b): the `fanin` system with `hub_v2 replaces hub`, planned with
-`plan_replace(system, "hub", "hub_v2")`, then `alloy_plan_verdict` over the plan's states:
-render, parse, solve (evaluation of the verdict included) and total (one call of
-alloy_plan_verdict, render to verdict).
+Table (b): for each shape and size, the system of bench_plan (seed 0, its hub with a
+version), the hub replaced with `plan_replace`, then the plan verified as `reconf plan`
+does, with `checker.alloy_plan.alloy_evidence`: the plan module on the slice the plan can
+affect (lean first), then every other component judged once in the first state. Columns:
+plan time, Alloy time (JVM start excluded), of which the analyzer's commands, the slice's
+components and kind, the components judged once, and the verdict (a plan module beyond
+`alloy_plan.MODULE_BUDGET` state-components is not run).
 A case that fails or runs past --timeout shows the reason instead of figures.
 """
 from __future__ import annotations
@@ -49,26 +52,24 @@ print(json.dumps({"start": t1 - t0, "alloy": t2 - t1, "solve": verdict.seconds,
 
 PLAN_CHILD = r"""
 import json, sys, time
+from bench.gen import hub_component
 from reconf_dsl.loader import load
 from checker.alloy import AlloyBridge
-from checker.alloy.instance import PLAN_MAIN, alloy_plan_verdict
+from checker.alloy_plan import alloy_evidence
 from checker.planning import plan_replace
-from codegen.alloy import render_plan
 system = load([sys.argv[1]])
+shape, n = sys.argv[2], int(sys.argv[3])
 bridge = AlloyBridge.get()
+hub = hub_component(shape, n)
 t0 = time.perf_counter()
-plan = plan_replace(system, "hub", "hub_v2")
+plan = plan_replace(system, hub, hub + "_v2")
 t1 = time.perf_counter()
-text, _ = render_plan(system, plan.states)
+ev = alloy_evidence(plan)
 t2 = time.perf_counter()
-bridge.commands({PLAN_MAIN: text}, PLAN_MAIN)
-t3 = time.perf_counter()
-verdict = alloy_plan_verdict(system, plan.states, bridge=bridge)
-t4 = time.perf_counter()
-# alloy_plan_verdict renders, parses, solves and reads the verdict; `parse` is timed on its
-# own beforehand, and `solve` is the rest
-print(json.dumps({"plan": t1 - t0, "steps": len(plan.steps), "render": t2 - t1, "parse": t3 - t2,
-                  "solve": (t4 - t3) - (t3 - t1), "total": t4 - t3, "ok": verdict.ok}))
+sl = ev.get("slice", {})
+print(json.dumps({"plan": t1 - t0, "steps": len(plan.steps), "alloy": t2 - t1, "solve": ev["seconds"],
+                  "slice": sl.get("components"), "kind": sl.get("kind", "whole"), "once": sl.get("judged_once", 0),
+                  "ok": ev["valid"], "reason": ev.get("reason", ""), "not_run": ev.get("verdict") == "not run"}))
 """
 
 
@@ -76,9 +77,9 @@ def _env() -> dict[str, str]:
     return dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
 
 
-def _child(code: str, path: str, timeout: float) -> dict[str, Any]:
+def _child(code: str, path: str, timeout: float, *args: str) -> dict[str, Any]:
     try:
-        proc = subprocess.run([sys.executable, "-c", code, path], capture_output=True, text=True,
+        proc = subprocess.run([sys.executable, "-c", code, path, *args], capture_output=True, text=True,
                               env=_env(), cwd=ROOT, timeout=timeout)
     except subprocess.TimeoutExpired:
         return {"error": f"over {timeout:g} s"}
@@ -137,15 +138,25 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{shape:<7}{n:>6} {wall:>10} {_s(row, 'start'):>10} {_s(row, 'alloy'):>8} "
                       f"{_s(row, 'solve'):>8} {row.get('slices', '-'):>7}  {verdict}", flush=True)
         print()
-        print("(b) Alloy verification of the plan replacing hub by hub_v2, shape fanin (seconds)")
-        print(f"{'N':>6} {'steps':>6} {'render':>8} {'parse':>8} {'solve':>8} {'total':>8}  verdict")
-        for n in (int(x) for x in args.plan_sizes.split(",") if x):
-            path = _write("fanin", n, True, tmp)
-            row = _child(PLAN_CHILD, path, args.timeout)
-            verdict = row.get("error") or ("accepted" if row["ok"] else "refused")
-            steps = str(row.get("steps", "-"))
-            print(f"{n:>6} {steps:>6} {_s(row, 'render'):>8} {_s(row, 'parse'):>8} {_s(row, 'solve'):>8} "
-                  f"{_s(row, 'total'):>8}  {verdict}", flush=True)
+        print("(b) Alloy verification of the plan replacing the hub (bench_plan's plans, seed 0; seconds;\n"
+              "    target: 1,000 components verified < 10 s): plan = plan_replace, alloy = alloy_evidence\n"
+              "    (the plan module on its slice, then every other component judged once), of which solve")
+        print(f"{'shape':<7}{'N':>6} {'steps':>6} {'plan':>7} {'alloy':>7} {'solve':>7} {'slice':>10} {'once':>6}  verdict")
+        for shape in (x for x in args.shapes.split(",") if x):
+            for n in (int(x) for x in args.plan_sizes.split(",") if x):
+                path = os.path.join(tmp, f"{shape}_{n}_v.arch")
+                with open(path, "w", encoding="utf-8") as f:
+                    f.write(generate(shape, n, 0, version=True))
+                row = _child(PLAN_CHILD, path, args.timeout, shape, str(n))
+                if "error" in row:
+                    verdict = row["error"]
+                elif row["not_run"]:
+                    verdict = "not run: too large"
+                else:
+                    verdict = "verified" if row["ok"] else f"refused: {row['reason'][:60]}"
+                sl = f"{row.get('slice', '-')} {row.get('kind', '')}" if row.get("slice") else row.get("kind", "-")
+                print(f"{shape:<7}{n:>6} {str(row.get('steps', '-')):>6} {_s(row, 'plan'):>7} {_s(row, 'alloy'):>7} "
+                      f"{_s(row, 'solve'):>7} {sl:>10} {str(row.get('once', '-')):>6}  {verdict}", flush=True)
     return 0
 
 

@@ -200,8 +200,9 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
         if use_alloy:
             evidence["alloy"] = alloy_evidence(p, solver)
     if use_alloy and not evidence["alloy"].get("valid", False):
+        said = "could not verify" if evidence["alloy"].get("verdict") == "not run" else "refuted"
         out.fail("gate.policy", "a verified migration plan exists", error(
-            "RC501", f"Alloy refuted the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
+            "RC501", f"Alloy {said} the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
         return
     out.plan = p
     out.plan_doc = plan_document("migrate", old, p, evidence, new)

@@ -162,6 +162,10 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
     if use_alloy:
         from .alloy_plan import alloy_evidence
         evidence["alloy"] = alloy_evidence(p)
+        if evidence["alloy"].get("verdict") == "not run":
+            return no_plan(label, [f"Alloy could not verify the plan: {evidence['alloy']['reason']}; "
+                                   "`--no-alloy` relies on the Python engine's step-by-step verification alone"],
+                           fmt, p, evidence)
         if not evidence["alloy"].get("valid", False):
             return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
                            p, evidence)

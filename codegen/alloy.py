@@ -197,14 +197,16 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
 
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
-                serving: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
+                serving: Any = (), stable: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
     in the `Verdict` instance. With `serving` ((connector, proxy component) pairs,
     `Plan.serving`), `lossless_states` are the configurations in which every such proxy is
-    present and normal and every such connector satisfied: no request is lost."""
-    return _render(system, configs, module_name, plan=True, serving=list(serving))
+    present and normal and every such connector satisfied: no request is lost. With
+    `stable` (connector names, `Plan.stable`), `stable_states` are those in which all of
+    them are satisfied; the plan is safe only if every configuration is one."""
+    return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable))
 
 
 def alloy_view(system: Any, config: Any) -> Any:
@@ -256,7 +258,7 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
-            serving: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -475,8 +477,15 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             if len(conns) != len(serving) or not proxies:
                 raise ValueError(f"serving names what the architecture lacks: {serving}")
             watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none")}
+        kept = None
+        if stable:
+            missing = [k for k in stable if k not in conn_atoms]
+            if missing:
+                raise ValueError(f"stable names connectors the architecture lacks: {missing}")
+            kept = union([conn_atoms[k] for k in stable], "none")
         text = template.render(st=PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
-                               system_name=system.name, states=states, ok_steps=ok_steps, serving=watch)
+                               system_name=system.name, states=states, ok_steps=ok_steps, serving=watch,
+                               stable=kept)
         return text, names
     funs += [
         ("comps", "set Component", union(rel["comps"], "none")),

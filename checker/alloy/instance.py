@@ -126,20 +126,24 @@ class AlloyPlanVerdict:
     # per configuration: no request lost (every `serving` proxy normal, connector satisfied);
     # all True when the plan names nothing to keep serving
     lossless: tuple[bool, ...] = ()
+    # per configuration: every `stable` connector satisfied (all True when none is named)
+    stable: tuple[bool, ...] = ()
 
     @property
     def ok(self) -> bool:
-        return all(self.valid) and all(self.steps) and all(self.lossless)
+        return all(self.valid) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
 def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
-                       bridge: AlloyBridge | None = None, serving: Any = ()) -> AlloyPlanVerdict:
+                       bridge: AlloyBridge | None = None, serving: Any = (),
+                       stable: Any = ()) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
     configuration valid, each step one of the six actions with its preconditions met, and,
-    with `serving` ((connector, proxy) pairs), each configuration lossless."""
+    with `serving` ((connector, proxy) pairs), each configuration lossless, and with `stable`
+    (connector names), each configuration satisfying them."""
     from codegen.alloy import render_plan
 
-    text, names = render_plan(system, configs, serving=serving)
+    text, names = render_plan(system, configs, serving=serving, stable=stable)
     bridge = bridge or AlloyBridge.get()
     try:
         (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
@@ -154,6 +158,10 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
     lossless = tuple(True for _ in range(n))
     if serving:
-        kept = {_atom(s) for (s,) in outcome.eval("lossless_states")}
-        lossless = tuple(f"S{i}" in kept for i in range(n))
-    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text, lossless)
+        serving_states = {_atom(s) for (s,) in outcome.eval("lossless_states")}
+        lossless = tuple(f"S{i}" in serving_states for i in range(n))
+    kept = tuple(True for _ in range(n))
+    if stable:
+        holding = {_atom(s) for (s,) in outcome.eval("stable_states")}
+        kept = tuple(f"S{i}" in holding for i in range(n))
+    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text, lossless, kept)

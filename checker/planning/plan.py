@@ -144,6 +144,9 @@ class Plan:
     # proxy stays in its normal mode and the connector satisfied, so no request is lost
     # (FTM transitions: a suspended protocol queues requests, see checker.ftm.transition)
     serving: list[tuple[str, str]] = field(default_factory=list)
+    # connectors that must stay satisfied in every state: a lean slice leaves out their
+    # readers on that ground (see checker.planning.slicing), and Alloy must prove it
+    stable: list[str] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.steps)

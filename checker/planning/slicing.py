@@ -12,6 +12,20 @@ state exactly when they hold in the first (which the Python engine checks on the
 architecture, as it checks every state, and Alloy in `checker.alloy_plan`). The assumptions of T ∪ R, and the preconditions of
 each action (on the acting component and on the readers of the connectors it affects, all in
 T ∪ R), depend only on connectors whose every publisher is in the slice.
+
+The lean slice (`slice_plan(plan, lean=True)`) is smaller on two counts, both sound because
+satisfaction is monotone (another publisher can only satisfy a connector more, and every
+precondition and `valid` only gain from satisfied connectors):
+- *stable* connectors: those T publishes on that are satisfied in every state. Their readers
+  are left out of R: a reader's assumptions read only whether its connectors are satisfied,
+  so they hold in every state exactly when in the first. The plan module then must prove
+  each stable connector satisfied in every state (`Plan.stable`), which also makes every
+  precondition about their readers vacuous (they are about connectors that become
+  unsatisfied).
+- *witnesses*: of the stubs publishing on a connector, only the first (by name) whose output
+  satisfies it is kept. Proving the plan with fewer publishers proves it with all.
+A lean slice that Alloy refutes may be refuted only for what it left out: the caller then
+verifies the full slice, whose verdict stands.
 """
 from __future__ import annotations
 
@@ -19,10 +33,11 @@ from dataclasses import replace as dc_replace
 
 from reconf_dsl import ir
 
+from ..actions import Snapshot, catalogue
 from ..config import Configuration
 from .plan import Plan
 
-__all__ = ["affected", "slice_plan"]
+__all__ = ["affected", "slice_plan", "stable_connectors"]
 
 
 def _attachments(plan: Plan) -> tuple[dict[tuple[str, str], str], dict[str, set[str]], dict[str, set[str]]]:
@@ -37,26 +52,52 @@ def _attachments(plan: Plan) -> tuple[dict[tuple[str, str], str], dict[str, set[
     return kinds, pubs, reads
 
 
-def affected(plan: Plan) -> set[str]:
+def stable_connectors(plan: Plan) -> set[str]:
+    """The connectors T publishes on (in some state) that are satisfied in every state."""
+    _, pubs, _ = _attachments(plan)
+    touched = {getattr(a, "component") for a in plan.steps}
+    mine = sorted(conn for conn, ps in pubs.items() if ps & touched)
+    cat = catalogue(plan.system)
+    stable = set(mine)
+    for state in plan.states:
+        if not stable:
+            break
+        st = Snapshot(cat, state)
+        stable = {k for k in stable if st.conn_sat(k)}
+    return stable
+
+
+def affected(plan: Plan, stable: frozenset[str] = frozenset()) -> set[str]:
     """T ∪ R (see above), with the proxies the plan must keep serving (`Plan.serving`):
-    the components whose assumptions the slice judges."""
+    the components whose assumptions the slice judges. Readers of `stable` connectors are
+    left out (the lean slice)."""
     _, pubs, reads = _attachments(plan)
     touched = {getattr(a, "component") for a in plan.steps}
     core = touched | {proxy for _, proxy in plan.serving}
     for conn, ps in pubs.items():
-        if ps & touched:
+        if ps & touched and conn not in stable:
             core |= reads.get(conn, set())
     return core
 
 
-def slice_plan(plan: Plan) -> Plan:
+def slice_plan(plan: Plan, lean: bool = False) -> Plan:
+    """The plan on the part of its architecture it can affect (see above)."""
     system = plan.system
     kinds, pubs, reads = _attachments(plan)
-    core = affected(plan)
-    stubs = set()
-    for conn, rs in reads.items():
-        if rs & core:
-            stubs |= pubs.get(conn, set()) - core
+    stable = frozenset(stable_connectors(plan)) if lean else frozenset()
+    core = affected(plan, stable)
+    stubs: set[str] = set()
+    first = plan.states[0] if plan.states else None
+    st = Snapshot(catalogue(system), first) if first is not None else None
+    needed = {conn for conn, rs in reads.items() if rs & core} | stable
+    for conn in sorted(needed):
+        others = sorted(pubs.get(conn, set()) - core)
+        if lean and st is not None and first is not None:
+            k = system.connector(conn)
+            witnesses = {c for kk, c, p in first.roles
+                         if kk == conn and c in others and k is not None and st.output_satisfies(c, p, k.guarantee)}
+            others = [c for c in others if c in witnesses][:1]
+        stubs |= set(others)
     keep = core | stubs
 
     def cut(c: ir.Component) -> ir.Component:
@@ -81,4 +122,4 @@ def slice_plan(plan: Plan) -> Plan:
     goal = dc_replace(plan.goal, components=states[-1].components, roles=states[-1].roles,
                       degraded=states[-1].degraded)
     return Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
-                list(plan.notes), plan.verification, list(plan.serving))
+                list(plan.notes), plan.verification, list(plan.serving), sorted(stable))

@@ -1,0 +1,82 @@
+"""Alloy verification of plans on slices of their architecture (checker.planning.slicing):
+the lean slice, the full slice and the whole architecture give the same verdict, on sound
+plans and on broken ones; a plan too large for the analyzer is not shown as verified."""
+from __future__ import annotations
+
+from dataclasses import replace as dc_replace
+
+import pytest
+from click.testing import CliRunner
+
+from bench.gen import generate, hub_component
+from checker.alloy import AlloyBridge
+from checker.alloy_plan import alloy_evidence
+from checker.cli import main
+from checker.config import Configuration
+from checker.planning import Plan, plan_replace
+from checker.planning.slicing import affected, slice_plan, stable_connectors
+from reconf_dsl.loader import load_text
+
+
+def hub_plan(shape: str, n: int) -> Plan:
+    system = load_text(generate(shape, n, 0, version=True), f"{shape}.arch")
+    hub = hub_component(shape, n)
+    return plan_replace(system, hub, hub + "_v2")
+
+
+@pytest.mark.parametrize("shape", ["fanin", "chain", "tree"])
+def test_lean_full_and_whole_agree_on_a_sound_plan(shape: str, bridge: AlloyBridge) -> None:
+    plan = hub_plan(shape, 40)
+    lean = alloy_evidence(plan)
+    assert lean["valid"], lean["reason"]
+    assert lean["slice"]["kind"] == "lean"
+    whole = alloy_evidence(plan, slice_=False)
+    assert whole["valid"], whole["reason"]
+    # the lean slice left out the readers of the connectors that stay satisfied
+    assert len(affected(plan, frozenset(stable_connectors(plan)))) <= len(affected(plan))
+
+
+def test_fanin_readers_of_a_hub_replaced_make_before_break_are_left_out(bridge: AlloyBridge) -> None:
+    plan = hub_plan("fanin", 60)
+    stable = stable_connectors(plan)
+    assert stable, "make-before-break keeps the hub's topics satisfied"
+    lean = slice_plan(plan, lean=True)
+    full = slice_plan(plan)
+    assert len(lean.system.components) < len(full.system.components)
+    assert set(lean.stable) == stable and not full.stable
+
+
+def _break(plan: Plan, index: int) -> Plan:
+    """The plan with every connector detached in state `index`: no step leads there."""
+    states = list(plan.states)
+    s = states[index]
+    states[index] = Configuration(s.components, s.degraded, frozenset())
+    return dc_replace(plan, states=states)
+
+
+@pytest.mark.parametrize("shape", ["fanin", "chain"])
+def test_a_broken_plan_is_refused_by_every_slice(shape: str, bridge: AlloyBridge) -> None:
+    plan = hub_plan(shape, 40)
+    broken = _break(plan, len(plan.states) // 2)
+    lean = alloy_evidence(broken)
+    whole = alloy_evidence(broken, slice_=False)
+    assert not lean["valid"] and not whole["valid"]
+    assert lean["reason"] and whole["reason"]
+
+
+def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "object",
+                                                                      monkeypatch: pytest.MonkeyPatch,
+                                                                      bridge: AlloyBridge) -> None:
+    import os
+
+    import checker.alloy_plan
+    monkeypatch.setattr(checker.alloy_plan, "MODULE_BUDGET", 10)
+    path = os.path.join(str(tmp_path), "dag.arch")
+    with open(path, "w") as f:
+        f.write(generate("dag", 30, 0, version=True))
+    hub = hub_component("dag", 30)
+    result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path])
+    assert result.exit_code == 1, result.output
+    assert "Alloy could not verify the plan" in result.output and "--no-alloy" in result.output
+    result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path, "--no-alloy"])
+    assert result.exit_code == 0, result.output
