@@ -9,8 +9,8 @@ from .alloy.errors import AlloyError
 from .planning import Plan
 
 
-# states x components of a plan module past which it is not run (about 40 s of work here)
-MODULE_BUDGET = 5_000
+# states x components of a plan module past which it is not run (about a minute of work here)
+MODULE_BUDGET = 40_000
 
 
 def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:

@@ -256,6 +256,42 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
     return ("degrade" if degraded else "upgrade"), [("functionality", f)]
 
 
+def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str, str],
+                    func_atoms: dict[Any, str], conn_atoms: dict[str, str], port_atoms: dict[Any, str],
+                    rel: dict[str, list[str]]) -> None:
+    """The configurations' relations (System -> ...) by what changes: what every state has
+    is written once (`System -> x`), and each other element with the states that have it
+    (`(S3 + S4) -> x`), elements with the same states grouped. A plan changes one element
+    per step, so the text grows with the architecture plus the changes, not with their
+    product."""
+    everywhere = "System"
+    for key in ("comps", "degraded", "roles"):
+        holders: dict[Any, list[int]] = {}
+        for i, config in enumerate(configs):
+            if key == "comps":
+                items: Any = (comp_atoms[n] for n in config.components if n in comp_atoms)
+            elif key == "degraded":
+                items = (func_atoms[cf] for cf in config.degraded if cf in func_atoms)
+            else:
+                items = ((conn_atoms[k], port_atoms[c, p]) for k, c, p in config.roles
+                         if k in conn_atoms and (c, p) in port_atoms)
+            for item in items:
+                holders.setdefault(item, []).append(i)
+        by_states: dict[tuple[int, ...], list[Any]] = {}
+        for item, indices in holders.items():
+            by_states.setdefault(tuple(indices), []).append(item)
+        for held, members in sorted(by_states.items(), key=lambda kv: (len(kv[0]), kv[0])):
+            who = everywhere if len(held) == len(configs) else union([states[i] for i in held], "none")
+            if key == "roles":
+                per_conn: dict[str, list[str]] = {}
+                for k, port in sorted(members):
+                    per_conn.setdefault(k, []).append(port)
+                body = union([f"{k} -> {union(ps, 'none')}" for k, ps in per_conn.items()], "none")
+            else:
+                body = union(sorted(members), "none")
+            rel[key].append(f"{who} -> {body}")
+
+
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
@@ -362,26 +398,20 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         rel["envg"].append(data(e.guarantee))
     # the configuration(s)
     states = [f"S{i}" for i in range(len(configs))]
-    for i, config in enumerate(configs):
-        at = f"{states[i]} -> " if plan else ""
-        if plan:
-            names[states[i]] = ("state", str(i))
-        # grouped (a state -> a union of atoms, a connector -> a union of ports): fewer
-        # products for Alloy to type-check
+    if plan:
+        for i, state in enumerate(states):
+            names[state] = ("state", str(i))
+        _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel)
+    else:
+        (config,) = configs
+        # grouped (a connector -> a union of ports): fewer products for Alloy to type-check
         by_conn: dict[str, list[str]] = {}
         for k, c, p in sorted(config.roles):
             if k in conn_atoms and (c, p) in port_atoms:
                 by_conn.setdefault(conn_atoms[k], []).append(port_atoms[c, p])
-        groups = {
-            "comps": [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms],
-            "degraded": [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms],
-            "roles": [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()],
-        }
-        for key, terms in groups.items():
-            if plan and terms:
-                rel[key].append(f"{at}{union(terms, 'none')}")
-            else:
-                rel[key] += terms
+        rel["comps"] += [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
+        rel["degraded"] += [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
+        rel["roles"] += [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()]
 
     rate_atoms = []
     for i, hz in enumerate(sorted(rates)):
@@ -451,9 +481,11 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         ]
         template = environment().get_template("plan.als.j2")
         terms = []
+        step_calls = []
         for i, (before, after) in enumerate(zip(configs, configs[1:])):
             step = step_action(before, after)
             if step is None:
+                step_calls.append("some none")
                 continue
             action, args = step
             atoms = {"component": comp_atoms, "connector": conn_atoms}
@@ -467,6 +499,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                     alloy_args.append(atoms[kind][value])
             s, s2 = states[i], states[i + 1]
             call = f"{action}[{s}, {s2}, {', '.join(alloy_args)}]"
+            step_calls.append(call)
             terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
         ok_steps = union(terms, _empty("System", "Action"))
         watch = None
@@ -485,7 +518,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             kept = union([conn_atoms[k] for k in stable], "none")
         text = template.render(st=PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
                                system_name=system.name, states=states, ok_steps=ok_steps, serving=watch,
-                               stable=kept)
+                               stable=kept, step_calls=step_calls)
         return text, names
     funs += [
         ("comps", "set Component", union(rel["comps"], "none")),

@@ -110,6 +110,19 @@ def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
 
 
 ACTIONS = ("remove", "create", "detach", "attach", "degrade", "upgrade")
+
+
+def _planned_actions(system: Any, configs: list[Any]) -> list[tuple[str, ...]]:
+    """Per step, the action the module's `plan_safe` required of it (the one the difference
+    between the two configurations is): what a plan Alloy found safe performs."""
+    from codegen.alloy import alloy_view, step_action
+
+    out: list[tuple[str, ...]] = []
+    views = [alloy_view(system, c) for c in configs]
+    for before, after in zip(views, views[1:]):
+        step = step_action(before, after)
+        out.append((step[0],) if step is not None else ())
+    return out
 PLAN_MAIN = "plan.als"
 
 
@@ -145,11 +158,17 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
 
     text, names = render_plan(system, configs, serving=serving, stable=stable)
     bridge = bridge or AlloyBridge.get()
+    n = len(configs)
     try:
+        # `check PlanSafe` first: over constants it folds while translating, so a safe plan
+        # costs no evaluation; only a counterexample is asked what fails where
+        (safe,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "PlanSafe", solver)
+        if not safe.satisfiable:
+            every = tuple(True for _ in range(n))
+            return AlloyPlanVerdict(every, tuple(_planned_actions(system, configs)), safe.elapsed, text, every, every)
         (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
     except AlloyError as err:
         raise with_span(err, text, names, system) from None
-    n = len(configs)
     valid_states = {_atom(s) for (s,) in outcome.eval("valid_states")}
     did: dict[str, set[str]] = {}
     for s, a in outcome.eval("ok_steps"):
