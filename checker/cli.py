@@ -153,13 +153,14 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                     (len(system.connectors), "connector"), (n, "assumption")))
     how = judged.how()
-    ftm_note = f"; {plural(len(ftm), 'fault-tolerance finding')}" if ftm else ""
+    # the engines' note (`how`) is about the assumptions; the FTM rules are the Python engine's
+    ftm_note = f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules)" if ftm else ""
     if safe:
-        line = f"{system.name} — {summary}, all hold{ftm_note}{how}"
+        line = f"{system.name} — {summary}, all hold{how}{ftm_note}"
         human = f"[bold green]✓ safe[/]: {line}"
     else:
         held = f"{bad} do not hold" if bad else "all hold"
-        line = f"{system.name} — {summary}, {held}{ftm_note}{how}"
+        line = f"{system.name} — {summary}, {held}{how}{ftm_note}"
         human = f"[bold red]✗ unsafe[/]: {line}"
     rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")
     emit_report(rep, output_format, sources,
