@@ -232,7 +232,7 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
             out.print(f"                (on the {plural(sl['components'], 'component')} the plan can affect; "
                       f"the other {sl['judged_once']} read nothing it changes and were judged once)")
         if al.get("lossless"):
-            out.print(f"              [green]✓[/] Alloy: no request lost: {'; '.join(al['lossless'])} in every state")
+            out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
     else:
         out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
     for note in p.notes:
