@@ -123,6 +123,8 @@ def _planned_actions(system: Any, configs: list[Any]) -> list[tuple[str, ...]]:
         step = step_action(before, after)
         out.append((step[0],) if step is not None else ())
     return out
+
+
 PLAN_MAIN = "plan.als"
 
 

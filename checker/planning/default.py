@@ -139,18 +139,12 @@ def _upgrade_order(system: System) -> dict[FuncId, int]:
 
 
 def _free(system: System, config: Configuration, goal: Goal, make_first: bool,
-          blocked: Optional[set[FuncId]] = None,
-          pool: Optional[list[tuple[int, FuncId]]] = None) -> Optional[Action]:
+          blocked: set[FuncId], pool: list[tuple[int, FuncId]]) -> Optional[Action]:
     """The next action that needs nothing degraded first: the most critical upgrade that
     holds, else an attach, else a create or a clean-up step. `blocked` and `pool` carry
-    what earlier turns learnt (see _loop); without them every candidate is tried."""
+    what earlier turns learnt (see _loop), and are updated here."""
     cat = catalogue(system)
     st = Snapshot(cat, config)
-    blocked = set() if blocked is None else blocked
-    if pool is None:
-        rank = _upgrade_order(system)
-        pool = [(rank[d], d) for d in config.degraded if d in rank]
-        heapq.heapify(pool)
     aside = []
     found: Optional[Action] = None
     while pool:

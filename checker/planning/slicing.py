@@ -40,25 +40,27 @@ from .plan import Plan
 __all__ = ["affected", "slice_plan", "stable_connectors"]
 
 
-def _attachments(plan: Plan) -> tuple[dict[tuple[str, str], str], dict[str, set[str]], dict[str, set[str]]]:
-    system = plan.system
-    roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
-    kinds: dict[tuple[str, str], str] = {(c.name, p.name): p.kind for c in system.components + system.versions
-                                         for p in c.ports}
-    pubs: dict[str, set[str]] = {}
-    reads: dict[str, set[str]] = {}
-    for conn, comp, port in roles:
-        (pubs if kinds.get((comp, port)) == "output" else reads).setdefault(conn, set()).add(comp)
-    return kinds, pubs, reads
+class _Attachments:
+    """Who is attached where in some state of the plan, and what the plan acts on: read
+    once per plan and shared by the functions below."""
+
+    def __init__(self, plan: Plan) -> None:
+        system = plan.system
+        roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
+        self.kinds: dict[tuple[str, str], str] = {(c.name, p.name): p.kind for c in system.components + system.versions
+                                                  for p in c.ports}
+        self.pubs: dict[str, set[str]] = {}
+        self.reads: dict[str, set[str]] = {}
+        for conn, comp, port in roles:
+            (self.pubs if self.kinds.get((comp, port)) == "output" else self.reads).setdefault(conn, set()).add(comp)
+        self.touched = {getattr(a, "component") for a in plan.steps}
 
 
-def stable_connectors(plan: Plan) -> set[str]:
+def stable_connectors(plan: Plan, att: _Attachments | None = None) -> set[str]:
     """The connectors T publishes on (in some state) that are satisfied in every state."""
-    _, pubs, _ = _attachments(plan)
-    touched = {getattr(a, "component") for a in plan.steps}
-    mine = sorted(conn for conn, ps in pubs.items() if ps & touched)
+    att = att or _Attachments(plan)
     cat = catalogue(plan.system)
-    stable = set(mine)
+    stable = {conn for conn, ps in att.pubs.items() if ps & att.touched}
     for state in plan.states:
         if not stable:
             break
@@ -67,35 +69,35 @@ def stable_connectors(plan: Plan) -> set[str]:
     return stable
 
 
-def affected(plan: Plan, stable: frozenset[str] = frozenset()) -> set[str]:
+def affected(plan: Plan, stable: frozenset[str] = frozenset(), att: _Attachments | None = None) -> set[str]:
     """T ∪ R (see above), with the proxies the plan must keep serving (`Plan.serving`):
     the components whose assumptions the slice judges. Readers of `stable` connectors are
     left out (the lean slice)."""
-    _, pubs, reads = _attachments(plan)
-    touched = {getattr(a, "component") for a in plan.steps}
-    core = touched | {proxy for _, proxy in plan.serving}
-    for conn, ps in pubs.items():
-        if ps & touched and conn not in stable:
-            core |= reads.get(conn, set())
+    att = att or _Attachments(plan)
+    core = att.touched | {proxy for _, proxy in plan.serving}
+    for conn, ps in att.pubs.items():
+        if ps & att.touched and conn not in stable:
+            core |= att.reads.get(conn, set())
     return core
 
 
 def slice_plan(plan: Plan, lean: bool = False) -> Plan:
     """The plan on the part of its architecture it can affect (see above)."""
     system = plan.system
-    kinds, pubs, reads = _attachments(plan)
-    stable = frozenset(stable_connectors(plan)) if lean else frozenset()
-    core = affected(plan, stable)
+    att = _Attachments(plan)
+    kinds, pubs, reads = att.kinds, att.pubs, att.reads
+    stable = frozenset(stable_connectors(plan, att)) if lean else frozenset()
+    core = affected(plan, stable, att)
     stubs: set[str] = set()
-    first = plan.states[0] if plan.states else None
-    st = Snapshot(catalogue(system), first) if first is not None else None
+    cat = catalogue(system)
+    st = Snapshot(cat, plan.states[0]) if lean and plan.states else None
     needed = {conn for conn, rs in reads.items() if rs & core} | stable
     for conn in sorted(needed):
         others = sorted(pubs.get(conn, set()) - core)
-        if lean and st is not None and first is not None:
-            k = system.connector(conn)
-            witnesses = {c for kk, c, p in first.roles
-                         if kk == conn and c in others and k is not None and st.output_satisfies(c, p, k.guarantee)}
+        if st is not None:
+            # one witness: the first untouched publisher whose output satisfies the connector
+            k = cat.conns.get(conn)
+            witnesses = {c for c, p in st.pubs.get(conn, ()) if k is not None and st.output_satisfies(c, p, k.guarantee)}
             others = [c for c in others if c in witnesses][:1]
         stubs |= set(others)
     keep = core | stubs
