@@ -269,8 +269,8 @@ pred create[s, s2: System, c: Component] {
 -- Detach port p from connector k.
 pred detach[s, s2: System, k: Connector, p: Port] {
   p in k.(s.roles)                                         --@pre detach.attached
-  p in Input implies (some c: s.comps | p in c.inputs and safe_no_input[s, c, p])  --@pre detach.input
-  (p in Output and not conn_satisfied_no_out[s, k, p]) implies (all c: s.comps | safe_no_input[s, c, k.(s.roles) & Input])  --@pre detach.output
+  p in Input implies (some c: s.comps & inputs.p | safe_no_input[s, c, p])  --@pre detach.input
+  (p in Output and not conn_satisfied_no_out[s, k, p]) implies (all c: s.comps & inputs.(k.(s.roles)) | safe_no_input[s, c, k.(s.roles) & Input])  --@pre detach.output
   s2.comps = s.comps
   s2.degraded = s.degraded
   s2.roles = s.roles - k -> p
@@ -291,9 +291,9 @@ pred attach[s, s2: System, k: Connector, p: Port] {
 pred degrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre degrade.present
   f not in s.degraded                                      --@pre degrade.normal
-  let aff = { k: Connector | not conn_satisfied_no_out[s, k, f.assoc_out]
+  let aff = { k: (s.roles).(f.assoc_out) | not conn_satisfied_no_out[s, k, f.assoc_out]
                              and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(dguar_of[f]), k.cguar] } |
-    all c: s.comps | safe_no_input[s, c, aff.(s.roles) & Input]  --@pre degrade.safe
+    all c: s.comps & inputs.(aff.(s.roles)) | safe_no_input[s, c, aff.(s.roles) & Input]  --@pre degrade.safe
   s2.comps = s.comps
   s2.degraded = s.degraded + f
   s2.roles = s.roles
