@@ -11,10 +11,11 @@ of the bridge), alloy (render, parse and judge every slice: `alloy_verdict`), of
 solve (the analyzer's commands), and the number of slices (modules) judged.
 Table (b): for each shape and size, the system of bench_plan (seed 0, its hub with a
 version), the hub replaced with `plan_replace`, then the plan verified as `reconf plan`
-does, with `checker.alloy_plan.alloy_evidence`: the plan module on the slice the plan can
-affect (lean first), then every other component judged once in the first state. Columns:
-plan time, Alloy time (JVM start excluded), of which the analyzer's commands, the slice's
-components and kind, the components judged once, and the verdict (a plan module beyond
+does, with `checker.alloy_plan.alloy_evidence`: the plan in windows of consecutive steps,
+each module on the slice its window can affect (lean first), then every other component
+judged once in the first state. Columns: plan time, Alloy time (JVM start excluded), of
+which the analyzer's commands, the windows, the largest window's slice (components and
+kind), the components judged once, and the verdict (a one-step module beyond
 `alloy_plan.MODULE_BUDGET` state-components is not run).
 A case that fails or runs past --timeout shows the reason instead of figures.
 """
@@ -69,6 +70,7 @@ t2 = time.perf_counter()
 sl = ev.get("slice", {})
 print(json.dumps({"plan": t1 - t0, "steps": len(plan.steps), "alloy": t2 - t1, "solve": ev["seconds"],
                   "slice": sl.get("components"), "kind": sl.get("kind", "whole"), "once": sl.get("judged_once", 0),
+                  "windows": sl.get("windows", 1),
                   "ok": ev["valid"], "reason": ev.get("reason", ""), "not_run": ev.get("verdict") == "not run"}))
 """
 
@@ -140,8 +142,10 @@ def main(argv: list[str] | None = None) -> int:
         print()
         print("(b) Alloy verification of the plan replacing the hub (bench_plan's plans, seed 0; seconds;\n"
               "    target: 1,000 components verified < 10 s): plan = plan_replace, alloy = alloy_evidence\n"
-              "    (the plan module on its slice, then every other component judged once), of which solve")
-        print(f"{'shape':<7}{'N':>6} {'steps':>6} {'plan':>7} {'alloy':>7} {'solve':>7} {'slice':>10} {'once':>6}  verdict")
+              "    (the plan's windows of steps, each module on the slice it can affect, then every other\n"
+              "    component judged once), of which solve; slice = the largest window's components")
+        print(f"{'shape':<7}{'N':>6} {'steps':>6} {'plan':>7} {'alloy':>7} {'solve':>7} {'windows':>8} {'slice':>10} "
+              f"{'once':>6}  verdict")
         for shape in (x for x in args.shapes.split(",") if x):
             for n in (int(x) for x in args.plan_sizes.split(",") if x):
                 path = os.path.join(tmp, f"{shape}_{n}_v.arch")
@@ -156,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
                     verdict = "verified" if row["ok"] else f"refused: {row['reason'][:60]}"
                 sl = f"{row.get('slice', '-')} {row.get('kind', '')}" if row.get("slice") else row.get("kind", "-")
                 print(f"{shape:<7}{n:>6} {str(row.get('steps', '-')):>6} {_s(row, 'plan'):>7} {_s(row, 'alloy'):>7} "
-                      f"{_s(row, 'solve'):>7} {sl:>10} {str(row.get('once', '-')):>6}  {verdict}", flush=True)
+                      f"{_s(row, 'solve'):>7} {str(row.get('windows', '-')):>8} {sl:>10} {str(row.get('once', '-')):>6}"
+                      f"  {verdict}", flush=True)
     return 0
 
 

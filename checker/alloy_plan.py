@@ -3,7 +3,8 @@ action the plan says it is, with that action's preconditions (the meta-model's p
 from __future__ import annotations
 
 import hashlib
-from typing import Any
+from dataclasses import replace as dc_replace
+from typing import Any, Callable
 
 from .alloy.errors import AlloyError
 from .planning import Plan
@@ -11,6 +12,10 @@ from .planning import Plan
 
 # states x components of a plan module past which it is not run (about a minute of work here)
 MODULE_BUDGET = 40_000
+# states x components of one window of a plan (see alloy_evidence): about half a second here
+WINDOW_BUDGET = 3_000
+# atoms past which a ternary relation cannot be indexed (universe³ < 2³¹)
+TERNARY_ATOMS = 1_280
 
 
 def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:
@@ -18,88 +23,182 @@ def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, 
             "transitions": len(plan.steps), "solver": solver, "seconds": round(seconds, 3)}
 
 
-def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True) -> dict[str, Any]:
+def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
+                   progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Evidence for the plan document; `valid` is False (with a `reason`) when Alloy refutes it.
 
-    With `slice_` (the default), the plan module holds only the part of the architecture the
-    plan can affect (`checker.planning.slicing`), lean first (readers of connectors that stay
-    satisfied left out, one witness per connector among the untouched publishers), then, if
-    Alloy refutes the lean slice, the full one, whose verdict stands. The assumptions of every
-    other component read nothing the plan changes, and Alloy judges them once, in the first
-    configuration. A plan that must keep proxies serving (`Plan.serving`) is also checked
-    lossless in every state. Raises the bridge's AlloyUnavailable when Java or the jar is
-    missing."""
+    With `slice_` (the default), the plan is verified in *windows*: runs of consecutive
+    steps, each module holding the window's states on the part of the architecture the
+    window can affect (`checker.planning.slicing`), lean first (readers of connectors that
+    stay satisfied left out, one witness per connector among the untouched publishers),
+    then, if Alloy refutes the lean slice, the full one, whose verdict stands. A window is
+    as long as keeps its module within `WINDOW_BUDGET` state-components (halved until it
+    does, or until the analyzer can index it).
+
+    Why windows suffice: every state of the plan is judged in the window that holds it
+    (a window's last state is the next one's first), every step in its window, and
+    validity is local to components. The components outside the first window's slice
+    are judged once, in the first configuration. A component outside a later window's
+    slice is valid at that window's start (induction over the windows: its last judgement,
+    in an earlier window or in the first configuration, stands because nothing it reads
+    has changed since) and reads nothing the window changes, so it stays valid through it.
+
+    A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
+    every state. `progress` is told, before each window, which steps it holds. Raises the
+    bridge's AlloyUnavailable when Java or the jar is missing."""
+    if not slice_ or not plan.steps:
+        return _whole(plan, solver)
     from .alloy import alloy_verdict
-    from .alloy.bridge import AlloyBridge
     from .planning.slicing import affected, slice_plan
 
     seconds = 0.0
     texts: list[str] = []
-    target, reason, tried = plan, "", []
-    for lean in ((True, False) if slice_ and plan.states else (None,)):
-        target = slice_plan(plan, lean=lean) if lean is not None else plan
-        comps = len(target.system.components) + len(target.system.versions)
-        if len(target.states) * comps > MODULE_BUDGET:
-            # the module lists every state: past this, the analyzer takes minutes or fails
-            return _not_run(plan, solver, seconds, f"the plan module would list {len(target.states)} states of "
-                            f"{comps} components, beyond what the Alloy Analyzer verifies in reasonable time "
-                            f"({MODULE_BUDGET:,} state-components)")
+    reason, kinds, widths, largest = "", set(), [], 0
+    outside: set[str] = set()
+    k, width = 0, len(plan.steps)
+    while k < len(plan.steps) and not reason:
+        width = min(width, len(plan.steps) - k)
+        window = _window(plan, k, width)
+        lean = slice_plan(window, lean=True)
+        comps = _size(lean)
+        if width > 1 and (len(lean.states) * comps > WINDOW_BUDGET or _atoms(lean) > TERNARY_ATOMS):
+            width = max(1, min(width // 2, WINDOW_BUDGET // (2 * comps)))
+            continue
+        if len(lean.states) * comps > MODULE_BUDGET:
+            return _not_run(plan, solver, seconds, _too_big(lean))
+        if progress is not None:
+            progress(f"verifying steps {k + 1}–{k + width} of {len(plan.steps)} in the Alloy Analyzer "
+                     f"({comps} components)…")
         try:
-            reason, spent, text = _judge(plan, target, solver)
+            reason, spent, text = _judge(plan, lean, solver, k, binary=width == 1)
+            target = lean
+            if reason:
+                # refuted on the lean slice: the full slice decides
+                seconds += spent
+                texts.append(text)
+                target = slice_plan(window)
+                if len(target.states) * _size(target) > MODULE_BUDGET:
+                    return _not_run(plan, solver, seconds, _too_big(target))
+                reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
         except AlloyError as err:
             if "capacity exceeded" not in str(err):
                 raise
-            return _not_run(plan, solver, seconds, f"the plan module of {len(target.states)} states of {comps} "
-                            "components has more atoms than the Alloy Analyzer can index")
+            width //= 2  # a window of one step falls back on binary relations instead
+            continue
         seconds += spent
         texts.append(text)
-        tried.append("lean" if lean else "full" if lean is not None else "whole")
-        if not reason:
-            break
-    judged = {c.name for c in target.system.components + target.system.versions} if target is not plan else set()
-    outside = set(plan.states[0].components) - affected(plan, frozenset(target.stable)) \
-        if target is not plan else set()
+        kinds.add("lean" if target is lean else "full")
+        widths.append(width)
+        largest = max(largest, _size(target))
+        if k == 0:
+            outside = set(plan.states[0].components) - affected(window, frozenset(target.stable))
+        k += width
+        width *= 2
     if not reason and outside:
         first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
         seconds += first.seconds
         texts += list(first.texts)
         if not first.valid:
             reason = "the initial configuration is not valid"
+    evidence = _evidence(plan, solver, reason, seconds, texts)
+    evidence["slice"] = {"components": largest, "judged_once": len(outside), "windows": len(widths),
+                         "kind": "full" if "full" in kinds else "lean"}
+    return evidence
+
+
+def _whole(plan: Plan, solver: str) -> dict[str, Any]:
+    """The plan judged in one module on its whole architecture."""
+    if len(plan.states) * _size(plan) > MODULE_BUDGET:
+        return _not_run(plan, solver, 0.0, _too_big(plan))
+    try:
+        reason, seconds, text = _judge(plan, plan, solver)
+    except AlloyError as err:
+        if "capacity exceeded" not in str(err):
+            raise
+        return _not_run(plan, solver, 0.0, f"the plan module of {len(plan.states)} states of {_size(plan)} "
+                        "components has more atoms than the Alloy Analyzer can index")
+    return _evidence(plan, solver, reason, seconds, [text])
+
+
+def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
+    from .alloy.bridge import AlloyBridge
+
     used = getattr(AlloyBridge.get(), "last_solver", solver)
     evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
                 "transitions": len(plan.steps), "solver": used, "seconds": round(seconds, 3),
                 "module_hash": "sha256:" + hashlib.sha256("\n".join(texts).encode("utf-8")).hexdigest()}
-    if target is not plan:
-        evidence["slice"] = {"components": len(judged), "judged_once": len(outside), "kind": tried[-1],
-                             "stable_connectors": len(target.stable)}
     if plan.serving:
         evidence["lossless"] = [f"{proxy} serves {conn}" for conn, proxy in plan.serving]
     return evidence
 
 
-def _judge(plan: Plan, target: Plan, solver: str) -> tuple[str, float, str]:
-    """Alloy's verdict on `target` (the plan or a slice of it): why it is refused ("" when
-    it is not), the analyzer's time, and the module."""
+def _window(plan: Plan, k: int, width: int) -> Plan:
+    """Steps k .. k + width - 1 of `plan`, with the states around them."""
+    return dc_replace(plan, steps=plan.steps[k:k + width], states=plan.states[k:k + width + 1],
+                      stable=[], notes=[])
+
+
+def _atoms(target: Plan) -> int:
+    """About how many atoms the plan module of `target` has (an upper bound, up to a few
+    integers): states, components, ports, functionalities, guarantees, connectors, data."""
+    system = target.system
+    count = len(target.states) + len(system.connectors) + 24
+    data: set[Any] = {k.guarantee for k in system.connectors}
+    for c in system.components + system.versions:
+        count += 1 + len(c.ports) + len(c.functionalities)
+        data |= {p.assumption for p in c.ports if p.kind == "input"}
+        for f in c.functionalities:
+            outs = [p for p in f.ports if (q := c.port(p)) is not None and q.kind == "output"]
+            count += len(outs)
+            data |= {m.guarantee(p) for m in (f.normal, f.degraded) if m is not None for p in outs}
+    return count + 2 * len(data)
+
+
+def _size(plan: Plan) -> int:
+    return len(plan.system.components) + len(plan.system.versions)
+
+
+def _too_big(target: Plan) -> str:
+    # the module lists every state: past this, the analyzer takes minutes or fails
+    return (f"the plan module would list {len(target.states)} states of {_size(target)} components, beyond what "
+            f"the Alloy Analyzer verifies in reasonable time ({MODULE_BUDGET:,} state-components)")
+
+
+def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool = True) -> tuple[str, float, str]:
+    """Alloy's verdict on `target` (the plan, or a slice of its steps from `offset` on):
+    why it is refused ("" when it is not), the analyzer's time, and the module. With
+    `binary`, a module with too many atoms for ternary relations is written with binary
+    ones (about 3x slower to translate) rather than refused."""
     from .alloy import alloy_plan_verdict
 
-    verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                 stable=target.stable)
+    try:
+        verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
+                                     stable=target.stable)
+    except AlloyError as err:
+        if "capacity exceeded" not in str(err) or not binary:
+            raise
+        # too many atoms for the ternary roles: the same module through binary relations
+        verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
+                                     stable=target.stable, binary=True)
+
+    def after(i: int) -> str:
+        """State i of the module, in the plan's words."""
+        n = offset + i
+        return "the initial configuration" if n == 0 else f"the state after step {n} ({plan.steps[n - 1].describe()})"
+
     for i, ok in enumerate(verdict.valid):
         if not ok:
-            return ("the initial configuration is not valid" if i == 0 else
-                    f"the state after step {i} ({plan.steps[i - 1].describe()}) is not valid"), \
-                verdict.seconds, verdict.text
-    for i, (action, did) in enumerate(zip(plan.steps, verdict.steps), 1):
+            return f"{after(i)} is not valid", verdict.seconds, verdict.text
+    for i, (action, did) in enumerate(zip(plan.steps[offset:], verdict.steps), offset + 1):
         if action.kind not in did:
             return (f"step {i} ({action.describe()}) is not an instance of {action.kind}: "
                     + ("its preconditions fail" if not did else f"Alloy sees {', '.join(did)}")), \
                 verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.lossless):
         if not ok:
-            where = "in the initial configuration" if i == 0 else f"after step {i} ({plan.steps[i - 1].describe()})"
-            return (f"a client request could be lost {where}: a proxy is not serving (degraded or absent) "
+            return (f"a client request could be lost in {after(i)}: a proxy is not serving (degraded or absent) "
                     "or its clients' connector is unsatisfied"), verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.stable):
         if not ok:
-            return (f"a connector the slice relies on is unsatisfied in state {i}"), verdict.seconds, verdict.text
+            return (f"a connector the slice relies on is unsatisfied in {after(i)}"), verdict.seconds, verdict.text
     return "", verdict.seconds, verdict.text

@@ -161,7 +161,8 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
     evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
     if use_alloy:
         from .alloy_plan import alloy_evidence
-        evidence["alloy"] = alloy_evidence(p)
+        with status(f"verifying the plan in the Alloy Analyzer ({len(p.states)} states)…") as say:
+            evidence["alloy"] = alloy_evidence(p, progress=say)
         if evidence["alloy"].get("verdict") == "not run":
             return no_plan(label, [f"Alloy could not verify the plan: {evidence['alloy']['reason']}; "
                                    "`--no-alloy` relies on the Python engine's step-by-step verification alone"],
@@ -229,8 +230,14 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
                   f"are instances of their actions ({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
         if al.get("slice"):
             sl = al["slice"]
-            out.print(f"                (on the {plural(sl['components'], 'component')} the plan can affect; "
-                      f"the other {sl['judged_once']} read nothing it changes and were judged once)")
+            if sl.get("windows", 1) > 1:
+                where = (f"in {sl['windows']} windows of consecutive steps, each on the components it can "
+                         f"affect (at most {sl['components']})")
+                reads = "read nothing the first window changes"
+            else:
+                where, reads = f"on the {plural(sl['components'], 'component')} the plan can affect", \
+                    "read nothing it changes"
+            out.print(f"                ({where}; the other {sl['judged_once']} {reads} and were judged once)")
         if al.get("lossless"):
             out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
     else:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-from typing import Iterator, Mapping, Optional, TextIO
+from typing import Callable, Iterator, Mapping, Optional, TextIO
 
 
 def enabled(stream: Optional[TextIO] = None, env: Optional[Mapping[str, str]] = None) -> bool:
@@ -25,11 +25,12 @@ def enabled(stream: Optional[TextIO] = None, env: Optional[Mapping[str, str]] = 
 
 
 @contextlib.contextmanager
-def status(message: str) -> Iterator[None]:
-    """`with status("checking in Alloy…"):` shows a spinner with the message while the block runs."""
+def status(message: str) -> Iterator[Callable[[str], None]]:
+    """`with status("checking in Alloy…") as say:` shows a spinner with the message while the
+    block runs; `say(text)` replaces the message (a no-op when progress is off)."""
     if not enabled():
-        yield
+        yield lambda text: None
         return
     from rich.console import Console
-    with Console(stderr=True).status(message, spinner="dots"):
-        yield
+    with Console(stderr=True).status(message, spinner="dots") as shown:
+        yield lambda text: shown.update(text)

@@ -42,6 +42,9 @@ class StateAccess:
     store: str | None = None
     joins: bool = False  # connector satisfaction as a join rather than quantifiers
     guar_atoms: bool = False  # guarantees as atoms (binary relations) rather than a ternary field
+    # roles through Role atoms (`roles_of[s]`, binary relations only) rather than the
+    # ternary `s.roles`, which caps the universe at about 1,290 atoms; about 3x slower
+    role_atoms: bool = False
 
     def head(self, name: str, params: str) -> str:
         decls = [p for p in ((f"{self.var}: {self.sig}" if self.var else ""), params) if p]
@@ -52,7 +55,14 @@ class StateAccess:
         return f"{name}[{', '.join(parts)}]" if parts else name
 
     def rel(self, name: str) -> str:
+        if self.var and name == "roles" and self.role_atoms:
+            return f"(roles_of[{self.var}])"
         return f"({self.var}.{name})" if self.var else f"{self.prefix}{name}"
+
+    @property
+    def roles_format(self) -> str:
+        """A configuration's roles, to `format` with its variable (the actions take two)."""
+        return "(roles_of[%s])" if self.role_atoms else "%s.roles"
 
     def cached(self, field: str, definition: str) -> str:
         """A derived set of the configuration: the stored relation `field` when
@@ -74,6 +84,8 @@ PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", join
 # A plan module: the configurations are constant System atoms and every definition is a
 # join over constants, which the solver folds without a variable.
 PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True)
+# The same, for a plan module whose universe is too large for a ternary relation.
+PLAN_BINARY_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True, role_atoms=True)
 
 
 @functools.lru_cache(maxsize=None)
@@ -197,7 +209,7 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
 
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
-                serving: Any = (), stable: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
+                serving: Any = (), stable: Any = (), binary: bool = False) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
@@ -205,8 +217,11 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
     `Plan.serving`), `lossless_states` are the configurations in which every such proxy is
     present and normal and every such connector satisfied: no request is lost. With
     `stable` (connector names, `Plan.stable`), `stable_states` are those in which all of
-    them are satisfied; the plan is safe only if every configuration is one."""
-    return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable))
+    them are satisfied; the plan is safe only if every configuration is one. With `binary`,
+    the configurations' roles are binary relations through Role atoms
+    (`PLAN_BINARY_STATE`), for a universe too large for the ternary `roles`."""
+    return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable),
+                   binary=binary)
 
 
 def alloy_view(system: Any, config: Any) -> Any:
@@ -258,13 +273,14 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
 
 def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str, str],
                     func_atoms: dict[Any, str], conn_atoms: dict[str, str], port_atoms: dict[Any, str],
-                    rel: dict[str, list[str]]) -> None:
+                    rel: dict[str, list[str]], binary: bool = False) -> None:
     """The configurations' relations (System -> ...) by what changes: what every state has
     is written once (`System -> x`), and each other element with the states that have it
     (`(S3 + S4) -> x`), elements with the same states grouped. A plan changes one element
     per step, so the text grows with the architecture plus the changes, not with their
-    product."""
+    product. With `binary`, roles are `System -> Role` with `role_conn`/`role_port`."""
     everywhere = "System"
+    role_atoms: dict[tuple[str, str], str] = {}
     for key in ("comps", "degraded", "roles"):
         holders: dict[Any, list[int]] = {}
         for i, config in enumerate(configs):
@@ -282,7 +298,11 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
             by_states.setdefault(tuple(indices), []).append(item)
         for held, members in sorted(by_states.items(), key=lambda kv: (len(kv[0]), kv[0])):
             who = everywhere if len(held) == len(configs) else union([states[i] for i in held], "none")
-            if key == "roles":
+            if key == "roles" and binary:
+                for member in sorted(members):
+                    role_atoms.setdefault(member, f"a_{len(role_atoms)}")
+                body = union(sorted(role_atoms[m] for m in members), "none")
+            elif key == "roles":
                 per_conn: dict[str, list[str]] = {}
                 for k, port in sorted(members):
                     per_conn.setdefault(k, []).append(port)
@@ -290,11 +310,15 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
             else:
                 body = union(sorted(members), "none")
             rel[key].append(f"{who} -> {body}")
+    for (k, port), atom in role_atoms.items():
+        rel["role_conn"].append(f"{atom} -> {k}")
+        rel["role_port"].append(f"{atom} -> {port}")
 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
-            serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
+            binary: bool = False) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -344,7 +368,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     guar_atoms: list[str] = []
     rel: dict[str, list[str]] = {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
-        "gout", "gn", "gd", "cguar", "envg", "comps", "degraded", "roles")}
+        "gout", "gn", "gd", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
     for c in comps:
         ca = comp_atoms[c.name] = mangle("component", c.name)
         names[ca] = ("component", c.name)
@@ -401,7 +425,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     if plan:
         for i, state in enumerate(states):
             names[state] = ("state", str(i))
-        _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel)
+        _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel, binary)
     else:
         (config,) = configs
         # grouped (a connector -> a union of ports): fewer products for Alloy to type-check
@@ -477,8 +501,18 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         funs += [
             ("comps", "System -> Component", union(rel["comps"], _empty("System", "Component"))),
             ("degraded", "System -> Functionality", union(rel["degraded"], _empty("System", "Functionality"))),
-            ("roles", "System -> Connector -> Port", union(rel["roles"], _empty("System", "Connector", "Port"))),
         ]
+        if binary:
+            funs += [
+                ("sroles", "System -> Role", union(rel["roles"], _empty("System", "Role"))),
+                ("role_conn", "Role -> Connector", union(rel["role_conn"], _empty("Role", "Connector"))),
+                ("role_port", "Role -> Port", union(rel["role_port"], _empty("Role", "Port"))),
+            ]
+            roles = [term.split(" -> ")[0] for term in rel["role_conn"]]
+            sigs += _one_sigs("Role", roles) + ([] if roles else ["fact no_Role { no Role }"])
+        else:
+            funs.append(("roles", "System -> Connector -> Port",
+                         union(rel["roles"], _empty("System", "Connector", "Port"))))
         template = environment().get_template("plan.als.j2")
         terms = []
         step_calls = []
@@ -516,7 +550,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             if missing:
                 raise ValueError(f"stable names connectors the architecture lacks: {missing}")
             kept = union([conn_atoms[k] for k in stable], "none")
-        text = template.render(st=PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
+        text = template.render(st=PLAN_BINARY_STATE if binary else PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
                                system_name=system.name, states=states, ok_steps=ok_steps, serving=watch,
                                stable=kept, step_calls=step_calls)
         return text, names

@@ -151,14 +151,15 @@ class AlloyPlanVerdict:
 
 def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
                        bridge: AlloyBridge | None = None, serving: Any = (),
-                       stable: Any = ()) -> AlloyPlanVerdict:
+                       stable: Any = (), binary: bool = False) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
     configuration valid, each step one of the six actions with its preconditions met, and,
     with `serving` ((connector, proxy) pairs), each configuration lossless, and with `stable`
-    (connector names), each configuration satisfying them."""
+    (connector names), each configuration satisfying them. With `binary`, the module's roles are binary relations (for a universe too large for
+    a ternary one: `codegen.alloy.render_plan`)."""
     from codegen.alloy import render_plan
 
-    text, names = render_plan(system, configs, serving=serving, stable=stable)
+    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary)
     bridge = bridge or AlloyBridge.get()
     n = len(configs)
     try:

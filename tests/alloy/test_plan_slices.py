@@ -80,3 +80,34 @@ def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "o
     assert "Alloy could not verify the plan" in result.output and "--no-alloy" in result.output
     result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path, "--no-alloy"])
     assert result.exit_code == 0, result.output
+
+
+def test_a_long_plan_is_verified_in_windows_with_the_whole_verdict(monkeypatch: pytest.MonkeyPatch,
+                                                                    bridge: AlloyBridge) -> None:
+    import checker.alloy_plan
+
+    plan = hub_plan("dag", 40)
+    monkeypatch.setattr(checker.alloy_plan, "WINDOW_BUDGET", 200)
+    seen: list[str] = []
+    windows = alloy_evidence(plan, progress=seen.append)
+    assert windows["valid"], windows["reason"]
+    assert windows["slice"]["windows"] > 2 and len(seen) >= windows["slice"]["windows"]
+    assert seen[0].startswith("verifying steps 1–")
+    assert alloy_evidence(plan, slice_=False)["valid"]
+    # a state broken in a later window is found there, and named by its place in the plan
+    index = len(plan.states) - 3
+    broken = alloy_evidence(_break(plan, index))
+    assert not broken["valid"]
+    assert f"after step {index} " in broken["reason"] or f"step {index + 1} " in broken["reason"], broken["reason"]
+
+
+def test_binary_roles_give_the_ternary_verdict(bridge: AlloyBridge) -> None:
+    from checker.alloy import alloy_plan_verdict
+
+    plan = hub_plan("chain", 12)
+    for states, safe in ((plan.states, True), (_break(plan, 3).states, False)):
+        ternary = alloy_plan_verdict(plan.system, states)
+        binary = alloy_plan_verdict(plan.system, states, binary=True)
+        assert "fun roles_of" in binary.text and "fun roles_of" not in ternary.text
+        assert (ternary.valid, ternary.steps) == (binary.valid, binary.steps)
+        assert all(ternary.valid) is safe
