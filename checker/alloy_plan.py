@@ -173,13 +173,13 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
 
     try:
         verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                     stable=target.stable)
+                                     stable=target.stable, protocols=target.protocols)
     except AlloyError as err:
         if "capacity exceeded" not in str(err) or not binary:
             raise
         # too many atoms for the ternary roles: the same module through binary relations
         verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                     stable=target.stable, binary=True)
+                                     stable=target.stable, binary=True, protocols=target.protocols)
 
     def after(i: int) -> str:
         """State i of the module, in the plan's words."""
@@ -196,8 +196,8 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
                 verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.lossless):
         if not ok:
-            return (f"a client request could be lost in {after(i)}: a proxy is not serving (degraded or absent) "
-                    "or its clients' connector is unsatisfied"), verdict.seconds, verdict.text
+            return (f"a client request could be lost in {after(i)}: a proxy is not serving (degraded or absent), "
+                    "its clients' connector is unsatisfied, or its requests reach no protocol"), verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.stable):
         if not ok:
             return (f"a connector the slice relies on is unsatisfied in {after(i)}"), verdict.seconds, verdict.text

@@ -209,7 +209,8 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
 
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
-                serving: Any = (), stable: Any = (), binary: bool = False) -> tuple[str, dict[str, tuple[str, ...]]]:
+                serving: Any = (), stable: Any = (), binary: bool = False,
+                protocols: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
@@ -221,7 +222,7 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
     the configurations' roles are binary relations through Role atoms
     (`PLAN_BINARY_STATE`), for a universe too large for the ternary `roles`."""
     return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable),
-                   binary=binary)
+                   binary=binary, protocols=list(protocols))
 
 
 def alloy_view(system: Any, config: Any) -> Any:
@@ -318,7 +319,7 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
-            binary: bool = False) -> tuple[str, dict[str, tuple[str, ...]]]:
+            binary: bool = False, protocols: list[str] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -543,7 +544,11 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             conns = [conn_atoms[k] for k, _ in serving if k in conn_atoms]
             if len(conns) != len(serving) or not proxies:
                 raise ValueError(f"serving names what the architecture lacks: {serving}")
-            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none")}
+            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none"), "protocols": ""}
+            if protocols:
+                # the proxies' requests must reach one of these (present) protocols
+                watch["proxy_comps"] = union(sorted({comp_atoms[c] for _, c in serving}), "none")
+                watch["protocols"] = union(sorted(comp_atoms[p] for p in protocols if p in comp_atoms), "none")
         kept = None
         if stable:
             missing = [k for k in stable if k not in conn_atoms]

@@ -151,15 +151,16 @@ class AlloyPlanVerdict:
 
 def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
                        bridge: AlloyBridge | None = None, serving: Any = (),
-                       stable: Any = (), binary: bool = False) -> AlloyPlanVerdict:
+                       stable: Any = (), binary: bool = False, protocols: Any = ()) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
     configuration valid, each step one of the six actions with its preconditions met, and,
-    with `serving` ((connector, proxy) pairs), each configuration lossless, and with `stable`
+    with `serving` ((connector, proxy) pairs), each configuration lossless (with `protocols`,
+    each proxy's requests reaching one of them), and with `stable`
     (connector names), each configuration satisfying them. With `binary`, the module's roles are binary relations (for a universe too large for
     a ternary one: `codegen.alloy.render_plan`)."""
     from codegen.alloy import render_plan
 
-    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary)
+    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary, protocols=protocols)
     bridge = bridge or AlloyBridge.get()
     n = len(configs)
     try:

@@ -39,7 +39,7 @@ from .expand import ExpansionInfo, expand
 from .library import LAYER_ORDER
 
 __all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
-           "suspension_problems", "client_side_ok"]
+           "suspension_problems", "client_side_ok", "protocols", "reaches_protocol"]
 
 
 def parse_ftm(text: str) -> ir.FtmExpr:
@@ -241,7 +241,8 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     if not hoods:
         simple = plan_migrate(old, new, strategy)
         simple.serving = serving(old_infos, new_infos)
-        return Transition(simple, old, new, old_infos, new_infos, [])
+        simple.protocols = protocols(old_infos, new_infos)
+        return _with_request_notes(Transition(simple, old, new, old_infos, new_infos, []))
     # The combined system, the target and the renames, from the cheapest planner that succeeds.
     try:
         plan = plan_migrate(old, new, "paper")
@@ -261,6 +262,14 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     # Their old outputs stay linked until then, so whatever reads them (the proxy) keeps a publisher.
     keep = {r for r in start.roles - final.roles if r[1] in hoods
             and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"}  # type: ignore[union-attr]
+    # The proxies' old request path stays too (their request outputs, and the suspended
+    # protocols' inputs reading them), so requests reach a protocol, which queues them,
+    # until the new path is linked; it is unlinked then, before the resume.
+    proxies = {i.proxy for i in old_infos}
+    requests = {r for r in start.roles - final.roles if r[1] in proxies
+                and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"}  # type: ignore[union-attr]
+    switch = requests | {r for r in start.roles - final.roles if r[1] in hoods
+                         and r[0] in {k for k, _, _ in requests}}
     late: set[tuple[str, str, str]] = set()
     while True:
         settled = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
@@ -269,7 +278,7 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         if not more:
             break
         late |= more
-    kept = Goal(final.components, (final.roles - late) | keep, frozenset(funcs))
+    kept = Goal(final.components, (final.roles - late) | keep | switch, frozenset(funcs))
     olds = {c.name for c in old.components}
     replaced = [(plan.renames[n], n) for n in plan.renames if plan.renames[n] in olds and n in final.components]
     added = [n for n in final.components if n not in olds and (n, n) not in replaced and n not in plan.renames]
@@ -277,9 +286,14 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     removed = [n for n in olds if n not in final.components and n not in plan.renames.values()]
     middle = solve(Problem(system, mid, kept, replaced=replaced, removed=removed, added=added,
                            renames=dict(plan.renames)), strategy)
-    post = solve(Problem(system, middle.states[-1], final, renames=dict(plan.renames)), strategy).steps \
-        if late or keep else _resume_steps(system, middle.states[-1])
-    whole = verify(system, start, pre + middle.steps + post, final, strategy, plan.renames)
+    steps, end = middle.steps, middle.states[-1]
+    if switch:
+        unlinked = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
+        moved = solve(Problem(system, end, unlinked, renames=dict(plan.renames)), strategy)
+        steps, end = steps + moved.steps, moved.states[-1]
+    post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
+        if late or keep else _resume_steps(system, end)
+    whole = verify(system, start, pre + steps + post, final, strategy, plan.renames)
     # what the middle part leaves degraded is only so while the protocols are suspended; the
     # whole plan's own residual notes say what stays degraded at the end
     passing = set(middle.goal.residual_notes())
@@ -289,7 +303,22 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     if problems:
         raise NoSafePlan(problems)
     whole.serving = serving(old_infos, new_infos)
-    return Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True)
+    whole.protocols = protocols(old_infos, new_infos)
+    return _with_request_notes(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _with_request_notes(t: Transition) -> Transition:
+    """`t` with a note for every proxy whose requests reach no protocol in some state: a
+    request sent then could be lost (`client_side_ok` names the states)."""
+    targets = set(protocols(t.old_infos, t.new_infos))
+    for conn, proxy in t.plan.serving:
+        lost = [k for k, state in enumerate(t.plan.states)
+                if not reaches_protocol(t.plan.system, state, proxy, conn, targets)]
+        if lost:
+            t.plan.notes.append(f"warning: in {len(lost)} of {len(t.plan.states)} states (the first after step "
+                                f"{lost[0]}) the requests of {proxy} reach no protocol, and one sent then could "
+                                "be lost: this transition does not yet keep the request path")
+    return t
 
 
 def plan_transition(system: ir.System, component: str, new_ftm: Union[str, ir.FtmExpr, None],
@@ -317,10 +346,45 @@ def serving(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> l
             and (i.composition, sorted(i.components)) != (after[i.server].composition, sorted(after[i.server].components))]
 
 
+def protocols(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[str]:
+    """The protocols, old and new, of the servers whose proxies a transition keeps serving
+    (`serving`): a proxy's requests must reach one of them in every state (`Plan.protocols`)."""
+    served = {proxy for _, proxy in serving(old_infos, new_infos)}
+    servers = {i.server for i in old_infos if i.proxy in served}
+    return sorted({p for i in old_infos + new_infos if i.server in servers for p in i.protocols})
+
+
+def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client_conn: str,
+                     targets: set[str]) -> bool:
+    """Whether, in `state`, the requests `proxy` publishes (on any connector but its clients')
+    reach a present protocol of `targets`, through the readers of each connector and what
+    those publish (a suspended protocol queues them)."""
+    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
+    pubs: dict[str, set[str]] = {}
+    reads: dict[str, set[str]] = {}
+    for conn, comp, port in state.roles:
+        if kinds.get((comp, port)) == "output":
+            pubs.setdefault(comp, set()).add(conn)
+        else:
+            reads.setdefault(conn, set()).add(comp)
+    seen, frontier = {proxy}, [proxy]
+    while frontier:
+        comp = frontier.pop()
+        for conn in pubs.get(comp, set()) - {client_conn}:
+            for reader in reads.get(conn, set()) - seen:
+                if reader in targets and reader in state.components:
+                    return True
+                seen.add(reader)
+                frontier.append(reader)
+    return False
+
+
 def client_side_ok(t: Transition) -> list[str]:
-    """Every state in which a client-facing connector is unsatisfied or a Proxy degraded."""
+    """Every state in which a client-facing connector is unsatisfied, a Proxy degraded, or a
+    Proxy's requests reach no protocol."""
     out = []
     watched = [(i.connector, i.proxy) for i in t.old_infos if any(j.server == i.server for j in t.new_infos)]
+    targets = set(protocols(t.old_infos, t.new_infos)) or {p for i in t.old_infos + t.new_infos for p in i.protocols}
     for k, state in enumerate(t.plan.states):
         ev = evaluate(t.plan.system, state, explain=False)
         for conn, proxy in watched:
@@ -328,4 +392,6 @@ def client_side_ok(t: Transition) -> list[str]:
                 out.append(f"state {k}: {conn} is unsatisfied")
             if any(c == proxy for c, _ in state.degraded):
                 out.append(f"state {k}: {proxy} is degraded")
+            if not reaches_protocol(t.plan.system, state, proxy, conn, targets):
+                out.append(f"state {k}: the requests of {proxy} reach no protocol")
     return out

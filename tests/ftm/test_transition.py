@@ -13,9 +13,11 @@ from reconf_dsl.loader import load, load_text
 
 from .conftest import EXAMPLES, client_server
 
+# the request path is not kept yet when a transition removes the layer the proxy sends through
+LOSSY = pytest.mark.xfail(strict=True, reason="the proxy's requests reach no protocol in some states")
 PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
          ("PBR", "SEC(PBR)"), ("LFR", "AD"), ("TR", "SEC(TR)"), ("LFR(TR)", "AD(TR)"), ("PBR(TR)", "LFR(TR)"),
-         ("SEC(PBR(TR))", "PBR(TR)")]
+         pytest.param("SEC(PBR(TR))", "PBR(TR)", marks=LOSSY)]
 
 _cache: dict[tuple[str, str], Transition] = {}
 
@@ -151,3 +153,41 @@ def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) ->
     assert len(again.states) == len(t.plan.states)
     ev = alloy_evidence(sliced)
     assert ev["valid"], ev["reason"]
+
+
+def test_requests_must_reach_a_protocol_and_a_lossy_transition_says_so() -> None:
+    from checker.config import Configuration
+    from checker.ftm.transition import protocols, reaches_protocol
+
+    t = transition("PBR(TR)", "SEC(PBR(TR))")
+    (conn, proxy), = t.plan.serving
+    targets = set(protocols(t.old_infos, t.new_infos))
+    first = t.plan.states[0]
+    assert reaches_protocol(t.plan.system, first, proxy, conn, targets)
+    # the proxy's request output unlinked: its requests go nowhere
+    cut = Configuration(first.components, first.degraded,
+                        frozenset(r for r in first.roles if not (r[1] == proxy and r[0] != conn)))
+    assert not reaches_protocol(t.plan.system, cut, proxy, conn, targets)
+    assert not any(n.startswith("warning:") for n in t.plan.notes)
+    lossy = transition("SEC(PBR(TR))", "PBR(TR)")
+    assert any("reach no protocol" in n for n in lossy.plan.notes)
+
+
+def test_alloy_follows_the_request_path(bridge) -> None:  # type: ignore[no-untyped-def]
+    """The plan module requires each proxy's requests to reach a present protocol: a state
+    with the proxy's request output unlinked is not lossless, and a transition that leaves the
+    requests nowhere for a while is refused, on its slice too."""
+    from checker.alloy import alloy_plan_verdict
+    from checker.alloy_plan import alloy_evidence
+    from checker.config import Configuration
+    p = transition("PBR", "LFR").plan
+    ((conn, proxy),) = p.serving
+    assert p.protocols
+    states = list(p.states)
+    s = states[1]
+    states[1] = Configuration(s.components, s.degraded, frozenset(r for r in s.roles if not (r[1] == proxy and r[0] != conn)))
+    verdict = alloy_plan_verdict(p.system, states, serving=p.serving, protocols=p.protocols)
+    assert verdict.lossless[1] is False and verdict.lossless[0] and verdict.lossless[2]
+    lossy = transition("SEC(PBR(TR))", "PBR(TR)").plan
+    ev = alloy_evidence(lossy)
+    assert not ev["valid"] and "reach no protocol" in ev["reason"], ev
