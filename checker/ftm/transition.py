@@ -18,7 +18,9 @@ rest. The whole sequence is verified again, step by step.
 
 No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
 mode guarantees the reply type without rate), so the Proxy, and the client-facing connector,
-stay satisfied in every state: `client_side_ok` checks it on every state of a plan.
+stay satisfied in every state; and the old request path (`_request_path`: what carries the
+proxy's requests to a protocol) stays linked until the new one is, so they always reach a
+protocol (`reaches_protocol`). `client_side_ok` checks both on every state of a plan.
 """
 from __future__ import annotations
 
@@ -265,11 +267,9 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     # The proxies' old request path stays too (their request outputs, and the suspended
     # protocols' inputs reading them), so requests reach a protocol, which queues them,
     # until the new path is linked; it is unlinked then, before the resume.
-    proxies = {i.proxy for i in old_infos}
-    requests = {r for r in start.roles - final.roles if r[1] in proxies
-                and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"}  # type: ignore[union-attr]
-    switch = requests | {r for r in start.roles - final.roles if r[1] in hoods
-                         and r[0] in {k for k, _, _ in requests}}
+    path, through = _request_path(system, start, old_infos, new_infos)
+    switch = path - final.roles
+    stay = sorted(through - final.components) if switch else []
     late: set[tuple[str, str, str]] = set()
     while True:
         settled = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
@@ -278,18 +278,18 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         if not more:
             break
         late |= more
-    kept = Goal(final.components, (final.roles - late) | keep | switch, frozenset(funcs))
+    kept = Goal(final.components | frozenset(stay), (final.roles - late) | keep | switch, frozenset(funcs))
     olds = {c.name for c in old.components}
     replaced = [(plan.renames[n], n) for n in plan.renames if plan.renames[n] in olds and n in final.components]
     added = [n for n in final.components if n not in olds and (n, n) not in replaced and n not in plan.renames]
     added += [n for n in plan.renames if plan.renames[n] not in olds and n in final.components]
     removed = [n for n in olds if n not in final.components and n not in plan.renames.values()]
-    middle = solve(Problem(system, mid, kept, replaced=replaced, removed=removed, added=added,
-                           renames=dict(plan.renames)), strategy)
+    middle = solve(Problem(system, mid, kept, replaced=replaced, removed=[n for n in removed if n not in stay],
+                           added=added, renames=dict(plan.renames)), strategy)
     steps, end = middle.steps, middle.states[-1]
     if switch:
         unlinked = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
-        moved = solve(Problem(system, end, unlinked, renames=dict(plan.renames)), strategy)
+        moved = solve(Problem(system, end, unlinked, removed=stay, renames=dict(plan.renames)), strategy)
         steps, end = steps + moved.steps, moved.states[-1]
     post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
         if late or keep else _resume_steps(system, end)
@@ -305,6 +305,39 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     whole.serving = serving(old_infos, new_infos)
     whole.protocols = protocols(old_infos, new_infos)
     return _with_request_notes(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _request_path(system: ir.System, start: Configuration, old_infos: list[ExpansionInfo],
+                  new_infos: list[ExpansionInfo]) -> tuple[set[tuple[str, str, str]], set[str]]:
+    """The roles and components that carry each served proxy's requests to a protocol in
+    `start` (up to the first protocols reached): the planner keeps them until the new path
+    is linked."""
+    targets = set(protocols(old_infos, new_infos))
+    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
+    outs: dict[str, set[tuple[str, str, str]]] = {}
+    ins: dict[str, set[tuple[str, str, str]]] = {}
+    for r in start.roles:
+        if kinds.get((r[1], r[2])) == "output":
+            outs.setdefault(r[1], set()).add(r)
+        else:
+            ins.setdefault(r[0], set()).add(r)
+    roles: set[tuple[str, str, str]] = set()
+    comps: set[str] = set()
+    for conn, proxy in serving(old_infos, new_infos):
+        seen, frontier = {proxy}, [proxy]
+        while frontier:
+            comp = frontier.pop()
+            for out in outs.get(comp, set()):
+                if out[0] == conn:
+                    continue
+                for into in ins.get(out[0], set()):
+                    roles |= {out, into}
+                    if into[1] not in seen:
+                        seen.add(into[1])
+                        if into[1] not in targets:
+                            frontier.append(into[1])
+        comps |= seen
+    return roles, comps
 
 
 def _with_request_notes(t: Transition) -> Transition:

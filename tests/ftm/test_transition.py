@@ -13,11 +13,9 @@ from reconf_dsl.loader import load, load_text
 
 from .conftest import EXAMPLES, client_server
 
-# the request path is not kept yet when a transition removes the layer the proxy sends through
-LOSSY = pytest.mark.xfail(strict=True, reason="the proxy's requests reach no protocol in some states")
 PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
          ("PBR", "SEC(PBR)"), ("LFR", "AD"), ("TR", "SEC(TR)"), ("LFR(TR)", "AD(TR)"), ("PBR(TR)", "LFR(TR)"),
-         pytest.param("SEC(PBR(TR))", "PBR(TR)", marks=LOSSY)]
+         ("SEC(PBR(TR))", "PBR(TR)"), ("SEC(PBR)", "LFR"), ("TR", "PBR(TR)"), ("LFR(TR)", "TR")]
 
 _cache: dict[tuple[str, str], Transition] = {}
 
@@ -169,14 +167,25 @@ def test_requests_must_reach_a_protocol_and_a_lossy_transition_says_so() -> None
                         frozenset(r for r in first.roles if not (r[1] == proxy and r[0] != conn)))
     assert not reaches_protocol(t.plan.system, cut, proxy, conn, targets)
     assert not any(n.startswith("warning:") for n in t.plan.notes)
-    lossy = transition("SEC(PBR(TR))", "PBR(TR)")
+
+
+def _without_the_old_request_path(monkeypatch: pytest.MonkeyPatch) -> Transition:
+    """SEC(PBR(TR)) → PBR(TR) planned without keeping the old request path: the SEC layer
+    the proxy sends through is unlinked before the new path is."""
+    import checker.ftm.transition as tr
+    monkeypatch.setattr(tr, "_request_path", lambda *args: (set(), set()))
+    return plan_transition(load_text(client_server("SEC(PBR(TR))")), "server", "PBR(TR)")
+
+
+def test_a_transition_that_loses_the_request_path_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    lossy = _without_the_old_request_path(monkeypatch)
     assert any("reach no protocol" in n for n in lossy.plan.notes)
+    assert any("reach no protocol" in p for p in client_side_ok(lossy))
 
 
 def test_alloy_follows_the_request_path(bridge) -> None:  # type: ignore[no-untyped-def]
     """The plan module requires each proxy's requests to reach a present protocol: a state
-    with the proxy's request output unlinked is not lossless, and a transition that leaves the
-    requests nowhere for a while is refused, on its slice too."""
+    with the proxy's request output unlinked is not lossless."""
     from checker.alloy import alloy_plan_verdict
     from checker.alloy_plan import alloy_evidence
     from checker.config import Configuration
@@ -188,6 +197,11 @@ def test_alloy_follows_the_request_path(bridge) -> None:  # type: ignore[no-unty
     states[1] = Configuration(s.components, s.degraded, frozenset(r for r in s.roles if not (r[1] == proxy and r[0] != conn)))
     verdict = alloy_plan_verdict(p.system, states, serving=p.serving, protocols=p.protocols)
     assert verdict.lossless[1] is False and verdict.lossless[0] and verdict.lossless[2]
-    lossy = transition("SEC(PBR(TR))", "PBR(TR)").plan
-    ev = alloy_evidence(lossy)
+
+def test_alloy_refuses_a_transition_that_loses_the_request_path(monkeypatch: pytest.MonkeyPatch,
+                                                                bridge) -> None:  # type: ignore[no-untyped-def]
+    from checker.alloy_plan import alloy_evidence
+    ev = alloy_evidence(_without_the_old_request_path(monkeypatch).plan)
     assert not ev["valid"] and "reach no protocol" in ev["reason"], ev
+    kept = alloy_evidence(transition("SEC(PBR(TR))", "PBR(TR)").plan)
+    assert kept["valid"], kept["reason"]
