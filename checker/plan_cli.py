@@ -14,6 +14,7 @@ from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
 import click
+from rich.markup import escape
 
 from reconf_dsl.ir import System
 from reconf_dsl.loader import Sources, load
@@ -243,7 +244,10 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
     else:
         out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
     for note in p.notes:
-        out.print(f"[dim]note: {note}[/]")
+        if note.startswith("warning: "):
+            out.print(f"[yellow]{escape(note)}[/]")
+        else:
+            out.print(f"[dim]note: {escape(note)}[/]")
     if output:
         out.print(f"Wrote {output}: run it with `python3 {output}` (or `--dry-run` to replay it without ROS).")
 

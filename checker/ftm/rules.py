@@ -29,10 +29,11 @@ def _span_of(expr: ir.FtmExpr, mechanism: str) -> ir.Span:
     return expr.span
 
 
-def ftm_diagnostics(system: ir.System) -> list[Diagnostic]:
+def ftm_diagnostics(system: ir.System, only: Optional[set[str]] = None) -> list[Diagnostic]:
+    """RC401–RC407 for every component with an FTM (or only those named in `only`)."""
     out: list[Diagnostic] = []
     for c in system.components:
-        if c.ftm is None:
+        if c.ftm is None or (only is not None and c.name not in only):
             continue
         expr = c.ftm.expr
         comp, problems = compose(expr)

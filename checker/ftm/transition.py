@@ -358,16 +358,28 @@ def plan_transition(system: ir.System, component: str, new_ftm: Union[str, ir.Ft
                     hosts: Optional[tuple[str, ...]] = None, strategy: str = "default") -> Transition:
     """Plan the change of `component`'s FTM to `new_ftm` (None: remove it) in `system`."""
     expr = parse_ftm(new_ftm) if isinstance(new_ftm, str) else new_ftm
+    target = with_ftm(system, component, expr, hosts)
     old, old_infos = expand(system)
-    new, new_infos = expand(with_ftm(system, component, expr, hosts))
-    return _plan(old, new, old_infos, new_infos, strategy)
+    new, new_infos = expand(target)
+    return _with_rule_notes(_plan(old, new, old_infos, new_infos, strategy), target, {component})
 
 
 def plan_ftm_migrate(old_system: ir.System, new_system: ir.System, strategy: str = "default") -> Transition:
     """`reconf plan migrate` for architectures with FTMs: both expanded, then migrated."""
     old, old_infos = expand(old_system)
     new, new_infos = expand(new_system)
-    return _plan(old, new, old_infos, new_infos, strategy)
+    return _with_rule_notes(_plan(old, new, old_infos, new_infos, strategy), new_system)
+
+
+def _with_rule_notes(t: Transition, target: ir.System, only: Optional[set[str]] = None) -> Transition:
+    """`t` with a warning for every FTM rule (RC402–RC407) the target architecture breaks: the
+    plan is safe, but the mechanism it moves to does not hold under the component's declared
+    faults, characteristics or resources (`reconf check` reports the same as errors)."""
+    from .rules import ftm_diagnostics
+
+    for d in ftm_diagnostics(target, only):
+        t.plan.notes.append(f"warning: the target breaks an FTM rule: {d.code} {d.message}")
+    return t
 
 
 def serving(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[tuple[str, str]]:

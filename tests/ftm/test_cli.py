@@ -72,3 +72,17 @@ def test_plan_transition_among_services_is_verified_in_alloy_on_its_slice_and_lo
     assert alloy["slice"]["judged_once"] >= 2 * 3  # server0, client0, server2, client2 and their nodes
     r = CliRunner().invoke(transition_cmd, ["server1", "SEC(TR)", "-f", str(path)])
     assert r.exit_code == 0 and "client side kept" in r.output
+
+
+def test_transition_to_an_ftm_the_component_rules_out_warns() -> None:
+    """TR needs a deterministic application: moving the non-deterministic server of
+    client_server_pbr.arch to PBR(TR) is planned, with the rule it breaks as a warning."""
+    args = ["server", "PBR(TR)", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy"]
+    r = CliRunner().invoke(transition_cmd, args)
+    assert r.exit_code == 0, r.output
+    assert "warning: the target breaks an FTM rule: RC403" in r.output
+    doc = json.loads(CliRunner().invoke(transition_cmd, args + ["--output-format", "json"]).stdout)
+    assert any("RC403" in n for n in doc["plan"]["notes"])
+    fine = CliRunner().invoke(transition_cmd, ["server", "LFR", "-f", f"{EXAMPLES}/deterministic_pbr.arch",
+                                               "--no-alloy"])
+    assert fine.exit_code == 0 and "FTM rule" not in fine.output, fine.output
