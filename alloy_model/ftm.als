@@ -4,7 +4,8 @@
  * composition is well formed and when it is valid for a component's (F, A, R).
  *
  * A composition is a set of mechanisms: its nesting order is fixed by layer (SEC outside a
- * duplex, a duplex outside TR), so the set determines it. Checked in Python by
+ * duplex, a duplex outside TR), so the set determines it; `wellNested` judges the order a
+ * component's FTM is written in, `enoughHosts` whether a duplex has two hosts. Checked in Python by
  * checker/ftm/select.py; instance modules (checker/ftm/alloy_rules.py) `open ftm` and ask
  * for the valid compositions of concrete components; the two must agree.
  *
@@ -57,6 +58,20 @@ pred validFor[m: set Mech, f: set Fault, a: set AppChar, bw: Level, n: Int] {
   all x: m | x.cpus <= n
 }
 
+-- The layer each layer may be written around: SEC around a duplex or TR, a duplex around TR.
+fun outside: Layer -> Layer { SecLayer -> (DupLayer + TrLayer) + DupLayer -> TrLayer }
+
+-- A written composition (x -> y: x is written directly around y, as in PBR(TR)) nests each
+-- mechanism in a layer strictly inside the one around it (RC401).
+pred wellNested[around: Mech -> Mech] {
+  all x, y: Mech | x -> y in around implies x.layer -> y.layer in outside
+}
+
+-- A duplex replicates the server on two distinct hosts (RC406, a warning).
+pred enoughHosts[m: set Mech, hosts: Int] {
+  some m & (PBR + LFR + AD) implies hosts >= 2
+}
+
 -- Properties of the rules, checked over arbitrary profiles and compositions.
 sig Probe {
   mechs: set Mech,
@@ -81,6 +96,16 @@ assert FewerFaultsStayValid {
     and q.pn = p.pn implies valid[q]
 }
 
+-- A written order (one chain: each mechanism directly inside at most one other, one
+-- outermost) that nests well names one mechanism per layer.
+assert WellNestedIsOnePerLayer {
+  all around: Mech -> Mech |
+    ((all x: Mech | lone x.around and lone around.x) and no iden & ^around
+      and lone around.Mech - Mech.around and wellNested[around]) implies
+      (all x: Mech.around + around.Mech | one (Mech.around + around.Mech) & layer.(x.layer))
+}
+
+check WellNestedIsOnePerLayer for 3 but 4 Int expect 0
 check ValidCoversFaults for 3 but 4 Int expect 0
 check OneDuplexAtMost for 3 but 4 Int expect 0
 check LFRNeedsDeterminism for 3 but 4 Int expect 0

@@ -23,7 +23,6 @@ from reconf_dsl.span import Span
 from . import formats, report
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree
-from .ftm.rules import ftm_diagnostics
 from .progress import status
 from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
@@ -139,13 +138,15 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     Lists each assumption that does not hold with its chain: functionality → assumption →
     input → connector → each attached output and why it falls short.
     """
-    from .engines import judge
+    from .engines import judge, judge_ftm
 
     system = load(list(files), sources)
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         judged = judge(system, Configuration.initial(system), engine, solver)
+        ftm, ftm_alloy = judge_ftm(system, engine)
+    if ftm_alloy is not None:
+        judged.engines.setdefault("alloy", {})["ftm_rules"] = ftm_alloy
     ev = judged.python
-    ftm = ftm_diagnostics(system)
     diags = judged.warnings + ftm + [report.assumption_diagnostic(r) for r in ev.unsatisfied]
     safe = judged.valid and not any(d.is_error for d in ftm)
     verdict = "safe" if safe else "unsafe"
@@ -153,8 +154,10 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                     (len(system.connectors), "connector"), (n, "assumption")))
     how = judged.how()
-    # the engines' note (`how`) is about the assumptions; the FTM rules are the Python engine's
-    ftm_note = f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules)" if ftm else ""
+    # the engines' note (`how`) is about the assumptions; the FTM rules' is said after them
+    by = ", judged by Alloy too" if ftm_alloy is not None else ""
+    ftm_note = (f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules{by})" if ftm else
+                f"; FTM rules hold{by}" if any(c.ftm is not None for c in system.components) else "")
     if safe:
         line = f"{system.name} — {summary}, all hold{how}{ftm_note}"
         human = f"[bold green]✓ safe[/]: {line}"

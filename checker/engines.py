@@ -85,6 +85,40 @@ def judge(system: System, config: Configuration, engine: str = "both", solver: s
     return Judgement(ev, valid, engines)
 
 
+def judge_ftm(system: System, engine: str = "both") -> tuple[list[Diagnostic], Optional[dict[str, Any]]]:
+    """The FTM rules (RC401–RC407) on every component with an FTM: the Python engine's
+    diagnostics and, unless `engine` is "python", Alloy's judgement of the same rules
+    (alloy_model/ftm.als: which attached FTMs contradict (F, A, R), which are written in the
+    wrong order, which duplexes lack two hosts), which must agree with them."""
+    from .ftm.rules import ftm_findings
+
+    findings = ftm_findings(system)
+    diags = sorted((d for _, d in findings), key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
+    if engine == "python" or not any(c.ftm is not None for c in system.components):
+        return diags, None
+    from .alloy import AlloyUnavailable
+    from .ftm.alloy_rules import alloy_ftm_verdict
+    try:
+        v = alloy_ftm_verdict(system)
+    except AlloyUnavailable as e:
+        raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
+                                           notes=("or use --engine python",))) from None
+
+    def python(*codes: str) -> list[str]:
+        return sorted({c for c, d in findings if d.code in codes and "unknown mechanism" not in d.message})
+
+    ours = {"contradicted": python("RC402", "RC403", "RC404", "RC405"), "misnested": python("RC401"),
+            "hostless": python("RC406")}
+    theirs = {"contradicted": sorted(v.contradicted), "misnested": sorted(v.misnested),
+              "hostless": sorted(v.hostless)}
+    if ours != theirs:
+        raise EnginesDisagree(Diagnostic(
+            "RC300", Severity.ERROR, "the engines disagree on the FTM rules", system.span,
+            notes=(f"Python: {ours}", f"Alloy: {theirs}",
+                   "this is a bug in reconf: please report it with the .arch file")))
+    return diags, dict(theirs, seconds=round(v.seconds, 4))
+
+
 def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple[bool, Failing, dict[str, Any]]:
     from .alloy import AlloyError, AlloyUnavailable, alloy_verdict
     try:

@@ -17,7 +17,7 @@ from .expand import protected_connector
 from .library import compose
 from .select import judge, profile
 
-__all__ = ["ftm_diagnostics"]
+__all__ = ["ftm_diagnostics", "ftm_findings"]
 
 
 def _span_of(expr: ir.FtmExpr, mechanism: str) -> ir.Span:
@@ -31,32 +31,44 @@ def _span_of(expr: ir.FtmExpr, mechanism: str) -> ir.Span:
 
 def ftm_diagnostics(system: ir.System, only: Optional[set[str]] = None) -> list[Diagnostic]:
     """RC401–RC407 for every component with an FTM (or only those named in `only`)."""
-    out: list[Diagnostic] = []
+    out = [d for _, d in ftm_findings(system, only)]
+    return sorted(out, key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
+
+
+def ftm_findings(system: ir.System, only: Optional[set[str]] = None) -> list[tuple[str, Diagnostic]]:
+    """Each FTM diagnostic with the component it is about."""
+    out: list[tuple[str, Diagnostic]] = []
     for c in system.components:
         if c.ftm is None or (only is not None and c.name not in only):
             continue
-        expr = c.ftm.expr
-        comp, problems = compose(expr)
-        if comp is None:
-            out += [error("RC401", f"ill-formed FTM '{expr}' on '{c.name}': {p}", expr.span) for p in problems]
-            continue
-        prof = profile(system, c)
-        for r in judge(comp, prof):
-            span = expr.span if not r.mechanism else _span_of(expr, r.mechanism)
-            related: tuple[Related, ...] = ()
-            if r.code == "RC404" and prof.bandwidth_span is not None:
-                related = (Related(prof.bandwidth_span, "bandwidth set here"),)
-            if r.code == "RC405" and prof.cpus_span is not None:
-                related = (Related(prof.cpus_span, "CPUs set here"),)
-            notes = (f"`reconf ftm select {c.name}` lists the mechanisms valid here",)
-            out.append(error(r.code, f"{r.text} ('{c.name}')", span, related=related, notes=notes))
-        if comp.duplex is not None and len(set(c.ftm.hosts)) < 2:
-            out.append(warning("RC406", f"{comp.duplex.name} replicates '{c.name}' on two hosts, but "
-                                        f"{len(set(c.ftm.hosts)) or 'no'} distinct host"
-                                        f"{'' if len(set(c.ftm.hosts)) == 1 else 's'} are given", c.ftm.span,
-                               notes=(f"write `ftm {expr} on host_a, host_b`",)))
-        try:
-            protected_connector(system, c)
-        except DiagnosticError as e:
-            out += e.diagnostics
-    return sorted(out, key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
+        out += [(c.name, d) for d in _component_findings(system, c)]
+    return out
+
+
+def _component_findings(system: ir.System, c: ir.Component) -> list[Diagnostic]:
+    assert c.ftm is not None
+    out: list[Diagnostic] = []
+    expr = c.ftm.expr
+    comp, problems = compose(expr)
+    if comp is None:
+        return [error("RC401", f"ill-formed FTM '{expr}' on '{c.name}': {p}", expr.span) for p in problems]
+    prof = profile(system, c)
+    for r in judge(comp, prof):
+        span = expr.span if not r.mechanism else _span_of(expr, r.mechanism)
+        related: tuple[Related, ...] = ()
+        if r.code == "RC404" and prof.bandwidth_span is not None:
+            related = (Related(prof.bandwidth_span, "bandwidth set here"),)
+        if r.code == "RC405" and prof.cpus_span is not None:
+            related = (Related(prof.cpus_span, "CPUs set here"),)
+        notes = (f"`reconf ftm select {c.name}` lists the mechanisms valid here",)
+        out.append(error(r.code, f"{r.text} ('{c.name}')", span, related=related, notes=notes))
+    if comp.duplex is not None and len(set(c.ftm.hosts)) < 2:
+        out.append(warning("RC406", f"{comp.duplex.name} replicates '{c.name}' on two hosts, but "
+                                    f"{len(set(c.ftm.hosts)) or 'no'} distinct host"
+                                    f"{'' if len(set(c.ftm.hosts)) == 1 else 's'} are given", c.ftm.span,
+                           notes=(f"write `ftm {expr} on host_a, host_b`",)))
+    try:
+        protected_connector(system, c)
+    except DiagnosticError as e:
+        out += e.diagnostics
+    return out

@@ -112,7 +112,7 @@ def test_hosts_give_the_resources_when_the_component_does_not() -> None:
 
 def test_alloy_rule_checks_hold(bridge) -> None:  # type: ignore[no-untyped-def]
     outcomes = bridge.run({"ftm.als": ftm_rules_text()}, "ftm.als")
-    assert len(outcomes) == 9
+    assert len(outcomes) == 10
     assert all(o.as_expected for o in outcomes), [(o.label, o.outcome) for o in outcomes]
 
 
@@ -170,3 +170,43 @@ def test_alloy_flags_what_check_flags(ftm: str, application: str, resources: str
     alloy_bad = "server" in alloy_ftm_verdict(system).contradicted
     assert python_bad == alloy_bad == bad
     assert compose(system.components[0].ftm.expr)[0] is not None  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize("edit, key, code", [
+    (("ftm PBR on master, slave", "ftm LFR on master, slave"), "contradicted", "RC403"),
+    (("ftm PBR on master, slave", "ftm TR(PBR) on master, slave"), "misnested", "RC401"),
+    (("ftm PBR on master, slave", "ftm PBR(LFR) on master, slave"), "misnested", "RC401"),
+    (("ftm PBR on master, slave", "ftm PBR on master"), "hostless", "RC406"),
+])
+def test_check_judges_the_ftm_rules_in_alloy_too(edit: tuple[str, str], key: str, code: str, tmp_path,  # type: ignore[no-untyped-def]
+                                                  bridge) -> None:
+    import json
+
+    from click.testing import CliRunner
+
+    from checker.cli import main
+    text = open(f"{EXAMPLES}/client_server_pbr.arch").read()
+    assert edit[0] in text
+    path = tmp_path / "x.arch"
+    path.write_text(text.replace(*edit))
+    r = CliRunner().invoke(main, ["check", "--output-format", "json", str(path)])
+    assert r.exit_code == 1, r.output
+    doc = json.loads(r.stdout)
+    assert doc["engines"]["alloy"]["ftm_rules"][key] == ["server"]
+    assert any(d["code"] == code for d in doc["diagnostics"])
+    ok = CliRunner().invoke(main, ["check", f"{EXAMPLES}/client_server_pbr.arch"])
+    assert ok.exit_code == 0 and "FTM rules hold, judged by Alloy too" in ok.output, ok.output
+
+
+def test_check_refuses_to_answer_when_the_engines_disagree_on_the_ftm_rules(monkeypatch: pytest.MonkeyPatch,
+                                                                            bridge) -> None:  # type: ignore[no-untyped-def]
+    from dataclasses import replace
+
+    from click.testing import CliRunner
+
+    import checker.ftm.alloy_rules as rules
+    from checker.cli import main
+    real = rules.alloy_ftm_verdict
+    monkeypatch.setattr(rules, "alloy_ftm_verdict", lambda s: replace(real(s), contradicted=frozenset({"server"})))
+    r = CliRunner().invoke(main, ["check", f"{EXAMPLES}/client_server_pbr.arch"])
+    assert r.exit_code == 2 and "RC300" in r.output and "FTM rules" in r.output, r.output
