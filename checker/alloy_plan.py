@@ -60,30 +60,36 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
         width = min(width, len(plan.steps) - k)
         window = _window(plan, k, width)
         lean = slice_plan(window, lean=True)
-        comps = _size(lean)
-        if width > 1 and (len(lean.states) * comps > WINDOW_BUDGET or _atoms(lean) > TERNARY_ATOMS):
-            width = max(1, min(width // 2, WINDOW_BUDGET // (2 * comps)))
+        if width > 1 and _oversized(lean):
+            width = _narrower(width, lean)
             continue
-        if len(lean.states) * comps > MODULE_BUDGET:
+        if _cost(lean) > MODULE_BUDGET:
             return _not_run(plan, solver, seconds, _too_big(lean))
         if progress is not None:
             progress(f"verifying steps {k + 1}–{k + width} of {len(plan.steps)} in the Alloy Analyzer "
-                     f"({comps} components)…")
+                     f"({_size(lean)} components)…")
         try:
             reason, spent, text = _judge(plan, lean, solver, k, binary=width == 1)
             target = lean
             if reason:
-                # refuted on the lean slice: the full slice decides
+                # refuted on the lean slice, maybe only for what it left out: the full slice
+                # decides, on narrower windows if it does not fit this one
                 seconds += spent
                 texts.append(text)
                 target = slice_plan(window)
-                if len(target.states) * _size(target) > MODULE_BUDGET:
+                if width > 1 and _oversized(target):
+                    width, reason = _narrower(width, target), ""
+                    continue
+                if _cost(target) > MODULE_BUDGET:
                     return _not_run(plan, solver, seconds, _too_big(target))
                 reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
         except AlloyError as err:
             if "capacity exceeded" not in str(err):
                 raise
-            width //= 2  # a window of one step falls back on binary relations instead
+            if width == 1:
+                return _not_run(plan, solver, seconds, f"the plan module of step {k + 1} has more atoms than the "
+                                "Alloy Analyzer can index, even with binary relations")
+            width, reason = width // 2, ""
             continue
         seconds += spent
         texts.append(text)
@@ -108,7 +114,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
 
 def _whole(plan: Plan, solver: str) -> dict[str, Any]:
     """The plan judged in one module on its whole architecture."""
-    if len(plan.states) * _size(plan) > MODULE_BUDGET:
+    if _cost(plan) > MODULE_BUDGET:
         return _not_run(plan, solver, 0.0, _too_big(plan))
     try:
         reason, seconds, text = _judge(plan, plan, solver)
@@ -127,8 +133,9 @@ def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[
     evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
                 "transitions": len(plan.steps), "solver": used, "seconds": round(seconds, 3),
                 "module_hash": "sha256:" + hashlib.sha256("\n".join(texts).encode("utf-8")).hexdigest()}
-    if plan.serving:
-        evidence["lossless"] = [f"{proxy} serves {conn}" for conn, proxy in plan.serving]
+    if plan.serving or plan.handover:
+        evidence["lossless"] = [f"{proxy} serves {conn}" for conn, proxy in plan.serving] + \
+            [f"{proxy} serves {conn} while it publishes on it" for conn, proxy in plan.handover]
     return evidence
 
 
@@ -139,11 +146,12 @@ def _window(plan: Plan, k: int, width: int) -> Plan:
 
 
 def _atoms(target: Plan) -> int:
-    """About how many atoms the plan module of `target` has (an upper bound, up to a few
-    integers): states, components, ports, functionalities, guarantees, connectors, data."""
+    """About how many atoms the plan module of `target` has (an estimate, to choose window
+    sizes; the analyzer's capacity error is the final word): states, components, ports,
+    functionalities, guarantees, connectors, and per datum its message and rate."""
     system = target.system
     count = len(target.states) + len(system.connectors) + 24
-    data: set[Any] = {k.guarantee for k in system.connectors}
+    data: set[Any] = {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
     for c in system.components + system.versions:
         count += 1 + len(c.ports) + len(c.functionalities)
         data |= {p.assumption for p in c.ports if p.kind == "input"}
@@ -151,7 +159,23 @@ def _atoms(target: Plan) -> int:
             outs = [p for p in f.ports if (q := c.port(p)) is not None and q.kind == "output"]
             count += len(outs)
             data |= {m.guarantee(p) for m in (f.normal, f.degraded) if m is not None for p in outs}
-    return count + 2 * len(data)
+            data |= set(f.normal.assumptions) if f.normal is not None else set()
+    return count + 3 * len(data)
+
+
+def _cost(target: Plan) -> int:
+    """A module's size in state-components."""
+    return len(target.states) * _size(target)
+
+
+def _oversized(target: Plan) -> bool:
+    """Whether a window's module is past `WINDOW_BUDGET` or too large for ternary relations."""
+    return _cost(target) > WINDOW_BUDGET or _atoms(target) > TERNARY_ATOMS
+
+
+def _narrower(width: int, target: Plan) -> int:
+    """A narrower window than `width` steps, about as wide as the budget allows `target`'s slice."""
+    return max(1, min(width // 2, WINDOW_BUDGET // (2 * _size(target))))
 
 
 def _size(plan: Plan) -> int:
@@ -171,15 +195,17 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
     ones (about 3x slower to translate) rather than refused."""
     from .alloy import alloy_plan_verdict
 
+    def run(binary_roles: bool) -> Any:
+        return alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
+                                  stable=target.stable, binary=binary_roles, protocols=target.protocols,
+                                  handover=target.handover)
+
     try:
-        verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                     stable=target.stable, protocols=target.protocols)
+        verdict = run(False)
     except AlloyError as err:
         if "capacity exceeded" not in str(err) or not binary:
             raise
-        # too many atoms for the ternary roles: the same module through binary relations
-        verdict = alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                     stable=target.stable, binary=True, protocols=target.protocols)
+        verdict = run(True)  # too many atoms for the ternary roles: binary relations instead
 
     def after(i: int) -> str:
         """State i of the module, in the plan's words."""

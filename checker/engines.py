@@ -96,16 +96,20 @@ def judge_ftm(system: System, engine: str = "both") -> tuple[list[Diagnostic], O
     diags = sorted((d for _, d in findings), key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
     if engine == "python" or not any(c.ftm is not None for c in system.components):
         return diags, None
-    from .alloy import AlloyUnavailable
+    from .alloy import AlloyError, AlloyUnavailable
     from .ftm.alloy_rules import alloy_ftm_verdict
     try:
         v = alloy_ftm_verdict(system)
     except AlloyUnavailable as e:
         raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
                                            notes=("or use --engine python",))) from None
+    except AlloyError as e:
+        raise EngineUnavailable(Diagnostic(
+            "RC302", Severity.ERROR, f"Alloy rejected the generated FTM module: {e}", Span.unknown("<alloy>"),
+            notes=("this is a bug in reconf: please report it",))) from None
 
     def python(*codes: str) -> list[str]:
-        return sorted({c for c, d in findings if d.code in codes and "unknown mechanism" not in d.message})
+        return sorted({c for c, d in findings if d.code in codes})
 
     ours = {"contradicted": python("RC402", "RC403", "RC404", "RC405"), "misnested": python("RC401"),
             "hostless": python("RC406")}

@@ -210,7 +210,7 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
                 serving: Any = (), stable: Any = (), binary: bool = False,
-                protocols: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
+                protocols: Any = (), handover: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
@@ -222,7 +222,7 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
     the configurations' roles are binary relations through Role atoms
     (`PLAN_BINARY_STATE`), for a universe too large for the ternary `roles`."""
     return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable),
-                   binary=binary, protocols=list(protocols))
+                   binary=binary, protocols=list(protocols), handover=list(handover))
 
 
 def alloy_view(system: Any, config: Any) -> Any:
@@ -319,7 +319,8 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
-            binary: bool = False, protocols: list[str] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            binary: bool = False, protocols: list[tuple[str, str]] | None = None,
+            handover: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -538,17 +539,23 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
         ok_steps = union(terms, _empty("System", "Action"))
         watch = None
-        if serving:
+        serving, handover = serving or [], handover or []
+        if serving or handover:
             proxies = [func_atoms[c, f.name] for _, c in serving for comp in comps if comp.name == c
                        for f in comp.functionalities if (c, f.name) in func_atoms]
             conns = [conn_atoms[k] for k, _ in serving if k in conn_atoms]
-            if len(conns) != len(serving) or not proxies:
-                raise ValueError(f"serving names what the architecture lacks: {serving}")
-            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none"), "protocols": ""}
-            if protocols:
+            handed = [conn_atoms[k] for k, _ in handover if k in conn_atoms]
+            if len(conns) != len(serving) or (serving and not proxies) or len(handed) != len(handover) \
+                    or any(c not in comp_atoms for _, c in handover):
+                raise ValueError(f"serving names what the architecture lacks: {serving + handover}")
+            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none"), "protocols": "",
+                     "handing": union(sorted({comp_atoms[c] for _, c in handover}), "none"),
+                     "handed": union(handed, "none"), "handover": bool(handover)}
+            if protocols or handover:
                 # the proxies' requests must reach one of these (present) protocols
                 watch["proxy_comps"] = union(sorted({comp_atoms[c] for _, c in serving}), "none")
-                watch["protocols"] = union(sorted(comp_atoms[p] for p in protocols if p in comp_atoms), "none")
+                watch["protocols"] = union(sorted(f"{comp_atoms[x]} -> {comp_atoms[p]}" for x, p in protocols or []
+                                                  if x in comp_atoms and p in comp_atoms), _empty("Component", "Component"))
         kept = None
         if stable:
             missing = [k for k in stable if k not in conn_atoms]

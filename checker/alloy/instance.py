@@ -151,16 +151,20 @@ class AlloyPlanVerdict:
 
 def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
                        bridge: AlloyBridge | None = None, serving: Any = (),
-                       stable: Any = (), binary: bool = False, protocols: Any = ()) -> AlloyPlanVerdict:
+                       stable: Any = (), binary: bool = False, protocols: Any = (),
+                       handover: Any = ()) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
     configuration valid, each step one of the six actions with its preconditions met, and,
     with `serving` ((connector, proxy) pairs), each configuration lossless (with `protocols`,
-    each proxy's requests reaching one of them), and with `stable`
-    (connector names), each configuration satisfying them. With `binary`, the module's roles are binary relations (for a universe too large for
-    a ternary one: `codegen.alloy.render_plan`)."""
+    each proxy's requests reaching one of them; with `handover` ((connector, proxy) pairs of
+    servers losing their FTM), each such proxy normal with its requests reaching a protocol
+    while it still publishes on the connector), and with `stable` (connector names), each
+    configuration satisfying them. With `binary`, the module's roles are binary relations
+    (for a universe too large for a ternary one: `codegen.alloy.render_plan`)."""
     from codegen.alloy import render_plan
 
-    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary, protocols=protocols)
+    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary, protocols=protocols,
+                              handover=handover)
     bridge = bridge or AlloyBridge.get()
     n = len(configs)
     try:
@@ -180,7 +184,7 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     valid = tuple(f"S{i}" in valid_states for i in range(n))
     steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
     lossless = tuple(True for _ in range(n))
-    if serving:
+    if serving or handover:
         serving_states = {_atom(s) for (s,) in outcome.eval("lossless_states")}
         lossless = tuple(f"S{i}" in serving_states for i in range(n))
     kept = tuple(True for _ in range(n))

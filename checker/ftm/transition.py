@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
-from typing import Optional, Union
+from typing import Mapping, Optional, Union
 
 from reconf_dsl import ir
 from reconf_dsl.ir import satisfies
@@ -41,7 +41,8 @@ from .expand import ExpansionInfo, expand
 from .library import LAYER_ORDER
 
 __all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
-           "suspension_problems", "client_side_ok", "protocols", "reaches_protocol"]
+           "suspension_problems", "client_side_ok", "protocols", "reaches_protocol", "handover",
+           "request_problems"]
 
 
 def parse_ftm(text: str) -> ir.FtmExpr:
@@ -241,10 +242,11 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         if ni is not None:
             hoods.update(affected_protocols(old, new, oi, ni))
     if not hoods:
-        simple = plan_migrate(old, new, strategy)
+        simple = _hand_over_first(plan_migrate(old, new, strategy), old_infos, new_infos, strategy)
         simple.serving = serving(old_infos, new_infos)
+        simple.handover = handover(old_infos, new_infos)
         simple.protocols = protocols(old_infos, new_infos)
-        return _with_request_notes(Transition(simple, old, new, old_infos, new_infos, []))
+        return _refuse_lost_requests(Transition(simple, old, new, old_infos, new_infos, []))
     # The combined system, the target and the renames, from the cheapest planner that succeeds.
     try:
         plan = plan_migrate(old, new, "paper")
@@ -303,8 +305,33 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     if problems:
         raise NoSafePlan(problems)
     whole.serving = serving(old_infos, new_infos)
+    whole.handover = handover(old_infos, new_infos)
     whole.protocols = protocols(old_infos, new_infos)
-    return _with_request_notes(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+    return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _hand_over_first(plan: Plan, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
+                     strategy: str) -> Plan:
+    """`plan` reordered so that a server losing its FTM first gets its clients back (their
+    connector's publishers as in the target: the application instead of the proxy), and only
+    then sees the mechanism taken down: until the hand-over the proxy's request path is whole,
+    so no request is sent into a half-removed mechanism."""
+    after = {j.server for j in new_infos}
+    conns = {i.connector for i in old_infos if i.server not in after}
+    if not conns or not plan.steps:
+        return plan
+    system, start, final = plan.system, plan.states[0], plan.goal
+    onto = {r for r in final.roles if r[0] in conns}
+    comps = {c for _, c, _ in onto}
+    handed = settle(system, Goal(start.components | comps, (start.roles - {r for r in start.roles if r[0] in conns})
+                                 | onto, start.degraded))
+    first = solve(Problem(system, start, handed, added=sorted(comps - start.components),
+                          renames=dict(plan.renames)), strategy)
+    rest = solve(Problem(system, first.states[-1], final, removed=sorted(start.components - final.components),
+                         renames=dict(plan.renames)), strategy)
+    whole = verify(system, start, first.steps + rest.steps, final, strategy, plan.renames)
+    whole.notes = plan.notes + [n for n in whole.notes if n not in plan.notes]
+    return whole
 
 
 def _request_path(system: ir.System, start: Configuration, old_infos: list[ExpansionInfo],
@@ -312,7 +339,9 @@ def _request_path(system: ir.System, start: Configuration, old_infos: list[Expan
     """The roles and components that carry each served proxy's requests to a protocol in
     `start` (up to the first protocols reached): the planner keeps them until the new path
     is linked."""
-    targets = set(protocols(old_infos, new_infos))
+    targets: dict[str, set[str]] = {}
+    for proxy, protocol in protocols(old_infos, new_infos):
+        targets.setdefault(proxy, set()).add(protocol)
     kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
     outs: dict[str, set[tuple[str, str, str]]] = {}
     ins: dict[str, set[tuple[str, str, str]]] = {}
@@ -334,24 +363,10 @@ def _request_path(system: ir.System, start: Configuration, old_infos: list[Expan
                     roles |= {out, into}
                     if into[1] not in seen:
                         seen.add(into[1])
-                        if into[1] not in targets:
+                        if into[1] not in targets.get(proxy, set()):
                             frontier.append(into[1])
         comps |= seen
     return roles, comps
-
-
-def _with_request_notes(t: Transition) -> Transition:
-    """`t` with a note for every proxy whose requests reach no protocol in some state: a
-    request sent then could be lost (`client_side_ok` names the states)."""
-    targets = set(protocols(t.old_infos, t.new_infos))
-    for conn, proxy in t.plan.serving:
-        lost = [k for k, state in enumerate(t.plan.states)
-                if not reaches_protocol(t.plan.system, state, proxy, conn, targets)]
-        if lost:
-            t.plan.notes.append(f"warning: in {len(lost)} of {len(t.plan.states)} states (the first after step "
-                                f"{lost[0]}) the requests of {proxy} reach no protocol, and one sent then could "
-                                "be lost: this transition does not yet keep the request path")
-    return t
 
 
 def plan_transition(system: ir.System, component: str, new_ftm: Union[str, ir.FtmExpr, None],
@@ -368,7 +383,15 @@ def plan_ftm_migrate(old_system: ir.System, new_system: ir.System, strategy: str
     """`reconf plan migrate` for architectures with FTMs: both expanded, then migrated."""
     old, old_infos = expand(old_system)
     new, new_infos = expand(new_system)
-    return _with_rule_notes(_plan(old, new, old_infos, new_infos, strategy), new_system)
+    changed = {c.name for c in new_system.components
+               if (c.ftm, c.faults, c.application, c.resources) != _declared(old_system, c.name)}
+    return _with_rule_notes(_plan(old, new, old_infos, new_infos, strategy), new_system, changed)
+
+
+def _declared(system: ir.System, name: str) -> tuple[object, ...]:
+    """What `name` declares about fault tolerance in `system` (its FTM and (F, A, R))."""
+    c = system.component(name)
+    return (None, None, None, None) if c is None else (c.ftm, c.faults, c.application, c.resources)
 
 
 def _with_rule_notes(t: Transition, target: ir.System, only: Optional[set[str]] = None) -> Transition:
@@ -391,20 +414,38 @@ def serving(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> l
             and (i.composition, sorted(i.components)) != (after[i.server].composition, sorted(after[i.server].components))]
 
 
-def protocols(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[str]:
-    """The protocols, old and new, of the servers whose proxies a transition keeps serving
-    (`serving`): a proxy's requests must reach one of them in every state (`Plan.protocols`)."""
-    served = {proxy for _, proxy in serving(old_infos, new_infos)}
-    servers = {i.server for i in old_infos if i.proxy in served}
-    return sorted({p for i in old_infos + new_infos if i.server in servers for p in i.protocols})
+def handover(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[tuple[str, str]]:
+    """(client-facing connector, proxy) of every server that loses its FTM or gains one: while
+    the proxy publishes on the connector, it must serve (`Plan.handover`)."""
+    before, after = {i.server for i in old_infos}, {j.server for j in new_infos}
+    return [(i.connector, i.proxy) for i in old_infos if i.server not in after] + \
+        [(j.connector, j.proxy) for j in new_infos if j.server not in before]
 
 
-def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client_conn: str,
+def protocols(old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> list[tuple[str, str]]:
+    """(proxy, protocol) for every proxy a transition must keep serving (`serving`, `handover`)
+    and every protocol, old or new, of its server: the proxy's requests must reach one of
+    them (`Plan.protocols`)."""
+    watched = {proxy for _, proxy in serving(old_infos, new_infos) + handover(old_infos, new_infos)}
+    infos = old_infos + new_infos
+    return sorted({(i.proxy, p) for i in infos if i.proxy in watched
+                   for j in infos if j.server == i.server for p in j.protocols})
+
+
+def reaches_protocol(system: ir.System, state: Configuration, proxy: str, clients: set[str],
                      targets: set[str]) -> bool:
-    """Whether, in `state`, the requests `proxy` publishes (on any connector but its clients')
-    reach a present protocol of `targets`, through the readers of each connector and what
-    those publish (a suspended protocol queues them)."""
+    """Whether, in `state`, the requests `proxy` publishes (on any connector but the clients'
+    connectors `clients`) reach a present protocol of `targets`, through the readers of each
+    connector and what those publish (a suspended protocol queues them)."""
     kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
+    return _reaches(_flows(kinds, state), state, proxy, clients, targets)
+
+
+_Flows = tuple[dict[str, set[str]], dict[str, set[str]]]
+
+
+def _flows(kinds: Mapping[tuple[str, str], str], state: Configuration) -> _Flows:
+    """Who publishes on which connectors, and who reads each connector, in `state`."""
     pubs: dict[str, set[str]] = {}
     reads: dict[str, set[str]] = {}
     for conn, comp, port in state.roles:
@@ -412,10 +453,15 @@ def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client
             pubs.setdefault(comp, set()).add(conn)
         else:
             reads.setdefault(conn, set()).add(comp)
+    return pubs, reads
+
+
+def _reaches(flows: _Flows, state: Configuration, proxy: str, clients: set[str], targets: set[str]) -> bool:
+    pubs, reads = flows
     seen, frontier = {proxy}, [proxy]
     while frontier:
         comp = frontier.pop()
-        for conn in pubs.get(comp, set()) - {client_conn}:
+        for conn in pubs.get(comp, set()) - clients:
             for reader in reads.get(conn, set()) - seen:
                 if reader in targets and reader in state.components:
                     return True
@@ -424,12 +470,46 @@ def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client
     return False
 
 
-def client_side_ok(t: Transition) -> list[str]:
-    """Every state in which a client-facing connector is unsatisfied, a Proxy degraded, or a
-    Proxy's requests reach no protocol."""
+def request_problems(plan: Plan) -> list[str]:
+    """Every state of `plan` in which a request could be lost: a `serving` proxy's requests
+    reach none of its protocols (`Plan.protocols`), or a `handover` proxy that still publishes
+    on its clients' connector is degraded or its requests reach none. The Alloy plan module
+    states the same (`lossless_states`)."""
+    kinds = {(c.name, p.name): p.kind for c in plan.system.components + plan.system.versions for p in c.ports}
+    clients = {conn for conn, _ in plan.serving + plan.handover}
+    targets: dict[str, set[str]] = {}
+    for proxy, protocol in plan.protocols:
+        targets.setdefault(proxy, set()).add(protocol)
     out = []
+    for k, state in enumerate(plan.states):
+        flows = _flows(kinds, state)
+        for conn, proxy in plan.serving:
+            if not _reaches(flows, state, proxy, clients, targets.get(proxy, set())):
+                out.append(f"state {k}: the requests of {proxy} reach no protocol")
+        for conn, proxy in plan.handover:
+            if conn not in flows[0].get(proxy, set()):
+                continue
+            if any(c == proxy for c, _ in state.degraded):
+                out.append(f"state {k}: {proxy} is degraded while it still publishes on {conn}")
+            if not _reaches(flows, state, proxy, clients, targets.get(proxy, set())):
+                out.append(f"state {k}: the requests of {proxy} reach no protocol while it still publishes on {conn}")
+    return out
+
+
+def _refuse_lost_requests(t: Transition) -> Transition:
+    """`t`, unless a request could be lost in one of its states (`request_problems`)."""
+    problems = request_problems(t.plan)
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise NoSafePlan([f"a client request could be lost: {problems[0]}{more}"])
+    return t
+
+
+def client_side_ok(t: Transition) -> list[str]:
+    """Every state in which a client-facing connector is unsatisfied or a Proxy degraded (for
+    every server protected before and after), or a request could be lost (`request_problems`)."""
+    out = request_problems(t.plan)
     watched = [(i.connector, i.proxy) for i in t.old_infos if any(j.server == i.server for j in t.new_infos)]
-    targets = set(protocols(t.old_infos, t.new_infos)) or {p for i in t.old_infos + t.new_infos for p in i.protocols}
     for k, state in enumerate(t.plan.states):
         ev = evaluate(t.plan.system, state, explain=False)
         for conn, proxy in watched:
@@ -437,6 +517,4 @@ def client_side_ok(t: Transition) -> list[str]:
                 out.append(f"state {k}: {conn} is unsatisfied")
             if any(c == proxy for c, _ in state.degraded):
                 out.append(f"state {k}: {proxy} is degraded")
-            if not reaches_protocol(t.plan.system, state, proxy, conn, targets):
-                out.append(f"state {k}: the requests of {proxy} reach no protocol")
     return out

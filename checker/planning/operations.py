@@ -191,7 +191,7 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
     versions = list(old.versions)
     replaced, added = [], []
     for name, c in news.items():
-        if name in olds and olds[name] == c:
+        if name in olds and _same_component(olds[name], c):
             comp_names[name] = name
             continue
         target = name if name not in taken else _fresh(name, taken)
@@ -227,6 +227,17 @@ def _fresh(name: str, taken: set[str]) -> str:
     while candidate in taken:
         candidate, i = f"{name}{RENAMED}{i}", i + 1
     return candidate
+
+
+def _same_component(a: Component, b: Component) -> bool:
+    """Whether `b` is the running `a`, kept by a migration: the same ports, functionalities,
+    command and host. What is declared about it (faults, application, resources, FTM) does not
+    change the process, and a host declared on one side only does not move it (an FTM places
+    its application on the first of its hosts; without the FTM, the file may not say)."""
+    def bare(c: Component) -> Component:
+        return dc_replace(c, faults=(), application=(), resources=(), ftm=None, host=None)
+
+    return (a.host == b.host or a.host is None or b.host is None) and bare(a) == bare(b)
 
 
 def _same_connector(a: Connector, b: Connector) -> bool:

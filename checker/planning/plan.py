@@ -147,9 +147,12 @@ class Plan:
     # connectors that must stay satisfied in every state: a lean slice leaves out their
     # readers on that ground (see checker.planning.slicing), and Alloy must prove it
     stable: list[str] = field(default_factory=list)
-    # the protocols (components) a `serving` proxy's requests must reach in every state,
-    # through the readers of what it publishes: a suspended protocol queues them
-    protocols: list[str] = field(default_factory=list)
+    # (proxy, protocol): the protocols a `serving` or `handover` proxy's requests must reach,
+    # through the readers of what it publishes (a suspended protocol queues them)
+    protocols: list[tuple[str, str]] = field(default_factory=list)
+    # (connector, proxy) pairs of servers losing their FTM: while the proxy still publishes
+    # on its clients' connector it stays normal and its requests reach a protocol
+    handover: list[tuple[str, str]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.steps)

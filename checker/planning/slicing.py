@@ -74,7 +74,7 @@ def affected(plan: Plan, stable: frozenset[str] = frozenset(), att: _Attachments
     the components whose assumptions the slice judges. Readers of `stable` connectors are
     left out (the lean slice)."""
     att = att or _Attachments(plan)
-    core = att.touched | {proxy for _, proxy in plan.serving} | _request_paths(plan, att)
+    core = att.touched | {proxy for _, proxy in plan.serving + plan.handover} | _request_paths(plan, att)
     for conn, ps in att.pubs.items():
         if ps & att.touched and conn not in stable:
             core |= att.reads.get(conn, set())
@@ -85,14 +85,14 @@ def _request_paths(plan: Plan, att: _Attachments) -> set[str]:
     """Every component that a `serving` proxy's requests reach in some state (through the
     readers of what it publishes, its clients' connector aside): the plan module follows
     the path to a protocol, so it keeps them whole."""
-    if not plan.serving:
+    if not plan.serving and not plan.handover:
         return set()
     published: dict[str, set[str]] = {}
     for conn, ps in att.pubs.items():
         for comp in ps:
             published.setdefault(comp, set()).add(conn)
-    clients = {conn for conn, _ in plan.serving}
-    seen = {proxy for _, proxy in plan.serving}
+    clients = {conn for conn, _ in plan.serving + plan.handover}
+    seen = {proxy for _, proxy in plan.serving + plan.handover}
     frontier = list(seen)
     while frontier:
         comp = frontier.pop()
@@ -147,4 +147,4 @@ def slice_plan(plan: Plan, lean: bool = False) -> Plan:
                       degraded=states[-1].degraded)
     return Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
                 list(plan.notes), plan.verification, list(plan.serving), sorted(stable),
-                [p for p in plan.protocols if p in keep])
+                [(x, p) for x, p in plan.protocols if p in keep], list(plan.handover))

@@ -111,3 +111,38 @@ def test_binary_roles_give_the_ternary_verdict(bridge: AlloyBridge) -> None:
         assert "fun roles_of" in binary.text and "fun roles_of" not in ternary.text
         assert (ternary.valid, ternary.steps) == (binary.valid, binary.steps)
         assert all(ternary.valid) is safe
+
+
+def test_a_refuted_lean_window_is_decided_on_narrower_full_windows(monkeypatch: pytest.MonkeyPatch,
+                                                                    bridge: AlloyBridge) -> None:
+    """Alloy refuting every lean slice (as it may, for what a lean slice leaves out): the
+    full slices decide, on windows narrow enough for them, and the plan is verified."""
+    import checker.alloy_plan as ap
+
+    plan = hub_plan("fanin", 60)
+    assert slice_plan(plan, lean=True).stable
+    real = ap._judge
+
+    def lean_refuted(plan: Plan, target: Plan, *args: object, **kw: object) -> tuple[str, float, str]:
+        if target.stable:
+            return "refuted on the lean slice", 0.0, ""
+        return real(plan, target, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(ap, "_judge", lean_refuted)
+    monkeypatch.setattr(ap, "WINDOW_BUDGET", 600)
+    ev = alloy_evidence(plan)
+    assert ev["valid"], ev["reason"]
+    assert ev["slice"]["kind"] == "full" and ev["slice"]["windows"] > 1
+
+
+def test_a_step_beyond_the_analyzer_is_not_run_rather_than_retried_forever(monkeypatch: pytest.MonkeyPatch,
+                                                                           bridge: AlloyBridge) -> None:
+    import checker.alloy_plan as ap
+    from checker.alloy.errors import AlloyError
+
+    def too_many_atoms(*args: object, **kw: object) -> tuple[str, float, str]:
+        raise AlloyError("Translation capacity exceeded.")
+
+    monkeypatch.setattr(ap, "_judge", too_many_atoms)
+    ev = alloy_evidence(hub_plan("chain", 12))
+    assert ev["verdict"] == "not run" and "step 1 " in ev["reason"], ev

@@ -97,6 +97,35 @@ def test_protecting_an_unprotected_server() -> None:
     t = plan_ftm_migrate(load_text(client_server(None)), load_text(client_server("PBR")))
     assert "server__proxy" in touched(t)
     assert not t.plan.goal.degraded
+    # the running application is kept (the FTM only places it on its first host), and the
+    # proxy serves the clients from the moment it publishes on their connector
+    assert "server" not in touched(t)
+    assert t.plan.handover == [("/compute", "server__proxy")]
+    assert client_side_ok(t) == []
+
+
+def test_unprotecting_a_server_hands_its_clients_over_first() -> None:
+    t = plan_transition(load_text(client_server("PBR")), "server", None)
+    p = t.plan
+    assert "server" not in touched(t) and client_side_ok(t) == []
+    # the clients' connector changes publisher before anything of the mechanism is taken down
+    swap = next(i for i, a in enumerate(p.steps) if a.kind == "attach" and a.component == "server")
+    assert all(a.kind in ("degrade", "detach", "attach", "upgrade") for a in p.steps[:swap + 2])
+    assert not any(isinstance(a, Remove) for a in p.steps[:swap])
+
+
+def test_alloy_refuses_taking_a_mechanism_down_under_its_clients(monkeypatch: pytest.MonkeyPatch,
+                                                                bridge) -> None:  # type: ignore[no-untyped-def]
+    from checker.alloy_plan import alloy_evidence
+    import checker.ftm.transition as tr
+    kept = alloy_evidence(plan_transition(load_text(client_server("PBR")), "server", None).plan)
+    assert kept["valid"], kept["reason"]
+    monkeypatch.setattr(tr, "_hand_over_first", lambda plan, *args: plan)
+    monkeypatch.setattr(tr, "_refuse_lost_requests", lambda t: t)
+    lossy = plan_transition(load_text(client_server("PBR")), "server", None)
+    assert client_side_ok(lossy)
+    ev = alloy_evidence(lossy.plan)
+    assert not ev["valid"] and "reach no protocol" in ev["reason"], ev
 
 
 def test_alloy_verifies_a_nested_transition(bridge) -> None:  # type: ignore[no-untyped-def]
@@ -159,27 +188,32 @@ def test_requests_must_reach_a_protocol_and_a_lossy_transition_says_so() -> None
 
     t = transition("PBR(TR)", "SEC(PBR(TR))")
     (conn, proxy), = t.plan.serving
-    targets = set(protocols(t.old_infos, t.new_infos))
+    targets = {p for _, p in protocols(t.old_infos, t.new_infos)}
     first = t.plan.states[0]
-    assert reaches_protocol(t.plan.system, first, proxy, conn, targets)
+    assert reaches_protocol(t.plan.system, first, proxy, {conn}, targets)
     # the proxy's request output unlinked: its requests go nowhere
     cut = Configuration(first.components, first.degraded,
                         frozenset(r for r in first.roles if not (r[1] == proxy and r[0] != conn)))
-    assert not reaches_protocol(t.plan.system, cut, proxy, conn, targets)
-    assert not any(n.startswith("warning:") for n in t.plan.notes)
+    assert not reaches_protocol(t.plan.system, cut, proxy, {conn}, targets)
 
 
 def _without_the_old_request_path(monkeypatch: pytest.MonkeyPatch) -> Transition:
-    """SEC(PBR(TR)) → PBR(TR) planned without keeping the old request path: the SEC layer
-    the proxy sends through is unlinked before the new path is."""
+    """SEC(PBR(TR)) → PBR(TR) planned without keeping the old request path (the SEC layer
+    the proxy sends through is unlinked before the new path is), and not refused for it."""
     import checker.ftm.transition as tr
     monkeypatch.setattr(tr, "_request_path", lambda *args: (set(), set()))
+    monkeypatch.setattr(tr, "_refuse_lost_requests", lambda t: t)
     return plan_transition(load_text(client_server("SEC(PBR(TR))")), "server", "PBR(TR)")
 
 
-def test_a_transition_that_loses_the_request_path_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
-    lossy = _without_the_old_request_path(monkeypatch)
-    assert any("reach no protocol" in n for n in lossy.plan.notes)
+def test_a_transition_that_loses_the_request_path_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    from checker.planning import NoSafePlan
+    import checker.ftm.transition as tr
+    monkeypatch.setattr(tr, "_request_path", lambda *args: (set(), set()))
+    with pytest.raises(NoSafePlan, match="could be lost: state [0-9]+: the requests of server__proxy reach no"):
+        plan_transition(load_text(client_server("SEC(PBR(TR))")), "server", "PBR(TR)")
+    monkeypatch.setattr(tr, "_refuse_lost_requests", lambda t: t)
+    lossy = plan_transition(load_text(client_server("SEC(PBR(TR))")), "server", "PBR(TR)")
     assert any("reach no protocol" in p for p in client_side_ok(lossy))
 
 
@@ -205,3 +239,10 @@ def test_alloy_refuses_a_transition_that_loses_the_request_path(monkeypatch: pyt
     assert not ev["valid"] and "reach no protocol" in ev["reason"], ev
     kept = alloy_evidence(transition("SEC(PBR(TR))", "PBR(TR)").plan)
     assert kept["valid"], kept["reason"]
+
+
+def test_a_migration_warns_only_about_the_mechanisms_it_changes() -> None:
+    broken = load_text(client_server("PBR", application="deterministic"))   # PBR needs state access
+    assert not plan_ftm_migrate(broken, load_text(client_server("PBR", application="deterministic"))).plan.notes
+    moved = plan_ftm_migrate(load_text(client_server("PBR")), broken)
+    assert any(n.startswith("warning: the target breaks an FTM rule: RC403") for n in moved.plan.notes), moved.plan.notes
