@@ -144,6 +144,16 @@ def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # t
     assert ev["lossless"] and "slice" not in ev
 
 
+@pytest.mark.parametrize("a, b", PAIRS)
+def test_alloy_verifies_every_transition_of_the_table(a: str, b: str, bridge) -> None:  # type: ignore[no-untyped-def]
+    """Both engines on every pair of the table: the plan as `reconf plan transition` verifies it
+    (on its slice), every state valid and lossless, every step an instance of its action."""
+    from checker.alloy_plan import alloy_evidence
+    ev = alloy_evidence(transition(a, b).plan)
+    assert ev["valid"], ev["reason"]
+    assert ev["lossless"]
+
+
 def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  # type: ignore[no-untyped-def]
     """The same states with the proxy degraded in one of them: Alloy finds that state not
     lossless (requests would reach a proxy that no longer forwards them), and refuses the plan."""
