@@ -293,6 +293,21 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         unlinked = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
         moved = solve(Problem(system, end, unlinked, removed=stay, renames=dict(plan.renames)), strategy)
         steps, end = steps + moved.steps, moved.states[-1]
+    # A protocol whose neighbourhood still has links to make (new outputs that waited for their
+    # node's resume) stays suspended until they are made, if those nodes do not depend on it.
+    hold: set[FuncId] = set()
+    for p, hood in sorted(hoods.items()):
+        nodes = {r[1] for r in late if r[1] in hood or plan.renames.get(r[1], r[1]) in hood}
+        held = settle(system, Goal(final.components, final.roles, frozenset({_func(system, p)})))
+        if nodes and not any(c in nodes for c, _ in held.degraded):
+            hold.add(_func(system, p))
+    if hold:
+        held = settle(system, Goal(final.components, final.roles, frozenset(hold)))
+        down = {c for c, _ in held.degraded}
+        roles = final.roles - {r for r in late if r[1] in down}
+        linked = solve(Problem(system, end, settle(system, Goal(final.components, roles, frozenset(hold))),
+                               renames=dict(plan.renames)), strategy)
+        steps, end = steps + linked.steps, linked.states[-1]
     post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
         if late or keep else _resume_steps(system, end)
     whole = verify(system, start, pre + steps + post, final, strategy, plan.renames)
