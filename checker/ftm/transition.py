@@ -20,7 +20,10 @@ No request is lost: a suspended Protocol still accepts requests and queues them 
 mode guarantees the reply type without rate), so the Proxy, and the client-facing connector,
 stay satisfied in every state; and the old request path (`_request_path`: what carries the
 proxy's requests to a protocol) stays linked until the new one is, so they always reach a
-protocol (`reaches_protocol`). `client_side_ok` checks both on every state of a plan.
+protocol. A server losing its FTM has its clients handed over to the application first
+(`_hand_over_first`); one gaining an FTM is handed over last; while its proxy publishes on the
+clients' connector it serves them (`Plan.handover`). `request_problems` checks all of this on
+every state of a plan (a plan that fails it is refused), as the Alloy plan module does.
 """
 from __future__ import annotations
 
