@@ -11,7 +11,8 @@ For a server S whose replies leave on connector X (its first service, else its f
   on replica 1) through the service `/S/ftm/r<i>/srv`. Composition by nesting: the outer
   layer's Before feeds, and its After reads, the inner layer's Protocol instead of a Proceed.
 - Duplex patterns: crash detectors `S__r0_cd` (heartbeat) and `S__r1_cd` (detect), and
-  `S__recovery`, which switches the proxy binding to replica 1's duplex Protocol; the After
+  `S__recovery`, which switches the proxy binding to replica 1's outermost Protocol (its
+  SEC layer's under SEC, so a takeover keeps the security layer); the After
   nodes exchange checkpoints / notifications, LFR and A&D Befores forward requests.
 - SEC: client-side `S__sec_client_before` (cipher, sign) and `S__sec_client_after` (decipher,
   check) around the proxy, a server-side sec layer per replica, and the certification
@@ -192,9 +193,10 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
         for k, (layer, role) in enumerate(plan):
             q = f"{p}r{i}_{layer}_"
             base = _topic(s, f"r{i}", layer)
-            ins: list[tuple[str, ir.Predicate]] = [("from_client", REQ), ("from_after", g)]
-            if layer == "dup":
-                ins.append(("from_recovery", ALARM))
+            # every Protocol can be switched to primary (so a layer keeps its definition in any
+            # composition); in a duplex, Recovery switches replica 1's outermost one
+            ins: list[tuple[str, ir.Predicate]] = [("from_client", REQ), ("from_after", g),
+                                                   ("from_recovery", ALARM)]
             pro = b.add(q + "protocol", host, ins, [("reply", t), ("to_before", "FtmRequest")], "handle", [g],
                         [("reply", g), ("to_before", REQ)], [("reply", plain), ("to_before", ir.NOTHING)])
             info.protocols.append(pro)
@@ -243,8 +245,8 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
                     b.wire(_topic(s, "aft2aft"), STATE, (aft, "to_peer"), None)
                 if "from_peer" in dict(ains):
                     b.wire(_topic(s, "aft2aft"), STATE, None, (aft, "from_peer"))
-                if i == 1:
-                    b.wire(_topic(s, "rcy2pro"), ALARM, None, (pro, "from_recovery"))
+            if comp.duplex is not None and i == 1 and k == 0:
+                b.wire(_topic(s, "rcy2pro"), ALARM, None, (pro, "from_recovery"))
             if layer == "sec":
                 b.wire(_topic(s, "ca"), CERT, None, (bef, "cert"))
             outer_req, outer_rep = base + "/bfr2prd", base + "/prd2aft"

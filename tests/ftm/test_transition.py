@@ -16,7 +16,7 @@ from .conftest import EXAMPLES, client_server
 PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
          ("PBR", "SEC(PBR)"), ("LFR", "AD"), ("TR", "SEC(TR)"), ("LFR(TR)", "AD(TR)"), ("PBR(TR)", "LFR(TR)"),
          ("SEC(PBR(TR))", "PBR(TR)"), ("SEC(PBR)", "LFR"), ("TR", "PBR(TR)"), ("LFR(TR)", "TR"),
-         ("SEC(TR)", "SEC(PBR(TR))"), ("SEC(LFR(TR))", "SEC(TR)")]
+         ("SEC(TR)", "SEC(PBR(TR))"), ("SEC(LFR(TR))", "SEC(TR)"), ("SEC", "SEC(PBR)")]
 
 _cache: dict[tuple[str, str], Transition] = {}
 
