@@ -174,6 +174,10 @@ class _Catalogue:
         self._ident: dict[tuple[int, int], tuple[frozenset[str], frozenset[Role], _Index]] = {}
         self._room = max(16, min(256, 4_000_000 // (len(system.connectors) + len(self.ports) + 1)))
 
+    def is_output(self, comp: str, port: str) -> bool:
+        p = self.ports.get((comp, port))
+        return p is not None and p.kind == "output"
+
     def index(self, config: Configuration) -> "_Index":
         """Who is attached where in `config`, cached: consecutive states often share their sets."""
         comps, roles = config.components, config.roles
@@ -303,8 +307,13 @@ class Snapshot:
         self._conn_cache: dict[str, bool] = {}
 
     def is_output(self, comp: str, port: str) -> bool:
-        p = self.cat.ports.get((comp, port))
-        return p is not None and p.kind == "output"
+        return self.cat.is_output(comp, port)
+
+    def attached_outputs(self, comp: str) -> list[tuple[str, str]]:
+        """(connector, output port) of every output of `comp` attached in this configuration."""
+        c = self.cat.comps.get(comp)
+        return [(conn, p.name) for p in (c.ports if c is not None else ()) if p.kind == "output"
+                for conn in self.by_port.get((comp, p.name), ())]
 
     def readers(self, conns: Iterable[str]) -> set[str]:
         """The present components with an input attached to one of `conns`."""

@@ -29,13 +29,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
-from typing import Mapping, Optional, Union
+from typing import Optional, Union
 
 from reconf_dsl import ir
 from reconf_dsl.ir import satisfies
 from reconf_dsl.parser import parse_text
 
-from ..actions import Action, Attach, Degrade, Detach, Remove, Upgrade, failing_assumptions, preconditions
+from ..actions import (Action, Attach, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, failing_assumptions,
+                       preconditions)
 from ..config import Configuration, FuncId
 from ..planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
 from ..planning.plan import settle, verify
@@ -301,8 +302,10 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     hold: set[FuncId] = set()
     for p, hood in sorted(hoods.items()):
         nodes = {r[1] for r in late if r[1] in hood or plan.renames.get(r[1], r[1]) in hood}
+        if not nodes:
+            continue
         held = settle(system, Goal(final.components, final.roles, frozenset({_func(system, p)})))
-        if nodes and not any(c in nodes for c, _ in held.degraded):
+        if not any(c in nodes for c, _ in held.degraded):
             hold.add(_func(system, p))
     if hold:
         held = settle(system, Goal(final.components, final.roles, frozenset(hold)))
@@ -357,32 +360,23 @@ def _request_path(system: ir.System, start: Configuration, old_infos: list[Expan
     """The roles and components that carry each served proxy's requests to a protocol in
     `start` (up to the first protocols reached): the planner keeps them until the new path
     is linked."""
-    targets: dict[str, set[str]] = {}
-    for proxy, protocol in protocols(old_infos, new_infos):
-        targets.setdefault(proxy, set()).add(protocol)
-    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
-    outs: dict[str, set[tuple[str, str, str]]] = {}
-    ins: dict[str, set[tuple[str, str, str]]] = {}
-    for r in start.roles:
-        if kinds.get((r[1], r[2])) == "output":
-            outs.setdefault(r[1], set()).add(r)
-        else:
-            ins.setdefault(r[0], set()).add(r)
+    targets = _targets(protocols(old_infos, new_infos))
+    st = Snapshot(catalogue(system), start)
     roles: set[tuple[str, str, str]] = set()
     comps: set[str] = set()
     for conn, proxy in serving(old_infos, new_infos):
         seen, frontier = {proxy}, [proxy]
         while frontier:
             comp = frontier.pop()
-            for out in outs.get(comp, set()):
-                if out[0] == conn:
+            for k, port in st.attached_outputs(comp):
+                if k == conn:
                     continue
-                for into in ins.get(out[0], set()):
-                    roles |= {out, into}
-                    if into[1] not in seen:
-                        seen.add(into[1])
-                        if into[1] not in targets.get(proxy, set()):
-                            frontier.append(into[1])
+                for reader, into in st.subs.get(k, ()):
+                    roles |= {(k, comp, port), (k, reader, into)}
+                    if reader not in seen:
+                        seen.add(reader)
+                        if reader not in targets.get(proxy, set()):
+                            frontier.append(reader)
         comps |= seen
     return roles, comps
 
@@ -455,37 +449,28 @@ def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client
     """Whether, in `state`, the requests `proxy` publishes (on any connector but the clients'
     connectors `clients`) reach a present protocol of `targets`, through the readers of each
     connector and what those publish (a suspended protocol queues them)."""
-    kinds = {(c.name, p.name): p.kind for c in system.components + system.versions for p in c.ports}
-    return _reaches(_flows(kinds, state), state, proxy, clients, targets)
+    return _reaches(Snapshot(catalogue(system), state), proxy, clients, targets)
 
 
-_Flows = tuple[dict[str, set[str]], dict[str, set[str]]]
-
-
-def _flows(kinds: Mapping[tuple[str, str], str], state: Configuration) -> _Flows:
-    """Who publishes on which connectors, and who reads each connector, in `state`."""
-    pubs: dict[str, set[str]] = {}
-    reads: dict[str, set[str]] = {}
-    for conn, comp, port in state.roles:
-        if kinds.get((comp, port)) == "output":
-            pubs.setdefault(comp, set()).add(conn)
-        else:
-            reads.setdefault(conn, set()).add(comp)
-    return pubs, reads
-
-
-def _reaches(flows: _Flows, state: Configuration, proxy: str, clients: set[str], targets: set[str]) -> bool:
-    pubs, reads = flows
+def _reaches(st: Snapshot, proxy: str, clients: set[str], targets: set[str]) -> bool:
     seen, frontier = {proxy}, [proxy]
     while frontier:
         comp = frontier.pop()
-        for conn in pubs.get(comp, set()) - clients:
-            for reader in reads.get(conn, set()) - seen:
-                if reader in targets and reader in state.components:
+        for conn in {k for k, _ in st.attached_outputs(comp)} - clients:
+            for reader in st.readers([conn]) - seen:   # present components only
+                if reader in targets:
                     return True
                 seen.add(reader)
                 frontier.append(reader)
     return False
+
+
+def _targets(pairs: list[tuple[str, str]]) -> dict[str, set[str]]:
+    """proxy -> its protocols, from `Plan.protocols`' (proxy, protocol) pairs."""
+    out: dict[str, set[str]] = {}
+    for proxy, protocol in pairs:
+        out.setdefault(proxy, set()).add(protocol)
+    return out
 
 
 def request_problems(plan: Plan) -> list[str]:
@@ -493,23 +478,21 @@ def request_problems(plan: Plan) -> list[str]:
     reach none of its protocols (`Plan.protocols`), or a `handover` proxy that still publishes
     on its clients' connector is degraded or its requests reach none. The Alloy plan module
     states the same (`lossless_states`)."""
-    kinds = {(c.name, p.name): p.kind for c in plan.system.components + plan.system.versions for p in c.ports}
+    cat = catalogue(plan.system)
     clients = {conn for conn, _ in plan.serving + plan.handover}
-    targets: dict[str, set[str]] = {}
-    for proxy, protocol in plan.protocols:
-        targets.setdefault(proxy, set()).add(protocol)
+    targets = _targets(plan.protocols)
     out = []
     for k, state in enumerate(plan.states):
-        flows = _flows(kinds, state)
+        st = Snapshot(cat, state)
         for conn, proxy in plan.serving:
-            if not _reaches(flows, state, proxy, clients, targets.get(proxy, set())):
+            if not _reaches(st, proxy, clients, targets.get(proxy, set())):
                 out.append(f"state {k}: the requests of {proxy} reach no protocol")
         for conn, proxy in plan.handover:
-            if conn not in flows[0].get(proxy, set()):
+            if conn not in {sent for sent, _ in st.attached_outputs(proxy)}:
                 continue
             if any(c == proxy for c, _ in state.degraded):
                 out.append(f"state {k}: {proxy} is degraded while it still publishes on {conn}")
-            if not _reaches(flows, state, proxy, clients, targets.get(proxy, set())):
+            if not _reaches(st, proxy, clients, targets.get(proxy, set())):
                 out.append(f"state {k}: the requests of {proxy} reach no protocol while it still publishes on {conn}")
     return out
 

@@ -112,9 +112,7 @@ def _touched(st: Snapshot, a: Action) -> set[str]:
     if isinstance(a, (Attach, Detach)):
         out |= st.readers([a.connector])
     elif isinstance(a, (Degrade, Upgrade)):
-        conns = [k for p in st.cat.comps[comp].ports if p.kind == "output"
-                 for k in st.by_port.get((comp, p.name), [])]
-        out |= st.readers(conns)
+        out |= st.readers(k for k, _ in st.attached_outputs(comp))
     return out
 
 

@@ -45,14 +45,12 @@ class _Attachments:
     once per plan and shared by the functions below."""
 
     def __init__(self, plan: Plan) -> None:
-        system = plan.system
         roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
-        self.kinds: dict[tuple[str, str], str] = {(c.name, p.name): p.kind for c in system.components + system.versions
-                                                  for p in c.ports}
+        self.is_output = catalogue(plan.system).is_output
         self.pubs: dict[str, set[str]] = {}
         self.reads: dict[str, set[str]] = {}
         for conn, comp, port in roles:
-            (self.pubs if self.kinds.get((comp, port)) == "output" else self.reads).setdefault(conn, set()).add(comp)
+            (self.pubs if self.is_output(comp, port) else self.reads).setdefault(conn, set()).add(comp)
         self.touched = {getattr(a, "component") for a in plan.steps}
 
 
@@ -107,7 +105,7 @@ def slice_plan(plan: Plan, lean: bool = False) -> Plan:
     """The plan on the part of its architecture it can affect (see above)."""
     system = plan.system
     att = _Attachments(plan)
-    kinds, pubs, reads = att.kinds, att.pubs, att.reads
+    pubs, reads = att.pubs, att.reads
     stable = frozenset(stable_connectors(plan, att)) if lean else frozenset()
     core = affected(plan, stable, att)
     stubs: set[str] = set()
@@ -134,7 +132,7 @@ def slice_plan(plan: Plan, lean: bool = False) -> Plan:
     def project(s: Configuration) -> Configuration:
         return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep),
                              frozenset(r for r in s.roles if r[1] in core
-                                       or (r[1] in stubs and kinds.get((r[1], r[2])) == "output")))
+                                       or (r[1] in stubs and att.is_output(r[1], r[2]))))
 
     states = [project(s) for s in plan.states]
     used = {r[0] for s in states for r in s.roles}
