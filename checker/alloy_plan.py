@@ -84,7 +84,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
                     return _not_run(plan, solver, seconds, _too_big(target))
                 reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
         except AlloyError as err:
-            if "capacity exceeded" not in str(err):
+            if not _capacity(err):
                 raise
             if width == 1:
                 return _not_run(plan, solver, seconds, f"the plan module of step {k + 1} has more atoms than the "
@@ -119,7 +119,7 @@ def _whole(plan: Plan, solver: str) -> dict[str, Any]:
     try:
         reason, seconds, text = _judge(plan, plan, solver)
     except AlloyError as err:
-        if "capacity exceeded" not in str(err):
+        if not _capacity(err):
             raise
         return _not_run(plan, solver, 0.0, f"the plan module of {len(plan.states)} states of {_size(plan)} "
                         "components has more atoms than the Alloy Analyzer can index")
@@ -178,6 +178,11 @@ def _narrower(width: int, target: Plan) -> int:
     return max(1, min(width // 2, WINDOW_BUDGET // (2 * _size(target))))
 
 
+def _capacity(err: AlloyError) -> bool:
+    """Whether the analyzer refused a module for its number of atoms."""
+    return "capacity exceeded" in str(err)
+
+
 def _size(plan: Plan) -> int:
     return len(plan.system.components) + len(plan.system.versions)
 
@@ -203,7 +208,7 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
     try:
         verdict = run(False)
     except AlloyError as err:
-        if "capacity exceeded" not in str(err) or not binary:
+        if not _capacity(err) or not binary:
             raise
         verdict = run(True)  # too many atoms for the ternary roles: binary relations instead
 

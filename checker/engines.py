@@ -90,10 +90,10 @@ def judge_ftm(system: System, engine: str = "both") -> tuple[list[Diagnostic], O
     diagnostics and, unless `engine` is "python", Alloy's judgement of the same rules
     (alloy_model/ftm.als: which attached FTMs contradict (F, A, R), which are written in the
     wrong order, which duplexes lack two hosts), which must agree with them."""
-    from .ftm.rules import ftm_findings
+    from .ftm.rules import ftm_findings, in_order
 
     findings = ftm_findings(system)
-    diags = sorted((d for _, d in findings), key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
+    diags = in_order(d for _, d in findings)
     if engine == "python" or not any(c.ftm is not None for c in system.components):
         return diags, None
     from .alloy import AlloyError, AlloyUnavailable

@@ -274,12 +274,13 @@ def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | 
 
 def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str, str],
                     func_atoms: dict[Any, str], conn_atoms: dict[str, str], port_atoms: dict[Any, str],
-                    rel: dict[str, list[str]], binary: bool = False) -> None:
+                    rel: dict[str, list[str]], binary: bool = False) -> list[str]:
     """The configurations' relations (System -> ...) by what changes: what every state has
     is written once (`System -> x`), and each other element with the states that have it
     (`(S3 + S4) -> x`), elements with the same states grouped. A plan changes one element
     per step, so the text grows with the architecture plus the changes, not with their
-    product. With `binary`, roles are `System -> Role` with `role_conn`/`role_port`."""
+    product. With `binary`, roles are `System -> Role` with `role_conn`/`role_port`, and
+    the Role atoms are returned."""
     everywhere = "System"
     role_atoms: dict[tuple[str, str], str] = {}
     for key in ("comps", "degraded", "roles"):
@@ -314,6 +315,7 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
     for (k, port), atom in role_atoms.items():
         rel["role_conn"].append(f"{atom} -> {k}")
         rel["role_port"].append(f"{atom} -> {port}")
+    return list(role_atoms.values())
 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
@@ -427,7 +429,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     if plan:
         for i, state in enumerate(states):
             names[state] = ("state", str(i))
-        _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel, binary)
+        roles = _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel, binary)
     else:
         (config,) = configs
         # grouped (a connector -> a union of ports): fewer products for Alloy to type-check
@@ -510,7 +512,6 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                 ("role_conn", "Role -> Connector", union(rel["role_conn"], _empty("Role", "Connector"))),
                 ("role_port", "Role -> Port", union(rel["role_port"], _empty("Role", "Port"))),
             ]
-            roles = [term.split(" -> ")[0] for term in rel["role_conn"]]
             sigs += _one_sigs("Role", roles) + ([] if roles else ["fact no_Role { no Role }"])
         else:
             funs.append(("roles", "System -> Connector -> Port",
@@ -550,7 +551,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                 raise ValueError(f"serving names what the architecture lacks: {serving + handover}")
             watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none"), "protocols": "",
                      "handing": union(sorted({comp_atoms[c] for _, c in handover}), "none"),
-                     "handed": union(handed, "none"), "handover": bool(handover)}
+                     "handed": union(handed, "none")}
             if protocols or handover:
                 # the proxies' requests must reach one of these (present) protocols
                 watch["proxy_comps"] = union(sorted({comp_atoms[c] for _, c in serving}), "none")

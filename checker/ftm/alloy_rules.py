@@ -29,14 +29,11 @@ def ftm_rules_text() -> str:
     return (files("alloy_model") / "ftm.als").read_text(encoding="utf-8")
 
 
-def _union(parts: list[str]) -> str:
-    """A balanced union (a flat a+b+c+… type-checks in quadratic time)."""
-    if not parts:
-        return "none -> none"
-    while len(parts) > 1:
-        parts = [f"({parts[i]} + {parts[i + 1]})" if i + 1 < len(parts) else parts[i]
-                 for i in range(0, len(parts), 2)]
-    return parts[0]
+def _union(parts: list[str], empty: str = "none -> none") -> str:
+    """A balanced union (a flat a+b+c+… type-checks in quadratic time); `empty` when none."""
+    from codegen.alloy import union
+
+    return union(parts, empty)
 
 
 def instance_text(profiles: list[Profile], attached: list[Optional[Composition]],
@@ -66,8 +63,8 @@ def instance_text(profiles: list[Profile], attached: list[Optional[Composition]]
         + " }")
     index = {c.names: i for i, c in enumerate(cands)}
     lines.append("fun written: Comp -> Mech -> Mech { " + _union(
-        [f"K{k} -> {a} -> {b}" for k, names in enumerate(written) for a, b in zip(names, names[1:])]).replace(
-        "none -> none", "none -> none -> none") + " }")
+        [f"K{k} -> {a} -> {b}" for k, names in enumerate(written) for a, b in zip(names, names[1:])],
+        "none -> none -> none") + " }")
     lines.append("fun nhosts: Comp -> Int { " + _union(
         [f"K{k} -> {min(n, MAX_INT)}" for k, n in enumerate(hosts)]) + " }")
     lines.append("fun attached: Comp -> Cand { " + _union(

@@ -8,7 +8,7 @@ duplex without two hosts (warning) · RC407 nothing to protect.
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import Iterable, Optional
 
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
@@ -17,7 +17,7 @@ from .expand import protected_connector
 from .library import compose
 from .select import judge, profile
 
-__all__ = ["ftm_diagnostics", "ftm_findings"]
+__all__ = ["ftm_diagnostics", "ftm_findings", "in_order"]
 
 
 def _span_of(expr: ir.FtmExpr, mechanism: str) -> ir.Span:
@@ -31,8 +31,12 @@ def _span_of(expr: ir.FtmExpr, mechanism: str) -> ir.Span:
 
 def ftm_diagnostics(system: ir.System, only: Optional[set[str]] = None) -> list[Diagnostic]:
     """RC401–RC407 for every component with an FTM (or only those named in `only`)."""
-    out = [d for _, d in ftm_findings(system, only)]
-    return sorted(out, key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
+    return in_order(d for _, d in ftm_findings(system, only))
+
+
+def in_order(diags: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """Diagnostics by position, then code."""
+    return sorted(diags, key=lambda d: (d.span.file, d.span.line, d.span.col, d.code))
 
 
 def ftm_findings(system: ir.System, only: Optional[set[str]] = None) -> list[tuple[str, Diagnostic]]:

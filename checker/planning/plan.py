@@ -100,12 +100,13 @@ def next_weight(system: System, before: Configuration, weight: int, action: Any,
     between them: only what the action changes is counted (a degrade or upgrade changes
     one functionality, a create or remove one component's), so a long plan is weighed in
     time linear in its length rather than in length times degradation."""
-    funcs = catalogue(system).funcs
+    cat = catalogue(system)
+    funcs = cat.funcs
     kind = getattr(action, "kind", "")
     if kind in ("attach", "detach"):
         return weight
     c = getattr(action, "component", None)
-    comp = catalogue(system).comps.get(c) if c is not None else None
+    comp = cat.comps.get(c) if c is not None else None
     if comp is None or kind not in ("degrade", "upgrade", "create", "remove"):
         return state_weight(system, after)
 
@@ -150,8 +151,8 @@ class Plan:
     # (proxy, protocol): the protocols a `serving` or `handover` proxy's requests must reach,
     # through the readers of what it publishes (a suspended protocol queues them)
     protocols: list[tuple[str, str]] = field(default_factory=list)
-    # (connector, proxy) pairs of servers losing their FTM: while the proxy still publishes
-    # on its clients' connector it stays normal and its requests reach a protocol
+    # (connector, proxy) pairs of servers losing or gaining their FTM: while the proxy
+    # publishes on its clients' connector it stays normal and its requests reach a protocol
     handover: list[tuple[str, str]] = field(default_factory=list)
 
     def __len__(self) -> int:
