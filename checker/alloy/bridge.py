@@ -13,6 +13,8 @@ from typing import Any, Callable, Mapping, Protocol
 
 from .errors import AlloyError, AlloyUnavailable
 from .jvm import ensure_jvm
+from . import split as _split
+from .split import Split, split_module
 
 VFS = "/alloyvfs/"
 DEFAULT_SOLVER = "glucose"
@@ -83,6 +85,24 @@ class CommandOutcome:
         value = self._evaluator(expr)
         self.evaluated[expr] = value
         return value
+
+
+@dataclass
+class _World:
+    """A parsed main module and the atoms declared for it through the API."""
+
+    module: Any
+    extra_sigs: list[Any]
+
+    def sigs(self) -> Any:
+        from java.util import ArrayList  # type: ignore[import-not-found]
+
+        if not self.extra_sigs:
+            return self.module.getAllReachableSigs()
+        every = ArrayList()
+        for sig in list(self.module.getAllReachableSigs()) + self.extra_sigs:
+            every.add(sig)
+        return every
 
 
 class Backend(Protocol):
@@ -171,17 +191,50 @@ class AlloyBridge:
     # -- running ---------------------------------------------------------------------
 
     def _world(self, modules: Mapping[str, str], main: str) -> Any:
+        """The parsed modules; their atoms declared through the API are `world.extra_sigs`
+        (see `_split_world`), an empty list when the text declares them all."""
         from java.util import HashMap  # type: ignore[import-not-found]
 
+        if main not in modules:
+            raise AlloyError(f"main module {main!r} not among the modules given")
+        if len(modules) == 1:
+            split = split_module(modules[main], _split.MIN_ATOMS)
+            if split is not None:
+                try:
+                    return self._split_world(split, main)
+                except Exception:  # the front end's own path below reports it, positioned
+                    pass
         files = HashMap()
         for name, text in modules.items():
             files.put(VFS + name, text)
-        if main not in modules:
-            raise AlloyError(f"main module {main!r} not among the modules given")
         try:
-            return self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main)
+            return _World(self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main), [])
         except self._Err as err:
             raise self._error(err) from None
+
+    def _split_world(self, split: Split, main: str) -> "_World":
+        """A large generated module parsed in two parts (`checker.alloy.split`): the
+        skeleton as text, then each atom declared as a `one sig` through the API and bound
+        by name to a constant of its parent's type, then each body parsed and set."""
+        from java.util import HashMap
+        from edu.mit.csail.sdg.alloy4 import Pos  # type: ignore[import-not-found]
+        from edu.mit.csail.sdg.ast import Attr, ExprCall, Func, Sig  # type: ignore[import-not-found]
+
+        files = HashMap()
+        files.put(VFS + main, split.skeleton)
+        world = self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main)
+        sigs = {str(s.label).removeprefix("this/"): s for s in world.getAllReachableSigs()}
+        extra = []
+        for atom, parent in split.atoms:
+            sig = Sig.PrimSig(Pos.UNKNOWN, "this/" + atom, Pos.UNKNOWN, sigs[parent], Attr.ONE)
+            extra.append(sig)
+            # typed as its parent: a union of atom products then has one product type
+            constant = Func(Pos.UNKNOWN, Pos.UNKNOWN, atom, None, sigs[parent], sig)
+            world.addGlobal(atom, ExprCall.make(Pos.UNKNOWN, None, constant, None, 0))
+        funcs = {str(f.label).removeprefix("this/"): f for f in world.getAllFunc()}
+        for name, body in split.bodies.items():
+            funcs[name].setBody(world.parseOneExpressionFromString(body))
+        return _World(world, extra)
 
     def _error(self, err: Any) -> AlloyError:
         pos = err.pos
@@ -196,7 +249,7 @@ class AlloyBridge:
     def commands(self, modules: Mapping[str, str], main: str) -> list[str]:
         with self._lock:
             world = self._world(modules, main)
-            return [str(c.label) for c in world.getAllCommands()]
+            return [str(c.label) for c in world.module.getAllCommands()]
 
     def run(self, modules: Mapping[str, str], main: str, command: str | None = None,
             solver: str = DEFAULT_SOLVER,
@@ -213,7 +266,7 @@ class AlloyBridge:
                      solver_id: str,
                      progress: Callable[[CommandOutcome], None] | None = None) -> list[CommandOutcome]:
         world = self._world(modules, main)
-        commands = list(world.getAllCommands())
+        commands = list(world.module.getAllCommands())
         if command is not None:
             commands = [c for c in commands if str(c.label) == command]
             if not commands:
@@ -230,10 +283,10 @@ class AlloyBridge:
             outcomes.append(outcome)
         return outcomes
 
-    def _execute(self, world: Any, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
+    def _execute(self, world: _World, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
         start = time.perf_counter()
         try:
-            sol = self._Translate.execute_command(self._A4Reporter(), world.getAllReachableSigs(), cmd, opts)
+            sol = self._Translate.execute_command(self._A4Reporter(), world.sigs(), cmd, opts)
         except self._Err as err:
             raise self._error(err) from None
         elapsed = time.perf_counter() - start
@@ -242,7 +295,7 @@ class AlloyBridge:
         scope = text.split(" for ", 1)[1] if " for " in text else ""
         if " expect " in scope:
             scope = scope.split(" expect ")[0]
-        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
+        evaluator = (lambda expr: self._eval(world.module, sol, expr)) if satisfiable else None
         return CommandOutcome(
             label=str(cmd.label), is_check=bool(cmd.check), expects=int(cmd.expects),
             satisfiable=satisfiable, elapsed=elapsed, solver=solver_id, scope=scope,

@@ -177,14 +177,14 @@ def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
     with bridge._lock:
         solver_id = bridge.usable_solver(solver)
         world = bridge._world({MAIN: text}, MAIN)
-        (cmd,) = list(world.getAllCommands())
+        (cmd,) = list(world.module.getAllCommands())
         opts = bridge._A4Options()
         opts.solver = bridge._solver(solver_id)
         opts.skolemDepth = 1
         opts.noOverflow = True
         began = time.perf_counter()
         try:
-            sol = bridge._Translate.execute_command(bridge._A4Reporter(), world.getAllReachableSigs(), cmd, opts)
+            sol = bridge._Translate.execute_command(bridge._A4Reporter(), world.sigs(), cmd, opts)
         except bridge._Err as err:
             raise bridge._error(err) from None
         elapsed = time.perf_counter() - began
@@ -192,7 +192,7 @@ def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
             return None, elapsed
 
         def value(expr: str, state: int) -> set[tuple[str, ...]]:
-            parsed = bridge._CompUtil.parseOneExpression_fromString(world, expr)
+            parsed = bridge._CompUtil.parseOneExpression_fromString(world.module, expr)
             return {tuple(_atom(str(t.atom(i))) for i in range(t.arity())) for t in sol.eval(parsed, state)}
 
         states = []
