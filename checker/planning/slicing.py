@@ -45,11 +45,11 @@ class _Attachments:
     once per plan and shared by the functions below."""
 
     def __init__(self, plan: Plan) -> None:
-        roles = set().union(*(s.roles for s in plan.states)) if plan.states else set()
+        self.roles: set[tuple[str, str, str]] = set().union(*(s.roles for s in plan.states)) if plan.states else set()
         self.is_output = catalogue(plan.system).is_output
         self.pubs: dict[str, set[str]] = {}
         self.reads: dict[str, set[str]] = {}
-        for conn, comp, port in roles:
+        for conn, comp, port in self.roles:
             (self.pubs if self.is_output(comp, port) else self.reads).setdefault(conn, set()).add(comp)
         self.touched = {getattr(a, "component") for a in plan.steps}
 
@@ -59,11 +59,17 @@ def stable_connectors(plan: Plan, att: _Attachments | None = None) -> set[str]:
     att = att or _Attachments(plan)
     cat = catalogue(plan.system)
     stable = {conn for conn, ps in att.pubs.items() if ps & att.touched}
-    for state in plan.states:
-        if not stable:
-            break
-        st = Snapshot(cat, state)
-        stable = {k for k in stable if st.conn_sat(k)}
+    if not stable or not plan.states:
+        return stable
+    first = Snapshot(cat, plan.states[0])
+    stable = {k for k in stable if first.conn_sat(k)}
+    # a step changes only its component: only the connectors it publishes on can change
+    for step, state in zip(plan.steps, plan.states[1:]):
+        comp = getattr(step, "component")
+        changed = {k for k in stable if comp in att.pubs[k]}
+        if changed:
+            st = Snapshot(cat, state)
+            stable -= {k for k in changed if not st.conn_sat(k)}
     return stable
 
 
@@ -129,10 +135,11 @@ def slice_plan(plan: Plan, lean: bool = False) -> Plan:
                       for f in c.functionalities)
         return dc_replace(c, functionalities=funcs)
 
+    kept = frozenset(r for r in att.roles if r[1] in core or (r[1] in stubs and att.is_output(r[1], r[2])))
+
     def project(s: Configuration) -> Configuration:
         return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep),
-                             frozenset(r for r in s.roles if r[1] in core
-                                       or (r[1] in stubs and att.is_output(r[1], r[2]))))
+                             s.roles & kept)
 
     states = [project(s) for s in plan.states]
     used = {r[0] for s in states for r in s.roles}
