@@ -13,7 +13,6 @@ from typing import Any, Callable, Mapping, Protocol
 
 from .errors import AlloyError, AlloyUnavailable
 from .jvm import ensure_jvm
-from . import split as _split
 from .split import Split, split_module
 
 VFS = "/alloyvfs/"
@@ -198,7 +197,7 @@ class AlloyBridge:
         if main not in modules:
             raise AlloyError(f"main module {main!r} not among the modules given")
         if len(modules) == 1:
-            split = split_module(modules[main], _split.MIN_ATOMS)
+            split = split_module(modules[main])
             if split is not None:
                 try:
                     return self._split_world(split, main)

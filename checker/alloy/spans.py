@@ -16,7 +16,7 @@ from reconf_dsl.span import Span
 
 from .errors import AlloyError
 
-_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 def entity_span(system: Any, meaning: tuple[str, ...]) -> Optional[Span]:
@@ -45,7 +45,7 @@ def span_at(text: str, line: int, column: int, names: Mapping[str, tuple[str, ..
     lines = text.splitlines()
     if not 1 <= line <= len(lines):
         return None
-    tokens = [(m.start() + 1, m.end() + 1, m.group()) for m in _TOKEN.finditer(lines[line - 1])]
+    tokens = [(m.start() + 1, m.end() + 1, m.group()) for m in IDENTIFIER.finditer(lines[line - 1])]
     under = [t for t in tokens if t[0] <= column < t[1]]
     left = sorted((t for t in tokens if t[1] <= column), key=lambda t: -t[0])
     right = [t for t in tokens if t[0] > column]

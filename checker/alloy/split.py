@@ -23,10 +23,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from .spans import IDENTIFIER
+
 _ONE_SIG = re.compile(r"^one sig ([\w, ]+?) extends (\w+) \{\}$", re.M)
 # a top-level fun or pred without parameters, as the templates write them
 _BLOCK = re.compile(r"^(fun|pred) (\w+)(?:: ([^{\n]+?))? \{\n(.*?)\n\}$", re.M | re.S)
-_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _COMMENT = re.compile(r"/\*.*?\*/|--[^\n]*|//[^\n]*", re.S)
 
 # below this many atoms the front end is fast enough as it is
@@ -40,8 +41,10 @@ class Split:
     bodies: dict[str, str]  # fun or pred name -> its body
 
 
-def split_module(text: str, min_atoms: int = MIN_ATOMS) -> Split | None:
-    """`text` in two parts (see above), or None when it has fewer than `min_atoms` atoms."""
+def split_module(text: str, min_atoms: int | None = None) -> Split | None:
+    """`text` in two parts (see above), or None when it has fewer than `min_atoms` atoms
+    (by default `MIN_ATOMS`)."""
+    min_atoms = MIN_ATOMS if min_atoms is None else min_atoms
     declared = [(a.strip(), m.group(2)) for m in _ONE_SIG.finditer(text) for a in m.group(1).split(",")]
     if len(declared) < min_atoms:
         return None
@@ -50,7 +53,7 @@ def split_module(text: str, min_atoms: int = MIN_ATOMS) -> Split | None:
 
     def hollow(m: re.Match[str]) -> str:
         kind, name, typ, body = m.group(1), m.group(2), m.group(3), m.group(4)
-        if not names.intersection(_TOKEN.findall(body)):
+        if not names.intersection(IDENTIFIER.findall(body)):
             return m.group(0)
         bodies[name] = body
         if kind == "pred":
@@ -59,7 +62,7 @@ def split_module(text: str, min_atoms: int = MIN_ATOMS) -> Split | None:
 
     skeleton = _BLOCK.sub(hollow, text)
     # atoms the skeleton still names stay declared in it
-    kept = names.intersection(_TOKEN.findall(_COMMENT.sub("", _ONE_SIG.sub("", skeleton))))
+    kept = names.intersection(IDENTIFIER.findall(_COMMENT.sub("", _ONE_SIG.sub("", skeleton))))
     atoms = [(a, parent) for a, parent in declared if a not in kept]
 
     def declare(m: re.Match[str]) -> str:

@@ -6,6 +6,7 @@ import pytest
 from checker.alloy import AlloyBridge, alloy_plan_verdict, alloy_verdict
 from checker.alloy import split as split_mod
 from checker.alloy.errors import AlloyError
+from checker.alloy.spans import IDENTIFIER
 from checker.alloy.split import split_module
 from checker.config import Configuration
 from checker.planning import plan_replace
@@ -39,7 +40,7 @@ def test_the_skeleton_moves_every_atom_and_each_body_that_names_one() -> None:
     moved = {a for a, _ in split.atoms}
     assert {"S0", "S2", "c_talker", "Nothing"} <= moved and "one sig" not in split.skeleton
     code = split_mod._COMMENT.sub("", split.skeleton)
-    assert not moved & set(split_mod._TOKEN.findall(code))
+    assert not moved & set(IDENTIFIER.findall(code))
     assert {"comps", "roles", "inputs", "plan_safe", "ok_steps"} <= set(split.bodies)
     assert "valid_states" not in split.bodies  # names no atom
 
@@ -66,7 +67,9 @@ def test_a_generated_plan_and_its_broken_copy_get_the_same_verdicts_both_ways(
     broken = list(states)
     broken[3] = Configuration(states[3].components, states[3].degraded, states[0].roles - states[3].roles)
     text, _ = render_plan(system, states)
-    assert split_module(text) is not None  # large enough to be split by default
+    split = split_module(text)
+    assert split is not None  # large enough to be split by default
+    assert bridge._split_world(split, "plan.als").extra_sigs  # in two parts, not by the fallback
     verdicts = []
     for min_atoms in (split_mod.MIN_ATOMS, 10**9):
         monkeypatch.setattr(split_mod, "MIN_ATOMS", min_atoms)
