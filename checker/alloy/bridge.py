@@ -104,6 +104,12 @@ class _World:
         return every
 
 
+def atom_name(label: str) -> str:
+    """An atom of a solution by its sig's name: `this/c_x$0` is `c_x`."""
+    label = label.split("/")[-1]
+    return label[:-2] if label.endswith("$0") else label
+
+
 class Backend(Protocol):
     """What reconf needs of an Alloy backend."""
 
@@ -270,10 +276,7 @@ class AlloyBridge:
             commands = [c for c in commands if str(c.label) == command]
             if not commands:
                 raise AlloyError(f"no command {command!r} in {main}")
-        opts = self._A4Options()
-        opts.solver = self._solver(solver_id)
-        opts.skolemDepth = 1
-        opts.noOverflow = True
+        opts = self.options(solver_id)
         outcomes = []
         for cmd in commands:
             outcome = self._execute(world, cmd, opts, solver_id)
@@ -281,6 +284,15 @@ class AlloyBridge:
                 progress(outcome)
             outcomes.append(outcome)
         return outcomes
+
+    def options(self, solver_id: str) -> Any:
+        """The analyzer's options for every command run here: `solver_id`, skolemisation
+        depth 1, no integer overflow."""
+        opts = self._A4Options()
+        opts.solver = self._solver(solver_id)
+        opts.skolemDepth = 1
+        opts.noOverflow = True
+        return opts
 
     def _execute(self, world: _World, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
         start = time.perf_counter()
@@ -321,4 +333,4 @@ def get_backend() -> Backend:
     return AlloyBridge.get()
 
 
-__all__ = ["AlloyBridge", "AlloyUnavailable", "Backend", "CommandOutcome", "get_backend"]
+__all__ = ["AlloyBridge", "AlloyUnavailable", "Backend", "CommandOutcome", "atom_name", "get_backend"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .bridge import DEFAULT_SOLVER, AlloyBridge
+from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
 from .spans import with_span
 
@@ -34,11 +34,6 @@ class AlloyVerdict:
     def text(self) -> str:
         """The judged module, or the slices one after another."""
         return "\n".join(self.texts)
-
-
-def _atom(name: str) -> str:
-    name = name.split("/")[-1]
-    return name[:-2] if name.endswith("$0") else name
 
 
 def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> list[set[str]] | None:
@@ -89,10 +84,10 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
     failing: set[tuple[str, str, int]] = set()
     for f_atom, a_atom in pairs:
-        _, comp, func = names[_atom(f_atom)]
+        _, comp, func = names[atom_name(f_atom)]
         component = system.component(comp)
         functionality = next(f for f in component.functionalities if f.name == func)
-        want = _atom(a_atom)
+        want = atom_name(a_atom)
         for index, a in enumerate(functionality.normal.assumptions):
             if _data_atom(a, text, names) == want:
                 failing.add((comp, func, index))
@@ -177,18 +172,18 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
         (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
     except AlloyError as err:
         raise with_span(err, text, names, system) from None
-    valid_states = {_atom(s) for (s,) in outcome.eval("valid_states")}
+    valid_states = {atom_name(s) for (s,) in outcome.eval("valid_states")}
     did: dict[str, set[str]] = {}
     for s, a in outcome.eval("ok_steps"):
-        did.setdefault(_atom(s), set()).add(_atom(a).lower())
+        did.setdefault(atom_name(s), set()).add(atom_name(a).lower())
     valid = tuple(f"S{i}" in valid_states for i in range(n))
     steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
     lossless = tuple(True for _ in range(n))
     if serving or handover:
-        serving_states = {_atom(s) for (s,) in outcome.eval("lossless_states")}
+        serving_states = {atom_name(s) for (s,) in outcome.eval("lossless_states")}
         lossless = tuple(f"S{i}" in serving_states for i in range(n))
     kept = tuple(True for _ in range(n))
     if stable:
-        holding = {_atom(s) for (s,) in outcome.eval("stable_states")}
+        holding = {atom_name(s) for (s,) in outcome.eval("stable_states")}
         kept = tuple(f"S{i}" in holding for i in range(n))
     return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text, lossless, kept)

@@ -37,7 +37,7 @@ from typing import Any, Iterable, Optional
 from ..actions import Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue
 from ..config import Configuration
 from ..planning.plan import Goal, NoSafePlan, Plan, Problem, verify
-from .bridge import DEFAULT_SOLVER, AlloyBridge
+from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
 
 __all__ = ["AlloySearch", "Solve", "alloy_plan", "alloy_search", "plan_with_alloy", "render_planner"]
@@ -164,11 +164,6 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
 
 # -- Solving and decoding -----------------------------------------------------------------
 
-def _atom(name: str) -> str:
-    name = name.split("/")[-1]
-    return name[:-2] if name.endswith("$0") else name
-
-
 def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
            bridge: AlloyBridge) -> tuple[Optional[list[Configuration]], float]:
     """Run the module's one command; the trace's configurations (up to its loop), or None
@@ -178,10 +173,7 @@ def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
         solver_id = bridge.usable_solver(solver)
         world = bridge._world({MAIN: text}, MAIN)
         (cmd,) = list(world.module.getAllCommands())
-        opts = bridge._A4Options()
-        opts.solver = bridge._solver(solver_id)
-        opts.skolemDepth = 1
-        opts.noOverflow = True
+        opts = bridge.options(solver_id)
         began = time.perf_counter()
         try:
             sol = bridge._Translate.execute_command(bridge._A4Reporter(), world.sigs(), cmd, opts)
@@ -193,7 +185,7 @@ def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
 
         def value(expr: str, state: int) -> set[tuple[str, ...]]:
             parsed = bridge._CompUtil.parseOneExpression_fromString(world.module, expr)
-            return {tuple(_atom(str(t.atom(i))) for i in range(t.arity())) for t in sol.eval(parsed, state)}
+            return {tuple(atom_name(str(t.atom(i))) for i in range(t.arity())) for t in sol.eval(parsed, state)}
 
         states = []
         for i in range(int(sol.getTraceLength())):

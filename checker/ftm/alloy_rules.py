@@ -95,16 +95,13 @@ def alloy_profiles(profiles: dict[str, Profile], attached: dict[str, Optional[Co
     """Alloy's judgement of named profiles (and of the composition attached to each, if any;
     of how it is written and on how many hosts, if given)."""
     from checker.alloy import AlloyBridge
+    from checker.alloy.bridge import atom_name as atom
 
     names = list(profiles)
     text, cands = instance_text([profiles[n] for n in names], [attached.get(n) for n in names],
                                 [(written or {}).get(n, []) for n in names],
                                 [(hosts or {}).get(n, MAX_INT) for n in names])
     (out,) = AlloyBridge.get().run({"ftm.als": ftm_rules_text(), MAIN: text}, MAIN, "Verdict")
-
-    def atom(a: str) -> str:
-        a = a.split("/")[-1]
-        return a[:-2] if a.endswith("$0") else a
 
     valid: dict[str, set[str]] = {n: set() for n in names}
     for k, c in out.eval("valid"):
