@@ -176,7 +176,7 @@ fun sat_conns_j[s: System]: set Connector {
 }
 
 fun sat_inputs_j[s: System]: set Input {
-  (iasm & (~((s.csat) <: (s.roles))).cguar.(Sem.sat)).Data
+  (iasm & (~((s.roles) & ((s.csat) -> Port))).cguar.(Sem.sat)).Data
 }
 
 fun sat_conns_def[s: System]: set Connector {
@@ -223,12 +223,12 @@ pred safe_no_input[s: System, c: Component, no_i: set Input] {
 -- What holds for f without the inputs no_i, as a join: f -> every datum that some
 -- associated, satisfied input's assumption or some environment guarantee satisfies.
 fun holds_no_input[s: System, no_i: set Input]: Functionality -> Data {
-  (assoc_in :> ((s.isat) - no_i)).iasm.(Sem.sat) + Functionality -> envg.(Sem.sat)
+  (assoc_in & (Functionality -> ((s.isat) - no_i))).iasm.(Sem.sat) + Functionality -> envg.(Sem.sat)
 }
 
 -- The current assumptions of the functionalities fs that do not hold without no_i.
 fun failing_no_input[s: System, fs: set Functionality, no_i: set Input]: Functionality -> Data {
-  ((fs - (s.degraded)) <: nasms) - holds_no_input[s, no_i]
+  (nasms & ((fs - (s.degraded)) -> Data)) - holds_no_input[s, no_i]
 }
 
 -- The safety property: every assumption of every present functionality's current mode holds.
