@@ -246,6 +246,57 @@ pred valid[s: System] {
 
 -- Actions ----------------------------------------------------------------------------
 
+-- The preconditions that quantify, in their two encodings (see above).
+
+-- Detaching input p leaves its component safe without it.
+pred detach_input_safe_q[s: System, p: Input] {
+  some c: s.comps & inputs.p | safe_no_input[s, c, p]
+}
+pred detach_input_safe_j[s: System, p: Input] {
+  some s.comps & inputs.p
+  no failing_no_input[s, (s.comps & inputs.p).funcs, p]
+}
+
+-- Every present reader of connector k is safe without its inputs on k.
+pred detach_output_safe_q[s: System, k: Connector] {
+  all c: s.comps & inputs.(k.(s.roles)) | safe_no_input[s, c, k.(s.roles) & Input]
+}
+pred detach_output_safe_j[s: System, k: Connector] {
+  no failing_no_input[s, (s.comps & inputs.(k.(s.roles))).funcs, k.(s.roles) & Input]
+}
+
+-- Output p, of a present functionality, guarantees in its current mode what k requires.
+pred attach_output_ok_q[s: System, k: Connector, p: Port] {
+  some f: present_funcs[s] | p in f.assoc_out and satisfy[cur_guar[s, f, p], k.cguar]
+}
+pred attach_output_ok_j[s: System, k: Connector, p: Port] {
+  k.cguar in p.(out_guar[s]).(Sem.sat)
+}
+
+-- The connectors that degrading f leaves unsatisfied: attached to f's outputs, satisfied
+-- by no other attached output, nor by f's degraded guarantees. Their present readers
+-- must stay safe without them.
+fun degrade_aff[s: System, f: Functionality]: set Connector {
+  { k: (s.roles).(f.assoc_out) | not conn_satisfied_no_out[s, k, f.assoc_out]
+      and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(dguar_of[f]), k.cguar] }
+}
+pred degrade_safe_q[s: System, f: Functionality] {
+  let aff = degrade_aff[s, f] |
+    all c: s.comps & inputs.(aff.(s.roles)) | safe_no_input[s, c, aff.(s.roles) & Input]
+}
+pred degrade_safe_j[s: System, f: Functionality] {
+  let aff = degrade_aff[s, f] |
+    no failing_no_input[s, (s.comps & inputs.(aff.(s.roles))).funcs, aff.(s.roles) & Input]
+}
+
+-- Every assumption of f's normal mode holds.
+pred upgrade_holds_q[s: System, f: Functionality] {
+  all a: f.nasms | asm_holds[s, f, a]
+}
+pred upgrade_holds_j[s: System, f: Functionality] {
+  f.nasms in (f.assoc_in & (s.isat)).iasm.(Sem.sat) + envg.(Sem.sat)
+}
+
 -- Remove an isolated component. Its functionalities count as degraded from then on:
 -- every functionality of an absent component is degraded (assert AbsentDegraded), so
 -- that a later create finds them degraded.
@@ -269,8 +320,8 @@ pred create[s, s2: System, c: Component] {
 -- Detach port p from connector k.
 pred detach[s, s2: System, k: Connector, p: Port] {
   p in k.(s.roles)                                         --@pre detach.attached
-  p in Input implies (some c: s.comps & inputs.p | safe_no_input[s, c, p])  --@pre detach.input
-  (p in Output and not conn_satisfied_no_out[s, k, p]) implies (all c: s.comps & inputs.(k.(s.roles)) | safe_no_input[s, c, k.(s.roles) & Input])  --@pre detach.output
+  p in Input implies detach_input_safe_q[s, p]           --@pre detach.input
+  (p in Output and not conn_satisfied_no_out[s, k, p]) implies detach_output_safe_q[s, k]  --@pre detach.output
   s2.comps = s.comps
   s2.degraded = s.degraded
   s2.roles = s.roles - k -> p
@@ -280,7 +331,7 @@ pred detach[s, s2: System, k: Connector, p: Port] {
 pred attach[s, s2: System, k: Connector, p: Port] {
   p in s.comps.(inputs + outputs)                          --@pre attach.present
   p not in k.(s.roles)                                     --@pre attach.detached
-  p in Output implies (some f: present_funcs[s] | p in f.assoc_out and satisfy[cur_guar[s, f, p], k.cguar])  --@pre attach.output
+  p in Output implies attach_output_ok_q[s, k, p]      --@pre attach.output
   p in Input implies satisfy[k.cguar, p.iasm]              --@pre attach.input
   s2.comps = s.comps
   s2.degraded = s.degraded
@@ -291,9 +342,7 @@ pred attach[s, s2: System, k: Connector, p: Port] {
 pred degrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre degrade.present
   f not in s.degraded                                      --@pre degrade.normal
-  let aff = { k: (s.roles).(f.assoc_out) | not conn_satisfied_no_out[s, k, f.assoc_out]
-                             and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(dguar_of[f]), k.cguar] } |
-    all c: s.comps & inputs.(aff.(s.roles)) | safe_no_input[s, c, aff.(s.roles) & Input]  --@pre degrade.safe
+  degrade_safe_q[s, f]                                --@pre degrade.safe
   s2.comps = s.comps
   s2.degraded = s.degraded + f
   s2.roles = s.roles
@@ -303,7 +352,7 @@ pred degrade[s, s2: System, f: Functionality] {
 pred upgrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre upgrade.present
   f in s.degraded                                          --@pre upgrade.degraded
-  all a: f.nasms | asm_holds[s, f, a]                      --@pre upgrade.assumptions
+  upgrade_holds_q[s, f]                               --@pre upgrade.assumptions
   s2.comps = s.comps
   s2.degraded = s.degraded - f
   s2.roles = s.roles
@@ -354,6 +403,17 @@ assert SafetyEncodingsAgree {
   all c: Component, no_i: set Input | safe_no_input_q[Pre, c, no_i] iff safe_no_input_j[Pre, c, no_i]
 }
 
+-- The two encodings of the actions' preconditions that quantify agree: plan modules use the
+-- joins, and the Safe* assertions above are proved over the quantifiers. (One assertion
+-- each: their conjunction is one SAT problem that takes the solver a minute at scope 5.)
+assert DetachInputEncodingsAgree { all p: Input | detach_input_safe_q[Pre, p] iff detach_input_safe_j[Pre, p] }
+assert DetachOutputEncodingsAgree { all k: Connector | detach_output_safe_q[Pre, k] iff detach_output_safe_j[Pre, k] }
+assert AttachOutputEncodingsAgree {
+  all k: Connector, p: Port | attach_output_ok_q[Pre, k, p] iff attach_output_ok_j[Pre, k, p]
+}
+assert DegradeEncodingsAgree { all f: Functionality | degrade_safe_q[Pre, f] iff degrade_safe_j[Pre, f] }
+assert UpgradeEncodingsAgree { all f: Functionality | upgrade_holds_q[Pre, f] iff upgrade_holds_j[Pre, f] }
+
 check SafeRemove  for 5 expect 0
 check SafeCreate  for 5 expect 0
 check SafeDetach  for 5 expect 0
@@ -368,6 +428,11 @@ check ConnectorsEncodingsAgree for 5 expect 0
 check InputsEncodingsAgree for 5 expect 0
 check ValidEncodingsAgree for 5 expect 0
 check SafetyEncodingsAgree for 5 expect 0
+check DetachInputEncodingsAgree for 5 expect 0
+check DetachOutputEncodingsAgree for 5 expect 0
+check AttachOutputEncodingsAgree for 5 expect 0
+check DegradeEncodingsAgree for 5 expect 0
+check UpgradeEncodingsAgree for 5 expect 0
 
 -- Each action's preconditions can hold between two valid configurations.
 run Remove  { some c: Component | valid[Pre] and remove[Pre, Post, c] and valid[Post] } for 3 expect 1

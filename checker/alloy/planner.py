@@ -89,7 +89,7 @@ def _two_state_actions() -> str:
     becomes `(s.x)'` and `s2` leaves every parameter list."""
     import codegen.alloy as gen
 
-    text = str(gen.environment().get_template("actions.j2").module.actions())  # type: ignore[attr-defined]
+    text = str(gen.environment().get_template("actions.j2").module.actions(gen.PLAN_STATE))  # type: ignore[attr-defined]
     text = text.replace("[s, s2: System", "[s: System").replace("[s, s2,", "[s,").replace("[s, s2]", "[s]")
     text = re.sub(r"\bs2\.(\w+)", r"(s.\1)'", text)
     if any(re.search(r"\bs2\b", line.split("--")[0]) for line in text.splitlines()):

@@ -62,3 +62,28 @@ def test_degraded_mode_rule_is_needed(bridge: AlloyBridge) -> None:
     modules = {MAIN: text[:start] + text[end:]}
     (outcome,) = bridge.run(modules, MAIN, "SafeUpgrade")
     assert outcome.satisfiable
+
+
+# A plausible slip in each join encoding of a quantified precondition (plan modules use the
+# joins): the assertion that it agrees with the quantifiers finds it.
+ENCODING_SLIPS = [
+    ("DetachInputEncodingsAgree", "no failing_no_input[s, (s.comps & inputs.p).funcs, p]",
+     "no failing_no_input[s, (s.comps & inputs.p).funcs, none]"),
+    ("DetachOutputEncodingsAgree", "(s.comps & inputs.(k.(s.roles))).funcs, k.(s.roles) & Input]",
+     "(s.comps & inputs.(k.(s.roles))).funcs, none]"),
+    ("AttachOutputEncodingsAgree", "k.cguar in p.(out_guar[s]).(Sem.sat)", "k.cguar in p.(Functionality.nguar)"),
+    ("DegradeEncodingsAgree", "(s.comps & inputs.(aff.(s.roles))).funcs, aff.(s.roles) & Input]",
+     "(s.comps & inputs.(aff.(s.roles))).funcs, none]"),
+    ("UpgradeEncodingsAgree", "f.nasms in (f.assoc_in & (s.isat)).iasm.(Sem.sat) + envg.(Sem.sat)",
+     "f.nasms in f.assoc_in.iasm.(Sem.sat) + envg.(Sem.sat)"),
+]
+
+
+@pytest.mark.parametrize("assertion,right,slip", ENCODING_SLIPS, ids=[s[0] for s in ENCODING_SLIPS])
+def test_encoding_slip_is_caught(bridge: AlloyBridge, assertion: str, right: str, slip: str) -> None:
+    text = metamodel_modules(SCOPE)[MAIN]
+    assert text.count(right) == 1, f"{right!r} not found exactly once"
+    (outcome,) = bridge.run({MAIN: text.replace(right, slip)}, MAIN, assertion)
+    assert outcome.satisfiable, f"{assertion} missed {slip!r}"
+    (intact,) = bridge.run({MAIN: text}, MAIN, assertion)
+    assert not intact.satisfiable
