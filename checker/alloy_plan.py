@@ -39,11 +39,12 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
 
     Why windows suffice: every state of the plan is judged in the window that holds it
     (a window's last state is the next one's first), every step in its window, and
-    validity is local to components. The components outside the first window's slice
-    are judged once, in the first configuration. A component outside a later window's
-    slice is valid at that window's start (induction over the windows: its last judgement,
-    in an earlier window or in the first configuration, stands because nothing it reads
-    has changed since) and reads nothing the window changes, so it stays valid through it.
+    validity is local to components. A component outside a window's slice reads nothing
+    the window changes, so its validity is the same in all the window's states. So a
+    component in some window's slice is valid in every state: before the first window
+    that judges it, it was valid exactly when at that window's start, where it is judged;
+    after each window that judges it, it stays valid until the next. The components in no
+    window's slice never change validity: they are judged once, in the first configuration.
 
     A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
     every state. `progress` is told, before each window, which steps it holds. Raises the
@@ -51,17 +52,18 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     if not slice_ or not plan.steps:
         return _whole(plan, solver)
     from .alloy import alloy_verdict
-    from .planning.slicing import affected, slice_plan
+    from .planning.slicing import PlanSlicer
 
     seconds = 0.0
     texts: list[str] = []
     reason, kinds, widths, largest = "", set(), [], 0
-    outside: set[str] = set()
+    slicer = PlanSlicer(plan)
+    judged: set[str] = set()  # the components some window's slice judges
     k, width = 0, len(plan.steps)
     while k < len(plan.steps) and not reason:
         width = min(width, len(plan.steps) - k)
         window = _window(plan, k, width)
-        lean = slice_plan(window, lean=True)
+        lean, lean_core = slicer.slice(window, lean=True)
         if width > 1 and _oversized(lean):
             width = _narrower(width, lean)
             continue
@@ -72,13 +74,13 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
                      f"({_size(lean)} components)…")
         try:
             reason, spent, text = _judge(plan, lean, solver, k, binary=width == 1)
-            target = lean
+            target, core = lean, lean_core
             if reason:
                 # refuted on the lean slice, maybe only for what it left out: the full slice
                 # decides, on narrower windows if it does not fit this one
                 seconds += spent
                 texts.append(text)
-                target = slice_plan(window)
+                target, core = slicer.slice(window)
                 if width > 1 and _oversized(target):
                     width, reason = _narrower(width, target), ""
                     continue
@@ -98,10 +100,10 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
         kinds.add("lean" if target is lean else "full")
         widths.append(width)
         largest = max(largest, _size(target))
-        if k == 0:
-            outside = set(plan.states[0].components) - affected(window, frozenset(target.stable))
+        judged |= core
         k += width
         width *= 2
+    outside = set(plan.states[0].components) - judged
     if not reason and outside:
         first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
         seconds += first.seconds

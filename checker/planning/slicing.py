@@ -30,6 +30,7 @@ verifies the full slice, whose verdict stands.
 from __future__ import annotations
 
 from dataclasses import replace as dc_replace
+from typing import Callable
 
 from reconf_dsl import ir
 
@@ -37,20 +38,40 @@ from ..actions import Snapshot, catalogue
 from ..config import Configuration
 from .plan import Plan
 
-__all__ = ["affected", "slice_plan", "stable_connectors"]
+__all__ = ["PlanSlicer", "affected", "slice_plan", "stable_connectors"]
 
 
 class _Attachments:
     """Who is attached where in some state of the plan, and what the plan acts on: read
-    once per plan and shared by the functions below."""
+    once per plan and shared by the functions below. With `whole` (the attachments of a
+    plan this one is a window of), only the connectors whose attachments the window lacks
+    are read again."""
 
-    def __init__(self, plan: Plan) -> None:
+    def __init__(self, plan: Plan, whole: _Attachments | None = None) -> None:
         self.roles: set[tuple[str, str, str]] = set().union(*(s.roles for s in plan.states)) if plan.states else set()
-        self.is_output = catalogue(plan.system).is_output
+        self.is_output: Callable[[str, str], bool] = (
+            whole.is_output if whole is not None else catalogue(plan.system).is_output)
+        # connector -> (component, port, whether an output) of every role, to re-read one
+        self.by_conn: dict[str, list[tuple[str, str, bool]]] = {}
         self.pubs: dict[str, set[str]] = {}
         self.reads: dict[str, set[str]] = {}
-        for conn, comp, port in self.roles:
-            (self.pubs if self.is_output(comp, port) else self.reads).setdefault(conn, set()).add(comp)
+        if whole is None:
+            for conn, comp, port in self.roles:
+                out = self.is_output(comp, port)
+                self.by_conn.setdefault(conn, []).append((comp, port, out))
+                (self.pubs if out else self.reads).setdefault(conn, set()).add(comp)
+        else:
+            # a window's states are some of the plan's: its roles are a subset of the plan's
+            self.by_conn = whole.by_conn
+            self.pubs, self.reads = dict(whole.pubs), dict(whole.reads)
+            for conn in {r[0] for r in whole.roles - self.roles}:
+                pubs = {c for c, port, out in whole.by_conn[conn] if out and (conn, c, port) in self.roles}
+                reads = {c for c, port, out in whole.by_conn[conn] if not out and (conn, c, port) in self.roles}
+                for table, comps in ((self.pubs, pubs), (self.reads, reads)):
+                    if comps:
+                        table[conn] = comps
+                    else:
+                        table.pop(conn, None)
         self.touched = {getattr(a, "component") for a in plan.steps}
 
 
@@ -107,10 +128,25 @@ def _request_paths(plan: Plan, att: _Attachments) -> set[str]:
     return seen
 
 
+class PlanSlicer:
+    """Slices of windows of one plan (runs of its steps, `Plan` values over some of its
+    states), sharing what is read once from the whole plan."""
+
+    def __init__(self, plan: Plan) -> None:
+        self.whole = _Attachments(plan)
+
+    def slice(self, window: Plan, lean: bool = False) -> tuple[Plan, set[str]]:
+        """`slice_plan(window, lean)` and its core: the components whose assumptions it judges."""
+        return _slice(window, lean, _Attachments(window, self.whole))
+
+
 def slice_plan(plan: Plan, lean: bool = False) -> Plan:
     """The plan on the part of its architecture it can affect (see above)."""
+    return _slice(plan, lean, _Attachments(plan))[0]
+
+
+def _slice(plan: Plan, lean: bool, att: _Attachments) -> tuple[Plan, set[str]]:
     system = plan.system
-    att = _Attachments(plan)
     pubs, reads = att.pubs, att.reads
     stable = frozenset(stable_connectors(plan, att)) if lean else frozenset()
     core = affected(plan, stable, att)
@@ -150,6 +186,7 @@ def slice_plan(plan: Plan, lean: bool = False) -> Plan:
                                          for k in system.connectors if k.name in used))
     goal = dc_replace(plan.goal, components=states[-1].components, roles=states[-1].roles,
                       degraded=states[-1].degraded)
-    return Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
-                list(plan.notes), plan.verification, list(plan.serving), sorted(stable),
-                [(x, p) for x, p in plan.protocols if p in keep], list(plan.handover))
+    sliced_plan = Plan(sliced, list(plan.steps), states, plan.strategy, plan.disruption, goal, dict(plan.renames),
+                       list(plan.notes), plan.verification, list(plan.serving), sorted(stable),
+                       [(x, p) for x, p in plan.protocols if p in keep], list(plan.handover))
+    return sliced_plan, core

@@ -10,11 +10,11 @@ from click.testing import CliRunner
 
 from bench.gen import generate, hub_component
 from checker.alloy import AlloyBridge
-from checker.alloy_plan import alloy_evidence
+from checker.alloy_plan import _window, alloy_evidence
 from checker.cli import main
 from checker.config import Configuration
 from checker.planning import Plan, plan_replace
-from checker.planning.slicing import affected, slice_plan, stable_connectors
+from checker.planning.slicing import PlanSlicer, affected, slice_plan, stable_connectors
 from reconf_dsl.loader import load_text
 
 
@@ -146,3 +146,20 @@ def test_a_step_beyond_the_analyzer_is_not_run_rather_than_retried_forever(monke
     monkeypatch.setattr(ap, "_judge", too_many_atoms)
     ev = alloy_evidence(hub_plan("chain", 12))
     assert ev["verdict"] == "not run" and "step 1 " in ev["reason"], ev
+
+
+@pytest.mark.parametrize("shape", ["dag", "fanin", "cycle"])
+def test_window_slices_read_from_the_whole_plan_are_the_slices(shape: str) -> None:
+    """PlanSlicer reads the plan's attachments once and each window's from them: every
+    window's slice (lean and full) and core are those read from the window alone."""
+    plan = hub_plan(shape, 60)
+    slicer = PlanSlicer(plan)
+    n = len(plan.steps)
+    windows = [(k, w) for w in (1, 3, 7) for k in range(0, n, w)] + [(0, n)]
+    for k, width in windows:
+        window = _window(plan, k, width)
+        for lean in (True, False):
+            alone = slice_plan(window, lean=lean)
+            shared, core = slicer.slice(window, lean=lean)
+            assert shared.states == alone.states and shared.system == alone.system and shared.stable == alone.stable
+            assert core == affected(window, frozenset(alone.stable))
