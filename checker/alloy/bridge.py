@@ -13,9 +13,11 @@ from typing import Any, Callable, Mapping, Protocol
 
 from .errors import AlloyError, AlloyUnavailable
 from .jvm import ensure_jvm
-from .split import Split, split_module
+from .split import Split, skeleton_key, split_module
 
 VFS = "/alloyvfs/"
+# parsed skeletons kept for the next modules (a plan's windows share one, a check's slices another)
+SKELETONS = 8
 DEFAULT_SOLVER = "glucose"
 FALLBACK_SOLVER = "sat4j"
 
@@ -88,10 +90,13 @@ class CommandOutcome:
 
 @dataclass
 class _World:
-    """A parsed main module and the atoms declared for it through the API."""
+    """A parsed main module and the atoms declared for it through the API. A world built
+    on a reused skeleton (`_Skeleton`) is current until the skeleton serves another."""
 
     module: Any
     extra_sigs: list[Any]
+    skeleton: "_Skeleton | None" = None
+    generation: int = 0
 
     def sigs(self) -> Any:
         from java.util import ArrayList  # type: ignore[import-not-found]
@@ -102,6 +107,48 @@ class _World:
         for sig in list(self.module.getAllReachableSigs()) + self.extra_sigs:
             every.add(sig)
         return every
+
+    @property
+    def current(self) -> bool:
+        return self.skeleton is None or self.skeleton.generation == self.generation
+
+
+class _Skeleton:
+    """A parsed skeleton (`checker.alloy.split`), kept to serve the next module with the
+    same one: the windows of a plan, the slices of a configuration. Its atoms, declared
+    through the API, are added as children of its sigs and bound as globals; `reset`
+    takes them away again (the analyzer has no API for that: its private lists are reached
+    by reflection), so each module sees exactly its own atoms."""
+
+    def __init__(self, module: Any) -> None:
+        self.module = module
+        self.generation = 0
+        children, items, globals_ = self._fields()
+        prim = [s for s in module.getAllReachableSigs() if children.getDeclaringClass().isInstance(s)]
+        # each sig's own children, and the globals (none: the skeleton declares no atom by API)
+        self.children = [(items.get(children.get(s)), int(items.get(children.get(s)).size())) for s in prim]
+        self.globals = globals_.get(module)
+        self.usable = int(self.globals.size()) == 0
+
+    @staticmethod
+    def _fields() -> tuple[Any, Any, Any]:
+        from edu.mit.csail.sdg.alloy4 import SafeList  # type: ignore[import-not-found]
+        from edu.mit.csail.sdg.ast import Sig  # type: ignore[import-not-found]
+        from edu.mit.csail.sdg.parser import CompModule  # type: ignore[import-not-found]
+
+        fields = (Sig.PrimSig.class_.getDeclaredField("children"), SafeList.class_.getDeclaredField("list"),
+                  CompModule.class_.getDeclaredField("globals"))
+        for f in fields:
+            f.setAccessible(True)
+        return fields
+
+    def reset(self) -> None:
+        """Take away the atoms of the module it served; worlds built on it stop being current."""
+        for kids, n in self.children:
+            if kids.size() > n:
+                kids.subList(n, kids.size()).clear()
+        self.globals.clear()
+        self.generation += 1
 
 
 def atom_name(label: str) -> str:
@@ -152,6 +199,7 @@ class AlloyBridge:
         self._Translate = TranslateAlloyToKodkod
         self._usable: dict[str, bool] = {}
         self._lock = threading.RLock()
+        self._skeletons: dict[tuple[str, str, tuple[str, ...]], _Skeleton] = {}
 
     # -- solvers -------------------------------------------------------------------
 
@@ -225,9 +273,17 @@ class AlloyBridge:
         from edu.mit.csail.sdg.alloy4 import Pos  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.ast import Attr, ExprCall, Func, Sig  # type: ignore[import-not-found]
 
-        files = HashMap()
-        files.put(VFS + main, split.skeleton)
-        world = self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main)
+        # the hollowed bodies too: an empty body written as the placeholder is not hollowed,
+        # and a reused skeleton must have every body it was given replaced
+        key = (main, skeleton_key(split.skeleton), tuple(sorted(split.bodies)))
+        skeleton = self._skeletons.pop(key, None)
+        if skeleton is None:
+            files = HashMap()
+            files.put(VFS + main, split.skeleton)
+            skeleton = _Skeleton(self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main))
+        else:
+            skeleton.reset()
+        world = skeleton.module
         sigs = {str(s.label).removeprefix("this/"): s for s in world.getAllReachableSigs()}
         extra = []
         for atom, parent in split.atoms:
@@ -239,7 +295,11 @@ class AlloyBridge:
         funcs = {str(f.label).removeprefix("this/"): f for f in world.getAllFunc()}
         for name, body in split.bodies.items():
             funcs[name].setBody(world.parseOneExpressionFromString(body))
-        return _World(world, extra)
+        if skeleton.usable:  # kept only once the module is whole (an error above drops it)
+            self._skeletons[key] = skeleton
+            while len(self._skeletons) > SKELETONS:
+                self._skeletons.pop(next(iter(self._skeletons)))
+        return _World(world, extra, skeleton, skeleton.generation)
 
     def _error(self, err: Any) -> AlloyError:
         pos = err.pos
@@ -306,17 +366,20 @@ class AlloyBridge:
         scope = text.split(" for ", 1)[1] if " for " in text else ""
         if " expect " in scope:
             scope = scope.split(" expect ")[0]
-        evaluator = (lambda expr: self._eval(world.module, sol, expr)) if satisfiable else None
+        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
         return CommandOutcome(
             label=str(cmd.label), is_check=bool(cmd.check), expects=int(cmd.expects),
             satisfiable=satisfiable, elapsed=elapsed, solver=solver_id, scope=scope,
             _evaluator=evaluator,
         )
 
-    def _eval(self, world: Any, sol: Any, expr: str) -> Tuples:
+    def _eval(self, world: _World, sol: Any, expr: str) -> Tuples:
         with self._lock:
+            if not world.current:
+                raise AlloyError("the solution's module was replaced by a later one: evaluate its expressions "
+                                 "before running another module")
             try:
-                parsed = self._CompUtil.parseOneExpression_fromString(world, expr)
+                parsed = self._CompUtil.parseOneExpression_fromString(world.module, expr)
                 value = sol.eval(parsed)
             except self._Err as err:
                 raise self._error(err) from None

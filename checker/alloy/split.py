@@ -28,6 +28,7 @@ from .spans import IDENTIFIER
 _ONE_SIG = re.compile(r"^one sig ([\w, ]+?) extends (\w+) \{\}$", re.M)
 # a top-level fun or pred without parameters, as the templates write them
 _BLOCK = re.compile(r"^(fun|pred) (\w+)(?:: ([^{\n]+?))? \{\n(.*?)\n\}$", re.M | re.S)
+_BLANK = re.compile(r"\n\s*\n")
 _COMMENT = re.compile(r"/\*.*?\*/|--[^\n]*|//[^\n]*", re.S)
 
 # below this many atoms the front end is fast enough as it is
@@ -70,6 +71,13 @@ def split_module(text: str, min_atoms: int | None = None) -> Split | None:
         return f"one sig {', '.join(stay)} extends {m.group(2)} {{}}" if stay else ""
 
     return Split(_ONE_SIG.sub(declare, skeleton), atoms, bodies)
+
+
+def skeleton_key(skeleton: str) -> str:
+    """What identifies a skeleton for the analyzer: its text without comments and blank
+    lines (a plan module's header comment names its states; atom declarations leave blank
+    lines)."""
+    return _BLANK.sub("\n", _COMMENT.sub("", skeleton))
 
 
 def _empty(typ: str) -> str:

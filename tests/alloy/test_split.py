@@ -104,3 +104,57 @@ def test_an_error_is_reported_at_its_place_in_the_text(bridge: AlloyBridge,
     with pytest.raises(AlloyError) as err:
         bridge.run({"plan.als": broken}, "plan.als", "PlanSafe")
     assert err.value.line == line
+
+
+def test_a_reused_skeleton_serves_each_module_with_exactly_its_own_atoms(bridge: AlloyBridge,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """Modules with the same skeleton share one parse of it; each sees only its own atoms
+    and gets the verdict of a fresh parse, in any order."""
+    monkeypatch.setattr(split_mod, "MIN_ATOMS", 0)
+    system, safe, early = _chatter_states()
+    texts = {name: render_plan(system, states)[0] for name, states in (("safe", safe), ("early", early))}
+    splits = {name: split_module(text, min_atoms=0) for name, text in texts.items()}
+    assert split_mod.skeleton_key(splits["safe"].skeleton) == split_mod.skeleton_key(splits["early"].skeleton)
+
+    def fresh_sigs(name: str) -> list[str]:
+        bridge._skeletons.clear()
+        return sorted(str(s.label) for s in bridge._split_world(splits[name], "plan.als").sigs())
+
+    alone = {name: fresh_sigs(name) for name in texts}
+    assert alone["safe"] != alone["early"]  # three states against two
+    for name in ("safe", "early", "safe", "early"):
+        world = bridge._split_world(splits[name], "plan.als")
+        assert world.skeleton is not None and world.skeleton.generation > 0  # the parse was reused
+        assert sorted(str(s.label) for s in world.sigs()) == alone[name]
+    for _ in range(2):
+        verdict = alloy_plan_verdict(system, safe, bridge=bridge)
+        assert verdict.valid == (True, True, True) and verdict.steps == (("degrade",), ("detach",))
+        refused = alloy_plan_verdict(system, early, bridge=bridge)
+        assert refused.valid == (True, False) and refused.steps == ((),)
+
+
+def test_a_solution_is_not_evaluated_after_its_skeleton_serves_another_module(
+        bridge: AlloyBridge, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(split_mod, "MIN_ATOMS", 0)
+    system, safe, early = _chatter_states()
+    (outcome,) = bridge.run({"plan.als": render_plan(system, early)[0]}, "plan.als", "Verdict")
+    assert outcome.eval("valid_states")  # current: evaluated
+    bridge.run({"plan.als": render_plan(system, safe)[0]}, "plan.als", "PlanSafe")
+    assert outcome.eval("valid_states")  # evaluated while current: kept
+    with pytest.raises(AlloyError, match="replaced by a later one"):
+        outcome.eval("ok_steps")
+
+
+def test_a_body_written_as_the_placeholder_is_not_left_from_the_previous_module(
+        bridge: AlloyBridge, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Module B's `f` is empty, which is how module A's hollowed `f` reads in A's skeleton:
+    the two skeletons read the same, but B must not judge A's body."""
+    monkeypatch.setattr(split_mod, "MIN_ATOMS", 0)
+    head = "module m\nabstract sig X {}\none sig x1, x2 extends X {}\n"
+    a = head + "fun f: set X {\n  x1\n}\ncheck C { no f } expect 0\n"
+    b = head + "fun f: set X {\n  none\n}\ncheck C { no f } expect 0\n"
+    sa, sb = split_module(a), split_module(b)
+    assert sa is not None and sb is not None and sa.skeleton == sb.skeleton and "f" in sa.bodies
+    for _ in range(2):
+        assert [o.satisfiable for o in bridge.run({"m.als": a}, "m.als")] == [True]
+        assert [o.satisfiable for o in bridge.run({"m.als": b}, "m.als")] == [False]
