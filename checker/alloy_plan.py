@@ -152,7 +152,8 @@ def _window(plan: Plan, k: int, width: int) -> Plan:
 def _atoms(target: Plan) -> int:
     """About how many atoms the plan module of `target` has (an estimate, to choose window
     sizes; the analyzer's capacity error is the final word): states, components, ports,
-    functionalities, guarantees, connectors, and per datum its message and rate."""
+    functionalities, connectors, and per datum its message and rate (a module with ternary
+    relations has no guarantee atoms)."""
     system = target.system
     count = len(target.states) + len(system.connectors) + 24
     data: set[Any] = {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
@@ -161,7 +162,6 @@ def _atoms(target: Plan) -> int:
         data |= {p.assumption for p in c.ports if p.kind == "input"}
         for f in c.functionalities:
             outs = [p for p in f.ports if (q := c.port(p)) is not None and q.kind == "output"]
-            count += len(outs)
             data |= {m.guarantee(p) for m in (f.normal, f.degraded) if m is not None for p in outs}
             data |= set(f.normal.assumptions) if f.normal is not None else set()
     return count + 3 * len(data)

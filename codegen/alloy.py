@@ -83,7 +83,7 @@ FIXED_STATE = StateAccess(None, sat="sat", joins=True, guar_atoms=True)
 PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True, guar_atoms=True)
 # A plan module: the configurations are constant System atoms and every definition is a
 # join over constants, which the solver folds without a variable.
-PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True)
+PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True)
 # The same, for a plan module whose universe is too large for a ternary relation.
 PLAN_BINARY_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms=True, role_atoms=True)
 
@@ -337,6 +337,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
 
     names: dict[str, tuple[str, ...]] = {}
     comps = _all_components(system)
+    # a plan module with ternary roles has ternary guarantees too: no atom per guarantee
+    ternary = plan and not binary
     # a slice (see render_instance): the focus whole; of the other components only the
     # outputs attached to the connectors the focus reads, and the functionalities
     # behind them; only those connectors
@@ -372,7 +374,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     guar_atoms: list[str] = []
     rel: dict[str, list[str]] = {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
-        "gout", "gn", "gd", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
+        "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
     for c in comps:
         ca = comp_atoms[c.name] = mangle("component", c.name)
         names[ca] = ("component", c.name)
@@ -404,6 +406,11 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                     rel["assoc_in"].append(f"{fa} -> {pa}")
                 else:
                     rel["assoc_out"].append(f"{fa} -> {pa}")
+                    if ternary:  # functionality -> output -> datum, per mode
+                        for mode, key in ((f.normal, "nguar"), (f.degraded, "dguar")):
+                            guar = mode.guarantee(pname) if mode is not None else None
+                            rel[key].append(f"{fa} -> {pa} -> {data(guar)}")
+                        continue
                     ga = f"g_{len(guar_atoms)}"
                     guar_atoms.append(ga)
                     names[ga] = ("guarantee", c.name, f.name, pname)
@@ -464,11 +471,13 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     sigs += _one_sigs("Output", outputs, "extends Port ")
     sigs += _one_sigs("Functionality", list(func_atoms.values()))
     sigs += _one_sigs("Connector", list(conn_atoms.values()))
-    sigs += _one_sigs("Guar", guar_atoms)
+    if not ternary:
+        sigs += _one_sigs("Guar", guar_atoms)
     # an abstract sig without children could still hold atoms: forbid them
-    for parent, children in (("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
-                             ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
-                             ("Functionality", func_atoms), ("Connector", conn_atoms), ("Guar", guar_atoms)):
+    parents: list[tuple[str, Any]] = [("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
+                                      ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
+                                      ("Functionality", func_atoms), ("Connector", conn_atoms)]
+    for parent, children in parents + ([] if ternary else [("Guar", guar_atoms)]):
         if not children:
             sigs.append(f"fact no_{parent} {{ no {parent} }}")
 
@@ -494,10 +503,15 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         ("assoc_in", "Functionality -> Input", union(rel["assoc_in"], _empty("Functionality", "Input"))),
         ("assoc_out", "Functionality -> Output", union(rel["assoc_out"], _empty("Functionality", "Output"))),
         ("nasms", "Functionality -> Data", union(rel["nasms"], _empty("Functionality", "Data"))),
+    ] + ([
+        ("nguar", "Functionality -> Output -> Data", union(rel["nguar"], _empty("Functionality", "Output", "Data"))),
+        ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
+    ] if ternary else [
         ("gfunc", "Guar -> Functionality", union(rel["gfunc"], _empty("Guar", "Functionality"))),
         ("gout", "Guar -> Output", union(rel["gout"], _empty("Guar", "Output"))),
         ("gn", "Guar -> Data", union(rel["gn"], _empty("Guar", "Data"))),
         ("gd", "Guar -> Data", union(rel["gd"], _empty("Guar", "Data"))),
+    ]) + [
         ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
         ("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
     ]
