@@ -6,6 +6,8 @@ import hashlib
 from dataclasses import replace as dc_replace
 from typing import Any, Callable
 
+from codegen.alloy import TERNARY_ATOMS
+
 from .alloy.errors import AlloyError
 from .planning import Plan
 
@@ -16,8 +18,6 @@ MODULE_BUDGET = 40_000
 # with states x slice, so narrower windows cost less in all, down to where the per-window work
 # (slicing, writing and parsing the module) takes over; measured on the DAG plan of bench_alloy
 WINDOW_BUDGET = 750
-# atoms past which a ternary relation cannot be indexed (universe³ < 2³¹)
-TERNARY_ATOMS = 1_280
 
 
 def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:

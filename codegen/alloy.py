@@ -78,9 +78,15 @@ META_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)")
 # An instance module: one fixed configuration given by constants; every definition is a
 # join over them (no quantifier, no variable), which the solver folds at any size.
 FIXED_STATE = StateAccess(None, sat="sat", joins=True, guar_atoms=True)
+# The same with ternary guarantees, for a universe small enough for ternary relations.
+FIXED_TERNARY_STATE = StateAccess(None, sat="sat", joins=True)
+# atoms past which a ternary relation cannot be indexed (universe³ < 2³¹)
+TERNARY_ATOMS = 1_280
 # Configurations as System atoms whose derived sets are stored relations (the planning
 # module's `var` fields).
 PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True, guar_atoms=True)
+# The same with ternary guarantees (when the architecture's instance module has them).
+PLAN_TERNARY_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True)
 # A plan module: the configurations are constant System atoms and every definition is a
 # join over constants, which the solver folds without a variable.
 PLAN_CONST_STATE = StateAccess("s", "System", sat="sat", joins=True)
@@ -337,8 +343,6 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
 
     names: dict[str, tuple[str, ...]] = {}
     comps = _all_components(system)
-    # a plan module with ternary roles has ternary guarantees too: no atom per guarantee
-    ternary = plan and not binary
     # a slice (see render_instance): the focus whole; of the other components only the
     # outputs attached to the connectors the focus reads, and the functionalities
     # behind them; only those connectors
@@ -372,6 +376,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     inputs: list[str] = []
     outputs: list[str] = []
     guar_atoms: list[str] = []
+    guar_names: list[tuple[str, ...]] = []
     rel: dict[str, list[str]] = {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
         "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
@@ -406,19 +411,17 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                     rel["assoc_in"].append(f"{fa} -> {pa}")
                 else:
                     rel["assoc_out"].append(f"{fa} -> {pa}")
-                    if ternary:  # functionality -> output -> datum, per mode
-                        for mode, key in ((f.normal, "nguar"), (f.degraded, "dguar")):
-                            guar = mode.guarantee(pname) if mode is not None else None
-                            rel[key].append(f"{fa} -> {pa} -> {data(guar)}")
-                        continue
+                    # both encodings of the guarantees: functionality -> output -> datum
+                    # per mode, or an atom per guarantee (see `ternary` below)
                     ga = f"g_{len(guar_atoms)}"
                     guar_atoms.append(ga)
-                    names[ga] = ("guarantee", c.name, f.name, pname)
+                    guar_names.append(("guarantee", c.name, f.name, pname))
                     rel["gfunc"].append(f"{ga} -> {fa}")
                     rel["gout"].append(f"{ga} -> {pa}")
-                    for mode, key in ((f.normal, "gn"), (f.degraded, "gd")):
+                    for mode, key, key3 in ((f.normal, "gn", "nguar"), (f.degraded, "gd", "dguar")):
                         guar = mode.guarantee(pname) if mode is not None else None
                         rel[key].append(f"{ga} -> {data(guar)}")
+                        rel[key3].append(f"{fa} -> {pa} -> {data(guar)}")
             if f.normal is not None and judged:
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
@@ -471,8 +474,14 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     sigs += _one_sigs("Output", outputs, "extends Port ")
     sigs += _one_sigs("Functionality", list(func_atoms.values()))
     sigs += _one_sigs("Connector", list(conn_atoms.values()))
+    # Guarantees as a ternary relation when the universe allows one (Functionality -> Output
+    # -> Data, the meta-model's own encoding), else an atom each: the analyzer's symmetry
+    # detection refines its partition once per one-sig atom, about quadratic in the atoms
+    # (half of a module's fixed cost). A plan module with binary roles is past the limit.
+    ternary = not binary and (plan or len(names) <= TERNARY_ATOMS)
     if not ternary:
         sigs += _one_sigs("Guar", guar_atoms)
+        names.update(zip(guar_atoms, guar_names))
     # an abstract sig without children could still hold atoms: forbid them
     parents: list[tuple[str, Any]] = [("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
                                       ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
@@ -587,7 +596,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         ("roles", "Connector -> Port", union(rel["roles"], _empty("Connector", "Port"))),
     ]
     template = environment().get_template("instance.als.j2")
-    text = template.render(st=FIXED_STATE, sigs=sigs, funs=funs, module_name=module_name,
+    text = template.render(st=FIXED_STATE if not ternary else FIXED_TERNARY_STATE, sigs=sigs, funs=funs,
+                           module_name=module_name,
                            system_name=system.name)
     return text, names
 

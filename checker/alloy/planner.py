@@ -150,9 +150,11 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     # running total goes beyond is over the bound anyway (weights are not negative), and
     # with overflow forbidden the analyzer discards it; decoded plans are re-costed.
     bitwidth = _bitwidth((bound or 0) + start_weight + total) if bound is not None else 4
+    # the guarantees as the architecture's instance module holds them (atoms or ternary)
+    st = gen.PLAN_STATE if any(name == "gout" for name, _, _ in funs) else gen.PLAN_TERNARY_STATE
     template = gen.environment().get_template("planner.als.j2")
     text = template.render(
-        st=gen.PLAN_STATE, sigs=sigs, funs=funs, module_name=module_name, system_name=system.name,
+        st=st, sigs=sigs, funs=funs, module_name=module_name, system_name=system.name,
         actions=_two_state_actions(), single=single, crit=crit, bound=bound, start_weight=start_weight,
         bitwidth=bitwidth, states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
         start={"comps": comps(start.components), "roles": roles(start.roles),

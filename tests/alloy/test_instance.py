@@ -123,3 +123,20 @@ def test_mangling_is_injective_and_valid(a: str, b: str) -> None:
     assert IDENT.match(ma) and IDENT.match(mb)
     assert (ma == mb) == (a == b)
     assert mangle("port", a, b) != mangle("port", a + "_o_" + b) or a + "_o_" + b == a
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=[e.name for e in EXAMPLES])
+def test_guarantee_atoms_and_ternary_guarantees_agree(example, bridge: AlloyBridge,  # type: ignore[no-untyped-def]
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """A module small enough holds guarantees as a ternary relation, a larger one an atom
+    each: both give the Python engine's verdict."""
+    import codegen.alloy as gen
+
+    system = load([example.file])
+    config = Configuration.initial(system)
+    ternary = alloy_verdict(system, config, bridge=bridge)
+    assert "fun nguar: Functionality -> Output -> Data" in ternary.text and "sig Guar" not in ternary.text
+    monkeypatch.setattr(gen, "TERNARY_ATOMS", 0)
+    atoms = alloy_verdict(system, config, bridge=bridge)
+    assert "abstract sig Guar" in atoms.text
+    assert (ternary.valid, ternary.unsatisfied) == (atoms.valid, atoms.unsatisfied) == python_verdict(system, config)
