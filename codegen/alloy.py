@@ -146,11 +146,13 @@ KINDS = {
 }
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def mangle(kind: str, *parts: str) -> str:
     """A valid, unique Alloy identifier for a DSL name (any characters, keywords too).
 
     Letters and digits stay; `_` becomes `__`, any other character `_u<hex>_`, and the
-    parts are joined with `_o_`, so distinct names give distinct identifiers.
+    parts are joined with `_o_`, so distinct names give distinct identifiers. (Cached: a
+    plan's windows mangle the same names again.)
     """
 
     def esc(text: str) -> str:
@@ -419,9 +421,9 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                     rel["gfunc"].append(f"{ga} -> {fa}")
                     rel["gout"].append(f"{ga} -> {pa}")
                     for mode, key, key3 in ((f.normal, "gn", "nguar"), (f.degraded, "gd", "dguar")):
-                        guar = mode.guarantee(pname) if mode is not None else None
-                        rel[key].append(f"{ga} -> {data(guar)}")
-                        rel[key3].append(f"{fa} -> {pa} -> {data(guar)}")
+                        datum = data(mode.guarantee(pname) if mode is not None else None)
+                        rel[key].append(f"{ga} -> {datum}")
+                        rel[key3].append(f"{fa} -> {pa} -> {datum}")
             if f.normal is not None and judged:
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")

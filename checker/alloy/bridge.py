@@ -318,18 +318,22 @@ class AlloyBridge:
 
     def run(self, modules: Mapping[str, str], main: str, command: str | None = None,
             solver: str = DEFAULT_SOLVER,
-            progress: Callable[[CommandOutcome], None] | None = None) -> list[CommandOutcome]:
+            progress: Callable[[CommandOutcome], None] | None = None,
+            constants: bool = False) -> list[CommandOutcome]:
         """Run every command of `main` (or only the one labelled `command`).
 
         Falls back to SAT4J when the requested solver's native library does not load.
+        `constants` says the module's relations are all constants (instance and plan
+        modules): nothing to skolemize, every quantifier folds while translating.
         """
         with self._lock:
             solver_id = self.usable_solver(solver)
-            return self._run_checked(modules, main, command, solver_id, progress)
+            return self._run_checked(modules, main, command, solver_id, progress, constants)
 
     def _run_checked(self, modules: Mapping[str, str], main: str, command: str | None,
                      solver_id: str,
-                     progress: Callable[[CommandOutcome], None] | None = None) -> list[CommandOutcome]:
+                     progress: Callable[[CommandOutcome], None] | None = None,
+                     constants: bool = False) -> list[CommandOutcome]:
         world = self._world(modules, main)
         commands = list(world.module.getAllCommands())
         if command is not None:
@@ -337,6 +341,8 @@ class AlloyBridge:
             if not commands:
                 raise AlloyError(f"no command {command!r} in {main}")
         opts = self.options(solver_id)
+        if constants:
+            opts.skolemDepth = -1  # skolem relations would only add variables to fold away
         outcomes = []
         for cmd in commands:
             outcome = self._execute(world, cmd, opts, solver_id)

@@ -11,11 +11,11 @@ from .spans import with_span
 MAIN = "instance.als"
 
 
-# Components judged per module. The analyzer's front end is quadratic in the number of
-# atoms (every signature resolves against all the others), so a large architecture is
-# judged as a partition of slices of about this many components each (render_instance
-# with `focus`); validity is local, so the configuration is valid exactly when every
-# slice is.
+# Components judged per module: a large architecture is judged as a partition of slices
+# of about this many components each (render_instance with `focus`); validity is local, so
+# the configuration is valid exactly when every slice is. The analyzer's translation grows
+# faster than its atoms, its per-module work does not: on the DAG of 1,000 components,
+# slices of 24 to 64 take the same time, 128 half as long again.
 SLICE = 32
 
 
@@ -69,7 +69,7 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
             # `check Valid` first: over constants the solver folds `valid` to true or
             # false while translating, so a valid configuration costs no evaluation; only
             # a counterexample is asked which assumptions fail.
-            (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver)
+            (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver, constants=True)
         except AlloyError as err:
             raise with_span(err, text, names, system) from None
         seconds += outcome.elapsed
@@ -165,11 +165,11 @@ def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SO
     try:
         # `check PlanSafe` first: over constants it folds while translating, so a safe plan
         # costs no evaluation; only a counterexample is asked what fails where
-        (safe,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "PlanSafe", solver)
+        (safe,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "PlanSafe", solver, constants=True)
         if not safe.satisfiable:
             every = tuple(True for _ in range(n))
             return AlloyPlanVerdict(every, tuple(_planned_actions(system, configs)), safe.elapsed, text, every, every)
-        (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver)
+        (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver, constants=True)
     except AlloyError as err:
         raise with_span(err, text, names, system) from None
     valid_states = {atom_name(s) for (s,) in outcome.eval("valid_states")}

@@ -48,7 +48,9 @@ class _Attachments:
     are read again."""
 
     def __init__(self, plan: Plan, whole: _Attachments | None = None) -> None:
-        self.roles: set[tuple[str, str, str]] = set().union(*(s.roles for s in plan.states)) if plan.states else set()
+        # consecutive states share their roles unless a step attaches or detaches
+        distinct = {id(s.roles): s.roles for s in plan.states}
+        self.roles: set[tuple[str, str, str]] = set().union(*distinct.values())
         self.is_output: Callable[[str, str], bool] = (
             whole.is_output if whole is not None else catalogue(plan.system).is_output)
         # connector -> (component, port, whether an output) of every role, to re-read one
@@ -173,9 +175,13 @@ def _slice(plan: Plan, lean: bool, att: _Attachments) -> tuple[Plan, set[str]]:
 
     kept = frozenset(r for r in att.roles if r[1] in core or (r[1] in stubs and att.is_output(r[1], r[2])))
 
+    projected: dict[int, frozenset[tuple[str, str, str]]] = {}  # per distinct roles (see _Attachments)
+
     def project(s: Configuration) -> Configuration:
-        return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep),
-                             s.roles & kept)
+        roles = projected.get(id(s.roles))
+        if roles is None:
+            roles = projected[id(s.roles)] = s.roles & kept
+        return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep), roles)
 
     states = [project(s) for s in plan.states]
     used = {r[0] for s in states for r in s.roles}
