@@ -39,12 +39,15 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
 
     Why windows suffice: every state of the plan is judged in the window that holds it
     (a window's last state is the next one's first), every step in its window, and
-    validity is local to components. A component outside a window's slice reads nothing
-    the window changes, so its validity is the same in all the window's states. So a
-    component in some window's slice is valid in every state: before the first window
-    that judges it, it was valid exactly when at that window's start, where it is judged;
-    after each window that judges it, it stays valid until the next. The components in no
-    window's slice never change validity: they are judged once, in the first configuration.
+    validity is local to components. A window's module judges the assumptions of its
+    slice's core (`affected`: not the stubs, whose assumptions it strips). A component
+    outside the core reads nothing the window changes, or (lean slice) only connectors the
+    module proves satisfied in every state, so its validity is the same in all the
+    window's states. So a component some window judges is valid in every state: before the
+    first window that judges it, it was valid exactly when at that window's start, where it
+    is judged; after each window that judges it, it stays valid until the next. The
+    components no window judges never change validity: they are judged once, in the first
+    configuration.
 
     A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
     every state. `progress` is told, before each window, which steps it holds. Raises the

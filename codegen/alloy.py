@@ -82,6 +82,8 @@ FIXED_STATE = StateAccess(None, sat="sat", joins=True, guar_atoms=True)
 FIXED_TERNARY_STATE = StateAccess(None, sat="sat", joins=True)
 # atoms past which a ternary relation cannot be indexed (universe³ < 2³¹)
 TERNARY_ATOMS = 1_280
+# atoms of the analyzer's universe besides a module's own: Int at bit width 4, and a margin
+UNIVERSE_EXTRA = 32
 # Configurations as System atoms whose derived sets are stored relations (the planning
 # module's `var` fields).
 PLAN_STATE = StateAccess("s", "System", materialized=True, sat="(Sem.sat)", joins=True, guar_atoms=True)
@@ -480,7 +482,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     # -> Data, the meta-model's own encoding), else an atom each: the analyzer's symmetry
     # detection refines its partition once per one-sig atom, about quadratic in the atoms
     # (half of a module's fixed cost). A plan module with binary roles is past the limit.
-    ternary = not binary and (plan or len(names) <= TERNARY_ATOMS)
+    # (the analyzer's universe also holds Int atoms, 16 at the default bit width: leave room)
+    ternary = not binary and (plan or len(names) + UNIVERSE_EXTRA <= TERNARY_ATOMS)
     if not ternary:
         sigs += _one_sigs("Guar", guar_atoms)
         names.update(zip(guar_atoms, guar_names))

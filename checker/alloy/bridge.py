@@ -361,6 +361,8 @@ class AlloyBridge:
         return opts
 
     def _execute(self, world: _World, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
+        if not world.current:  # e.g. a progress callback ran another module on its skeleton
+            raise AlloyError("the module was replaced by a later one before all its commands ran")
         start = time.perf_counter()
         try:
             sol = self._Translate.execute_command(self._A4Reporter(), world.sigs(), cmd, opts)

@@ -140,3 +140,20 @@ def test_guarantee_atoms_and_ternary_guarantees_agree(example, bridge: AlloyBrid
     atoms = alloy_verdict(system, config, bridge=bridge)
     assert "abstract sig Guar" in atoms.text
     assert (ternary.valid, ternary.unsatisfied) == (atoms.valid, atoms.unsatisfied) == python_verdict(system, config)
+
+
+def test_a_slice_near_the_ternary_limit_holds_guarantees_as_atoms(bridge: AlloyBridge) -> None:
+    """The analyzer's universe has Int atoms besides the module's: a slice of the fan-in's
+    hub with about 1,274 atoms must not get ternary guarantees (it would exceed what a
+    ternary relation can index) and is judged as the Python engine judges it."""
+    from bench.gen import generate
+    from checker.alloy.instance import slices
+    from reconf_dsl.loader import load_text
+
+    system = load_text(generate("fanin", 736), "fanin.arch")
+    config = Configuration.initial(system)
+    sizes = [(len(names), "abstract sig Guar" in text)
+             for text, names in (render_instance(system, config, focus=f) for f in slices(system, config) or [])]
+    assert any(n > 1_240 and atoms for n, atoms in sizes)
+    verdict = alloy_verdict(system, config, bridge=bridge)
+    assert (verdict.valid, verdict.unsatisfied) == python_verdict(system, config)
