@@ -379,8 +379,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     comp_atoms, port_atoms, func_atoms = {}, {}, {}
     inputs: list[str] = []
     outputs: list[str] = []
-    guar_atoms: list[str] = []
-    guar_names: list[tuple[str, ...]] = []
+    # (functionality, output, meaning, normal datum, degraded datum) per guarantee
+    guarantees: list[tuple[str, str, tuple[str, ...], str, str]] = []
     rel: dict[str, list[str]] = {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
         "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
@@ -415,17 +415,10 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                     rel["assoc_in"].append(f"{fa} -> {pa}")
                 else:
                     rel["assoc_out"].append(f"{fa} -> {pa}")
-                    # both encodings of the guarantees: functionality -> output -> datum
-                    # per mode, or an atom per guarantee (see `ternary` below)
-                    ga = f"g_{len(guar_atoms)}"
-                    guar_atoms.append(ga)
-                    guar_names.append(("guarantee", c.name, f.name, pname))
-                    rel["gfunc"].append(f"{ga} -> {fa}")
-                    rel["gout"].append(f"{ga} -> {pa}")
-                    for mode, key, key3 in ((f.normal, "gn", "nguar"), (f.degraded, "gd", "dguar")):
-                        datum = data(mode.guarantee(pname) if mode is not None else None)
-                        rel[key].append(f"{ga} -> {datum}")
-                        rel[key3].append(f"{fa} -> {pa} -> {datum}")
+                    # written once the encoding is chosen (see `ternary` below)
+                    normal, degraded = (data(m.guarantee(pname) if m is not None else None)
+                                        for m in (f.normal, f.degraded))
+                    guarantees.append((fa, pa, ("guarantee", c.name, f.name, pname), normal, degraded))
             if f.normal is not None and judged:
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
@@ -484,9 +477,21 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     # (half of a module's fixed cost). A plan module with binary roles is past the limit.
     # (the analyzer's universe also holds Int atoms, 16 at the default bit width: leave room)
     ternary = not binary and (plan or len(names) + UNIVERSE_EXTRA <= TERNARY_ATOMS)
+    guar_atoms: list[str] = []
+    for fa, pa, meaning, normal, degraded in guarantees:
+        if ternary:
+            rel["nguar"].append(f"{fa} -> {pa} -> {normal}")
+            rel["dguar"].append(f"{fa} -> {pa} -> {degraded}")
+            continue
+        ga = f"g_{len(guar_atoms)}"
+        guar_atoms.append(ga)
+        names[ga] = meaning
+        rel["gfunc"].append(f"{ga} -> {fa}")
+        rel["gout"].append(f"{ga} -> {pa}")
+        rel["gn"].append(f"{ga} -> {normal}")
+        rel["gd"].append(f"{ga} -> {degraded}")
     if not ternary:
         sigs += _one_sigs("Guar", guar_atoms)
-        names.update(zip(guar_atoms, guar_names))
     # an abstract sig without children could still hold atoms: forbid them
     parents: list[tuple[str, Any]] = [("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
                                       ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
@@ -601,9 +606,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         ("roles", "Connector -> Port", union(rel["roles"], _empty("Connector", "Port"))),
     ]
     template = environment().get_template("instance.als.j2")
-    text = template.render(st=FIXED_STATE if not ternary else FIXED_TERNARY_STATE, sigs=sigs, funs=funs,
-                           module_name=module_name,
-                           system_name=system.name)
+    text = template.render(st=FIXED_TERNARY_STATE if ternary else FIXED_STATE, sigs=sigs, funs=funs,
+                           module_name=module_name, system_name=system.name)
     return text, names
 
 
