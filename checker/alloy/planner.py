@@ -67,9 +67,10 @@ class _Captured:
 
 
 def _architecture(system: Any, start: Configuration) -> tuple[list[str], list[tuple[str, str, str]],
-                                                               dict[str, tuple[str, ...]]]:
+                                                               dict[str, tuple[str, ...]], bool]:
     """The sigs and architecture constants of `system`, exactly as in its instance module,
-    with the atom names. The configuration constants (comps, degraded, roles) are left out."""
+    with the atom names, and whether its guarantees are atoms (else a ternary relation).
+    The configuration constants (comps, degraded, roles) are left out."""
     import codegen.alloy as gen
 
     captured = _Captured()
@@ -81,7 +82,7 @@ def _architecture(system: Any, start: Configuration) -> tuple[list[str], list[tu
         finally:
             gen.environment = saved
     funs = [f for f in captured.context["funs"] if f[0] not in ("comps", "degraded", "roles")]
-    return list(captured.context["sigs"]), funs, names
+    return list(captured.context["sigs"]), funs, names, bool(captured.context["st"].guar_atoms)
 
 
 def _two_state_actions() -> str:
@@ -125,7 +126,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     import codegen.alloy as gen
 
     system, start, goal = problem.system, problem.start, problem.goal
-    sigs, funs, names = _architecture(system, start)
+    sigs, funs, names, guar_atoms = _architecture(system, start)
     atom = {meaning: name for name, meaning in names.items()}
     cat = catalogue(system)
 
@@ -151,7 +152,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     # with overflow forbidden the analyzer discards it; decoded plans are re-costed.
     bitwidth = _bitwidth((bound or 0) + start_weight + total) if bound is not None else 4
     # the guarantees as the architecture's instance module holds them (atoms or ternary)
-    st = gen.PLAN_STATE if any(name == "gout" for name, _, _ in funs) else gen.PLAN_TERNARY_STATE
+    st = gen.PLAN_STATE if guar_atoms else gen.PLAN_TERNARY_STATE
     template = gen.environment().get_template("planner.als.j2")
     text = template.render(
         st=st, sigs=sigs, funs=funs, module_name=module_name, system_name=system.name,
