@@ -123,10 +123,14 @@ class _Skeleton:
     def __init__(self, module: Any) -> None:
         self.module = module
         self.generation = 0
+        reachable = list(module.getAllReachableSigs())
+        # by name, for the atoms' parents and the bodies to set
+        self.sigs = {str(s.label).removeprefix("this/"): s for s in reachable}
+        self.funcs = {str(f.label).removeprefix("this/"): f for f in module.getAllFunc()}
         children, items, globals_ = self._fields()
-        prim = [s for s in module.getAllReachableSigs() if children.getDeclaringClass().isInstance(s)]
+        lists = [items.get(children.get(s)) for s in reachable if children.getDeclaringClass().isInstance(s)]
         # each sig's own children, and the globals (none: the skeleton declares no atom by API)
-        self.children = [(items.get(children.get(s)), int(items.get(children.get(s)).size())) for s in prim]
+        self.children = [(kids, int(kids.size())) for kids in lists]
         self.globals = globals_.get(module)
         self.usable = int(self.globals.size()) == 0
 
@@ -283,8 +287,7 @@ class AlloyBridge:
             skeleton = _Skeleton(self._CompUtil.parseEverything_fromFile(self._A4Reporter(), files, VFS + main))
         else:
             skeleton.reset()
-        world = skeleton.module
-        sigs = {str(s.label).removeprefix("this/"): s for s in world.getAllReachableSigs()}
+        world, sigs = skeleton.module, skeleton.sigs
         extra = []
         for atom, parent in split.atoms:
             sig = Sig.PrimSig(Pos.UNKNOWN, "this/" + atom, Pos.UNKNOWN, sigs[parent], Attr.ONE)
@@ -292,9 +295,8 @@ class AlloyBridge:
             # typed as its parent: a union of atom products then has one product type
             constant = Func(Pos.UNKNOWN, Pos.UNKNOWN, atom, None, sigs[parent], sig)
             world.addGlobal(atom, ExprCall.make(Pos.UNKNOWN, None, constant, None, 0))
-        funcs = {str(f.label).removeprefix("this/"): f for f in world.getAllFunc()}
         for name, body in split.bodies.items():
-            funcs[name].setBody(world.parseOneExpressionFromString(body))
+            skeleton.funcs[name].setBody(world.parseOneExpressionFromString(body))
         if skeleton.usable:  # kept only once the module is whole (an error above drops it)
             self._skeletons[key] = skeleton
             while len(self._skeletons) > SKELETONS:
