@@ -3,13 +3,17 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# The ROS 2 wheels pull in lark-parser 0.12 (for rosidl code generation), which installs the
+# same `lark` package as lark 1.x; reinstalling lark last keeps the one reconf needs.
+LARK := lark==1.3.1
 
 .PHONY: demo test typecheck bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[test]'
+	$(BIN)/pip install -q -e '.[test,ros]'
+	$(BIN)/pip install -q --force-reinstall --no-deps '$(LARK)'
 	touch $(STAMP)
 
 demo: $(STAMP)

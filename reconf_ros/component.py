@@ -1,0 +1,386 @@
+"""A Component as an rclpy lifecycle node: the reference implementation of the control
+interface (docs/control-interface.md), with the assumption monitor on every input.
+
+Parameters `reconf.mode.<f>` and `reconf.port.<p>` are the desired state; a change is applied
+before `set_parameters` answers. The node publishes its status on `/diagnostics`
+(`diagnostic_msgs/DiagnosticArray`) whenever something in it changes and once a second.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import time
+from typing import Any, Callable, Optional, Sequence
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from .executor import STATUS_PREFIX, join_list, split_list
+from .model import Component, Functionality, Input, Output
+from .monitor import GAP_FACTOR, Monitor
+
+__all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
+
+# Reliable with a deep history: messages published while a subscriber's callback is busy or
+# its node is suspended are delivered when it resumes (docs/control-interface.md).
+DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
+STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+MODES = ("normal", "degraded")
+
+
+class ComponentNode(LifecycleNode):
+    """One component, one lifecycle node named after it."""
+
+    def __init__(self, component: Component, *, namespace: str = "", gap_factor: float = GAP_FACTOR,
+                 status_period: float = 1.0, deployed: Optional[dict[str, list[str]]] = None) -> None:
+        super().__init__(component.name, namespace=namespace or None)
+        self.component, self.model = component, component
+        component.node = self
+        self.monitor = Monitor(component, gap_factor)
+        self.active = False
+        self.finished = False
+        self.modes = {f.name: "degraded" for f in component.functionalities}
+        self.attached: dict[str, list[str]] = {p.name: [] for p in component.ports}
+        self.pubs: dict[tuple[str, str], Any] = {}
+        self.subs: dict[tuple[str, str], Any] = {}
+        self.matched_out: dict[tuple[str, str], int] = {}
+        self.mode_timers: dict[str, Any] = {}
+        self.last: dict[str, Any] = {}
+        self.published: dict[str, int] = {p.name: 0 for p in component.outputs}
+        self.errors: list[str] = []
+        self.gid_nodes: dict[bytes, str] = {}
+        self.deployed = deployed        # attachments to make at start (see run_components)
+        self._internal = False
+        for f in component.functionalities:
+            self.declare_parameter(f"reconf.mode.{f.name}", Parameter.Type.STRING,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING,
+                                                       description=f"mode of {f.name}: normal or degraded"))
+        for p in component.ports:
+            # rclpy 9 types an empty list as BYTE_ARRAY: declare the type, then set the value.
+            self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
+                                                       description=f"connectors {p.name} is attached to"))
+        self._store_params()
+        self.add_on_set_parameters_callback(self._on_set)
+        self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
+        limits = [self.monitor.inputs[i.name].period_limit(gap_factor) for i in component.inputs]
+        period = min([0.05] + [x / 4 for x in limits if x])
+        self.create_timer(max(period, 0.005), self._check)
+        self.create_timer(status_period, self.publish_status)
+        self._dirty = True
+
+    # --- parameters: the control interface ---
+    def _store_params(self) -> None:
+        self._internal = True
+        try:
+            self.set_parameters([Parameter(f"reconf.mode.{f}", Parameter.Type.STRING, m) for f, m in self.modes.items()]
+                                + [Parameter(f"reconf.port.{p}", Parameter.Type.STRING_ARRAY, sorted(v))
+                                   for p, v in self.attached.items()])
+        finally:
+            self._internal = False
+
+    def _on_set(self, params: list[Parameter]) -> SetParametersResult:
+        if self._internal:
+            return SetParametersResult(successful=True)
+        for p in params:
+            if not p.name.startswith("reconf."):
+                continue
+            why = self._apply(p)
+            if why:
+                self.get_logger().warning(f"refused {p.name}={p.value!r}: {why}")
+                return SetParametersResult(successful=False, reason=why)
+        return SetParametersResult(successful=True)
+
+    def _apply(self, p: Parameter) -> Optional[str]:
+        _, kind, name = p.name.split(".", 2)
+        if not self.active:
+            return f"{self.get_name()} is not active"
+        if kind == "mode":
+            if name not in self.modes:
+                return f"no functionality {name}"
+            if p.type_ != Parameter.Type.STRING or p.value not in MODES:
+                return f"a mode is 'normal' or 'degraded', not {p.value!r}"
+            self.set_mode(name, p.value)
+            return None
+        if kind == "port":
+            if name not in self.attached:
+                return f"no port {name}"
+            if p.type_ not in (Parameter.Type.STRING_ARRAY, Parameter.Type.BYTE_ARRAY) and p.value is not None:
+                return "attachments are a string array"
+            return self.set_attachments(name, list(p.value or []))
+        return f"unknown parameter {p.name}"
+
+    # --- modes ---
+    def functionality(self, name: str) -> Functionality:
+        return next(f for f in self.component.functionalities if f.name == name)
+
+    def set_mode(self, name: str, mode: str) -> None:
+        if self.modes[name] == mode and (name in self.mode_timers) == bool(self.functionality(name).mode(mode).rate):
+            return
+        old = self.mode_timers.pop(name, None)
+        if old is not None:
+            self.destroy_timer(old)
+        self.modes[name] = mode
+        m = self.functionality(name).mode(mode)
+        if m.rate is not None and m.callback is not None:
+            self.mode_timers[name] = self.create_timer(1.0 / float(m.rate.hz), self._runner(name, m.callback))
+        self.get_logger().info(f"{name} is {mode}")
+        self._changed()
+
+    def _runner(self, name: str, callback: Callable[..., Any]) -> Callable[[], None]:
+        def run() -> None:
+            try:
+                callback()
+            except Exception as e:   # a behaviour's fault must not take the control interface down
+                self._fault(name, e)
+        return run
+
+    def _fault(self, name: str, e: Exception) -> None:
+        self.errors.append(f"{name}: {type(e).__name__}: {e}")
+        self.get_logger().error(f"{name} raised {type(e).__name__}: {e}")
+
+    # --- attachments ---
+    def set_attachments(self, port: str, wanted: list[str]) -> Optional[str]:
+        p = self.component.port(port)
+        bad = [k for k in wanted if not k.startswith("/") or "." in k or " " in k]
+        if bad:
+            return f"{', '.join(bad)}: not an absolute topic name"
+        types = dict(self.get_topic_names_and_types())
+        for k in wanted:
+            if k not in self.attached[port] and k in types and p.msg_type not in types[k]:
+                return f"{k} carries {', '.join(types[k])}, not {p.msg_type}"
+        try:
+            cls = p.message_class
+        except (ImportError, AttributeError) as e:
+            return f"message type {p.msg_type} is not installed ({e})"
+        for k in sorted(set(self.attached[port]) - set(wanted)):
+            if isinstance(p, Output):
+                self.destroy_publisher(self.pubs.pop((port, k)))
+                self.matched_out.pop((port, k), None)
+            else:
+                self.destroy_subscription(self.subs.pop((port, k)))
+                self.monitor.inputs[port].publishers.pop(k, None)
+        for k in sorted(set(wanted) - set(self.attached[port])):
+            if isinstance(p, Output):
+                self.matched_out[(port, k)] = 0
+                self.pubs[(port, k)] = self.create_publisher(
+                    cls, k, DATA_QOS, event_callbacks=PublisherEventCallbacks(
+                        matched=lambda info, key=(port, k): self._matched_out(key, info)))
+            else:
+                self.monitor.inputs[port].publishers[k] = 0
+                self.subs[(port, k)] = self.create_subscription(
+                    cls, k, lambda msg, info, key=(port, k): self._on_message(key, msg, info), DATA_QOS,
+                    event_callbacks=SubscriptionEventCallbacks(
+                        matched=lambda info, key=(port, k): self._matched_in(key, info)))
+        self.attached[port] = sorted(set(wanted))
+        self.get_logger().info(f"{port} attached to {self.attached[port] or 'nothing'}")
+        self._changed()
+        return None
+
+    def _matched_out(self, key: tuple[str, str], info: Any) -> None:
+        if key in self.matched_out:
+            self.matched_out[key] = info.current_count
+            self._changed()
+
+    def _matched_in(self, key: tuple[str, str], info: Any) -> None:
+        pubs = self.monitor.inputs[key[0]].publishers
+        if key[1] in pubs:
+            pubs[key[1]] = info.current_count
+            self._changed()
+
+    def _source(self, topic: str, gid: bytes) -> str:
+        node = self.gid_nodes.get(gid)
+        if node is None:
+            for e in self.get_publishers_info_by_topic(topic):
+                g = bytes(e.endpoint_gid)
+                ns = e.node_namespace.rstrip("/")
+                self.gid_nodes[g[:len(gid)]] = f"{ns}/{e.node_name}".lstrip("/")
+            node = self.gid_nodes.get(gid, "?")
+        return node
+
+    def _on_message(self, key: tuple[str, str], msg: Any, info: Any) -> None:
+        port, topic = key
+        now = time.monotonic()
+        gid = bytes(info.get("publisher_gid", {}).get("data", b"")) if isinstance(info, dict) else b""
+        seq = info.get("publication_sequence_number") if isinstance(info, dict) else None
+        self._check(now)      # a gap that ends now is judged before the message closes it
+        fresh_before = self.monitor.fresh_sources(port, now)
+        self.monitor.on_message(port, now, gid, seq, self._source(topic, gid))
+        self.last[port] = msg
+        if self.monitor.fresh_sources(port, now) != fresh_before:
+            self._changed()
+        for f in self.component.functionalities:
+            m = f.mode(self.modes[f.name])
+            if m.rate is None and m.callback is not None and any(i.name == port for i in f.inputs):
+                try:
+                    m.callback(msg)
+                except Exception as e:
+                    self._fault(f.name, e)
+
+    def last_message(self, port: str) -> Any:
+        return self.last.get(port)
+
+    def write(self, port: str, msg: Any) -> bool:
+        """Publish on every connector `port` is attached to, if its functionality's current mode
+        guarantees something there (a mode that guarantees nothing stays silent)."""
+        if not self.active or not self.attached.get(port):
+            return False
+        if not any(port in self.functionality(f).mode(m).guarantees for f, m in self.modes.items()
+                   if any(o.name == port for o in self.functionality(f).outputs)):
+            return False
+        p = self.component.port(port)
+        if not isinstance(msg, p.message_class):
+            msg = p.message_class(data=msg)
+        for k in self.attached[port]:
+            self.pubs[(port, k)].publish(msg)
+        self.published[port] += 1
+        return True
+
+    # --- monitor and status ---
+    def _check(self, now: Optional[float] = None) -> None:
+        now = time.monotonic() if now is None else now
+        if self.monitor.check(now, self.modes if self.active else {}, self.attached):
+            self._changed()
+        if self.deployed is not None and self.active:
+            self._bring_up()
+        if self._dirty:
+            self.publish_status()
+
+    def _changed(self) -> None:
+        self._dirty = True
+
+    def status(self) -> dict[str, str]:
+        now = time.monotonic()
+        out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
+               "pid": str(os.getpid()), "errors": str(len(self.errors))}
+        out.update({f"mode.{f}": m for f, m in self.modes.items()})
+        out.update({f"port.{p}": join_list(v) for p, v in self.attached.items()})
+        out.update(self.monitor.status(now))
+        for (port, k), n in sorted(self.matched_out.items()):
+            out[f"out.{port}@{k}.subscribers"] = str(n)
+        for port, n in self.published.items():
+            out[f"out.{port}.published"] = str(n)
+        return out
+
+    def publish_status(self) -> None:
+        self._dirty = False
+        values = self.status()
+        st = DiagnosticStatus()
+        st.name = f"{STATUS_PREFIX}{self.get_fully_qualified_name()}"
+        st.hardware_id = self.component.name
+        violating = sorted(self.monitor.violating)
+        if violating:
+            st.level, st.message = DiagnosticStatus.ERROR, "assumption not met in normal mode: " + ", ".join(
+                f"{f} ({self.monitor.verdicts[f]})" for f in violating)
+        elif self.errors:
+            st.level, st.message = DiagnosticStatus.WARN, self.errors[-1]
+        else:
+            st.level, st.message = DiagnosticStatus.OK, "assumptions met" if self.active else "inactive"
+        st.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        arr.status = [st]
+        self.status_pub.publish(arr)
+
+    # --- bring-up as deployed (reconf-node --deployed) ---
+    def _bring_up(self) -> None:
+        """Attach as deployed, then make each functionality normal once its assumptions are met
+        on the wire; the node's own safe start, used before any plan runs."""
+        assert self.deployed is not None
+        for port, conns in list(self.deployed.items()):
+            if sorted(conns) != self.attached[port]:
+                why = self.set_attachments(port, conns)
+                if why:
+                    self.get_logger().error(f"cannot attach {port} as deployed: {why}")
+                    self.deployed.pop(port)
+        pending = [f for f, m in self.modes.items() if m == "degraded"]
+        for f in pending:
+            if not self.monitor.verdicts[f].startswith("not met"):
+                self.set_mode(f, "normal")
+        if not pending:
+            self.deployed = None
+        self._store_params()
+
+    # --- lifecycle ---
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.active = True
+        self._isolate()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._isolate()
+        self.active = False
+        self._changed()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if self.active:
+            self._isolate()
+            self.active = False
+        self.finished = True   # the process exits once the answer is out (run_components)
+        return TransitionCallbackReturn.SUCCESS
+
+    def _isolate(self) -> None:
+        """Every functionality degraded, every port attached to nothing: the state `create` makes."""
+        for f in self.modes:
+            self.set_mode(f, "degraded")
+        for p in self.attached:
+            self.set_attachments(p, [])
+        self._store_params()
+        self._changed()
+
+
+def run_components(components: Sequence[Component], *, args: Optional[list[str]] = None, namespace: str = "",
+                   deployed: Optional[dict[str, dict[str, list[str]]]] = None, gap_factor: float = GAP_FACTOR,
+                   linger: float = 0.5) -> int:
+    """Run `components` in this process until every one is finalized (or SIGINT/SIGTERM).
+
+    With `deployed` (component -> port -> connectors), each node configures and activates
+    itself, attaches as given and turns each functionality normal once its assumptions are met
+    on the wire; otherwise nodes wait unconfigured for a plan's `create`."""
+    rclpy.init(args=args)
+    stop = {"now": False}
+
+    def on_signal(signum: int, frame: Any) -> None:
+        stop["now"] = True
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    executor = SingleThreadedExecutor()
+    nodes = []
+    for c in components:
+        node = ComponentNode(c, namespace=namespace, gap_factor=gap_factor,
+                             deployed=None if deployed is None else dict(deployed.get(c.name, {})))
+        executor.add_node(node)
+        nodes.append(node)
+        if deployed is not None:
+            node.trigger_configure()
+            node.trigger_activate()
+    try:
+        done_at: Optional[float] = None
+        while not stop["now"]:
+            executor.spin_once(timeout_sec=0.05)
+            if done_at is None and all(n.finished for n in nodes):
+                done_at = time.monotonic()
+            if done_at is not None and time.monotonic() - done_at > linger:
+                break
+    finally:
+        for n in nodes:
+            n.destroy_node()
+        try:
+            rclpy.shutdown()
+        except Exception:
+            pass
+    return 0

@@ -1,0 +1,355 @@
+"""The Component API of paper 001 §5.2, its model half: ports, functionalities, modes.
+
+Nothing here needs ROS: a component can be described, printed as `.arch` text and checked by
+`reconf` on a machine without rclpy. `Component.start()` (in `component.py`) brings it up as a
+lifecycle node. See docs/runtime.md.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Callable, Optional, Sequence, Union
+
+__all__ = ["Component", "Functionality", "Input", "Output", "Mode", "Predicate", "ros_type_name", "parse_predicate",
+           "ModelError"]
+
+MsgType = Union[str, type]
+RateLike = Union[int, float, Fraction, str, None]
+
+
+class ModelError(ValueError):
+    """A component described inconsistently (unknown port, a mode for a port it does not use…)."""
+
+
+def ros_type_name(msg_type: MsgType) -> str:
+    """`std_msgs/msg/String` for the class `std_msgs.msg.String` or for the string itself."""
+    if isinstance(msg_type, str):
+        if not re.fullmatch(r"[A-Za-z_][\w]*/(msg|srv)/[A-Za-z_]\w*", msg_type):
+            raise ModelError(f"{msg_type!r} is not a ROS 2 type name like std_msgs/msg/String")
+        return msg_type
+    module = getattr(msg_type, "__module__", "")
+    package = module.split(".")[0]
+    if not package or ".msg" not in module and ".srv" not in module:
+        raise ModelError(f"{msg_type!r} is not a ROS 2 message class")
+    kind = "srv" if ".srv" in module else "msg"
+    return f"{package}/{kind}/{msg_type.__name__}"
+
+
+_UNITS = {"hz": Fraction(1), "khz": Fraction(1000), "s": None, "ms": None, "us": None}
+_PERIOD = {"s": Fraction(1), "ms": Fraction(1, 1000), "us": Fraction(1, 1_000_000)}
+
+
+def _fraction(x: Union[int, float, Fraction, str]) -> Fraction:
+    return Fraction(x) if not isinstance(x, float) else Fraction(str(x))
+
+
+@dataclass(frozen=True)
+class Rate:
+    """A rate as written (`10 Hz`, `100 ms`); `hz` is exact."""
+
+    value: Fraction
+    unit: str = "Hz"
+
+    @property
+    def hz(self) -> Fraction:
+        if self.unit in ("Hz", "kHz"):
+            return self.value * (1000 if self.unit == "kHz" else 1)
+        return 1 / (self.value * _PERIOD[self.unit])
+
+    def __str__(self) -> str:
+        v = self.value
+        text = str(v.numerator) if v.denominator == 1 else f"{float(v):.12g}"
+        return f"{text} {self.unit}"
+
+
+def to_rate(rate: RateLike) -> Optional[Rate]:
+    """10 → 10 Hz; "10 Hz", "100 ms", "2 kHz", "1 s" as written; None stays None."""
+    if rate is None:
+        return None
+    if isinstance(rate, Rate):
+        return rate
+    if isinstance(rate, str):
+        m = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]+)?)\s*(Hz|kHz|s|ms|us)\s*", rate)
+        if not m:
+            raise ModelError(f"{rate!r} is not a rate like '10 Hz' or '100 ms'")
+        value, unit = _fraction(m.group(1)), m.group(2)
+    else:
+        value, unit = _fraction(rate), "Hz"
+    if value <= 0:
+        raise ModelError(f"a rate must be positive, not {rate!r}")
+    return Rate(value, unit)
+
+
+@dataclass(frozen=True)
+class Predicate:
+    """A message type (by its alias in the architecture) with an optional rate."""
+
+    alias: str
+    rate: Optional[Rate] = None
+
+    @property
+    def hz(self) -> Optional[Fraction]:
+        return None if self.rate is None else self.rate.hz
+
+    def satisfies(self, other: "Predicate") -> bool:
+        """DESIGN.md §3: same type, and other asks no rate or self promises at least other's."""
+        if self.alias != other.alias:
+            return False
+        if other.hz is None:
+            return True
+        return self.hz is not None and self.hz >= other.hz
+
+    def __str__(self) -> str:
+        return self.alias if self.rate is None else f"{self.alias} @ {self.rate}"
+
+
+def parse_predicate(text: str) -> Predicate:
+    """`"Image @ 15 Hz"`, `"Obstacles @ 1 s"`, `"String"`."""
+    alias, _, rate = text.partition("@")
+    alias = alias.strip()
+    if not re.fullmatch(r"[A-Za-z_]\w*", alias):
+        raise ModelError(f"{text!r} is not a predicate like 'String @ 10 Hz'")
+    return Predicate(alias, to_rate(rate) if rate.strip() else None)
+
+
+@dataclass(eq=False)
+class Port:
+    component: "Component"
+    name: str
+    msg_type: str            # pkg/msg/Type
+    alias: str               # its name in the architecture
+
+    @property
+    def message_class(self) -> Any:
+        """The rclpy message class (imported on first use)."""
+        import importlib
+        package, kind, name = self.msg_type.split("/")
+        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+
+
+@dataclass(eq=False)
+class Input(Port):
+    """A subscriber; its assumption is what it needs of its topic (paper 001: `create_input`)."""
+
+    assumption: Predicate = field(default=Predicate(""))
+    kind = "input"
+
+    def read(self) -> Any:
+        """The last message received (None before the first), whatever the mode."""
+        node = self.component.node
+        return None if node is None else node.last_message(self.name)
+
+
+@dataclass(eq=False)
+class Output(Port):
+    """A publisher (paper 001: `create_output`)."""
+
+    kind = "output"
+
+    def new(self, **fields: Any) -> Any:
+        return self.message_class(**fields)
+
+    def write(self, msg: Any) -> bool:
+        """Publish on every connector the port is attached to; False when nothing was published
+        (not attached, not running, or the current mode guarantees nothing on this port)."""
+        node = self.component.node
+        return False if node is None else node.write(self.name, msg)
+
+
+Callback = Callable[..., Any]
+
+
+@dataclass
+class Mode:
+    """A mode's behaviour and model: the callback, its rate (None: once per input message),
+    the guarantee on each output, and the assumptions."""
+
+    kind: str
+    callback: Optional[Callback] = None
+    rate: Optional[Rate] = None
+    guarantees: dict[str, Optional[Rate]] = field(default_factory=dict)   # port -> rate (None: no rate)
+    assumes: list[Predicate] = field(default_factory=list)
+
+
+class Functionality:
+    """A functionality with a normal and a degraded mode (paper 001: `create_functionality`)."""
+
+    def __init__(self, component: "Component", name: str, inputs: Sequence[Input], outputs: Sequence[Output],
+                 criticality: int) -> None:
+        self.component, self.name, self.criticality = component, name, criticality
+        self.inputs, self.outputs = list(inputs), list(outputs)
+        self.normal = Mode("normal", assumes=[i.assumption for i in self.inputs if i.assumption.alias])
+        self.degraded = Mode("degraded")
+
+    @property
+    def ports(self) -> list[str]:
+        return [p.name for p in self.inputs] + [p.name for p in self.outputs]
+
+    def _mode(self, mode: Mode, callback: Optional[Callback], rate: RateLike,
+              outputs: Union[Sequence[Output], dict[Output, RateLike], None]) -> None:
+        mode.callback, mode.rate = callback, to_rate(rate)
+        if outputs is None:
+            outputs = []
+        items = outputs.items() if isinstance(outputs, dict) else [(o, rate) for o in outputs]
+        mode.guarantees = {}
+        for out, r in items:
+            if out not in self.outputs:
+                raise ModelError(f"{self.component.name}.{self.name}: {getattr(out, 'name', out)} is not one of "
+                                 "its outputs")
+            mode.guarantees[out.name] = to_rate(r)
+
+    def set_normal_mode(self, callback: Optional[Callback] = None, rate: RateLike = None,
+                        outputs: Union[Sequence[Output], dict[Output, RateLike], None] = None,
+                        assumes: Optional[Sequence[Union[str, Predicate]]] = None) -> "Functionality":
+        """Run `callback` at `rate` (or on every message of an input when no rate), guarantee
+        each output in `outputs` at `rate` (a dict gives each its own), and assume `assumes`
+        (by default what the functionality's inputs assume)."""
+        self._mode(self.normal, callback, rate, outputs)
+        if assumes is not None:
+            self.normal.assumes = [a if isinstance(a, Predicate) else parse_predicate(a) for a in assumes]
+        return self
+
+    def set_degraded_mode(self, callback: Optional[Callback] = None, rate: RateLike = None,
+                          outputs: Union[Sequence[Output], dict[Output, RateLike], None] = None) -> "Functionality":
+        """The degraded mode assumes nothing; `outputs` are the ports it still serves (e.g. zero
+        velocities at 20 Hz); every other output is silent."""
+        self._mode(self.degraded, callback, rate, outputs)
+        return self
+
+    def mode(self, kind: str) -> Mode:
+        return self.normal if kind == "normal" else self.degraded
+
+
+class Component:
+    """A component: one lifecycle node named after it (docs/control-interface.md).
+
+        comp = Component("talker")
+        out = comp.create_output("out", "std_msgs/msg/String")
+        talk = comp.create_functionality("talk", outputs=[out])
+        talk.set_normal_mode(lambda: out.write(out.new(data="hello")), rate=10, outputs=[out])
+        talk.set_degraded_mode()
+        comp.start()
+    """
+
+    def __init__(self, name: str, *, run: Optional[str] = None, host: Optional[str] = None,
+                 replaces: Optional[str] = None) -> None:
+        if not re.fullmatch(r"[A-Za-z_]\w*", name):
+            raise ModelError(f"{name!r} is not a valid component (node) name")
+        self.name, self.run, self.host, self.replaces = name, run, host, replaces
+        self.ports: list[Port] = []
+        self.functionalities: list[Functionality] = []
+        self.node: Any = None     # the running ComponentNode, once started
+
+    # --- the API of paper 001 §5.2 ---
+    def create_input(self, name: str, msg_type: MsgType, rate: RateLike = None, *,
+                     alias: Optional[str] = None) -> Input:
+        t = ros_type_name(msg_type)
+        a = alias or t.rsplit("/", 1)[1]
+        port = Input(self, self._fresh(name), t, a, assumption=Predicate(a, to_rate(rate)))
+        self.ports.append(port)
+        return port
+
+    def create_output(self, name: str, msg_type: MsgType, *, alias: Optional[str] = None) -> Output:
+        t = ros_type_name(msg_type)
+        port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1])
+        self.ports.append(port)
+        return port
+
+    def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
+                             criticality: int = 1) -> Functionality:
+        if any(f.name == name for f in self.functionalities):
+            raise ModelError(f"{self.name} already has a functionality {name}")
+        for p in list(inputs) + list(outputs):
+            if p not in self.ports:
+                raise ModelError(f"{self.name}.{name}: {p.name} is not a port of {self.name}")
+        f = Functionality(self, name, inputs, outputs, criticality)
+        self.functionalities.append(f)
+        return f
+
+    def start(self, args: Optional[list[str]] = None, **options: Any) -> int:
+        """Bring the component up as a lifecycle node and spin until it is shut down."""
+        from .component import run_components
+        return run_components([self], args=args, **options)
+
+    # --- the model ---
+    def _fresh(self, name: str) -> str:
+        if not re.fullmatch(r"[A-Za-z_]\w*", name):
+            raise ModelError(f"{name!r} is not a valid port name")
+        if any(p.name == name for p in self.ports):
+            raise ModelError(f"{self.name} already has a port {name}")
+        return name
+
+    def port(self, name: str) -> Port:
+        for p in self.ports:
+            if p.name == name:
+                return p
+        raise ModelError(f"{self.name} has no port {name}")
+
+    @property
+    def inputs(self) -> list[Input]:
+        return [p for p in self.ports if isinstance(p, Input)]
+
+    @property
+    def outputs(self) -> list[Output]:
+        return [p for p in self.ports if isinstance(p, Output)]
+
+    def messages(self) -> dict[str, str]:
+        """alias -> ROS type of every port and assumption."""
+        out: dict[str, str] = {}
+        for p in self.ports:
+            if out.setdefault(p.alias, p.msg_type) != p.msg_type:
+                raise ModelError(f"{self.name}: {p.alias} names both {out[p.alias]} and {p.msg_type}")
+        return out
+
+    def to_arch(self) -> str:
+        """The component as `.arch` text (docs/runtime.md): what `reconf` checks and plans with."""
+        lines = [f"component {self.name}" + (f" replaces {self.replaces}" if self.replaces else "") + " {"]
+        if self.run:
+            lines.append(f"  run {_quote(self.run)}")
+        if self.host:
+            lines.append(f"  host {self.host}")
+        for p in self.ports:
+            if isinstance(p, Input):
+                lines.append(f"  input {p.name}: {p.assumption}")
+            else:
+                lines.append(f"  output {p.name}: {p.alias}")
+        for f in self.functionalities:
+            crit = f" criticality {f.criticality}" if f.criticality != 1 else ""
+            lines.append("")
+            lines.append(f"  functionality {f.name} ({', '.join(f.ports)}){crit} {{")
+            for mode in (f.normal, f.degraded):
+                body = [f"assume {a}" for a in (mode.assumes if mode.kind == "normal" else [])]
+                for out in f.outputs:
+                    if out.name in mode.guarantees:
+                        r = mode.guarantees[out.name]
+                        body.append(f"{out.name}: {out.alias}" + (f" @ {r}" if r is not None else ""))
+                    else:
+                        body.append(f"{out.name}: nothing")
+                if not body:
+                    lines.append(f"    {mode.kind} {{ }}")
+                elif len(body) == 1:
+                    lines.append(f"    {mode.kind} {{ {body[0]} }}")
+                else:
+                    lines.append(f"    {mode.kind} {{")
+                    lines.extend(f"      {b}" for b in body)
+                    lines.append("    }")
+            lines.append("  }")
+        lines.append("}")
+        return "\n".join(lines) + "\n"
+
+
+def _quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def components_to_arch(components: Sequence[Component], system: Optional[str] = None) -> str:
+    """Message declarations and component blocks of several components, as one `.arch` text."""
+    messages: dict[str, str] = {}
+    for c in components:
+        for alias, t in c.messages().items():
+            if messages.setdefault(alias, t) != t:
+                raise ModelError(f"{alias} names both {messages[alias]} and {t}")
+    head = [f"system {system}", ""] if system else []
+    head += [f"message {a} = {t}" for a, t in sorted(messages.items())]
+    return "\n".join(head) + "\n\n" + "\n".join(c.to_arch() for c in components)

@@ -1,0 +1,179 @@
+"""The assumption monitor: what each input receives on the wire, judged against the model.
+
+Pure Python (no ROS): the node feeds it arrivals and asks it, on a timer, which
+functionalities' assumptions are met. docs/runtime.md states the rule:
+
+  an input assumption `T @ r` is met at time t when a message of type T arrived on an
+  associated input in (t - k/r, t], with k the gap factor (1.5 by default); a rate-less
+  assumption is met while a publisher is matched or a message has arrived; an assumption no
+  associated input can satisfy comes from the environment and is not observed.
+
+A *violation* is a stretch of time in which a functionality is in its normal mode and one of
+its observed assumptions is not met: the safety property of DESIGN.md §3, on the wire.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Optional
+
+from .model import Component, Functionality, Input, Predicate
+
+__all__ = ["Monitor", "SourceStats", "InputStats", "GAP_FACTOR"]
+
+GAP_FACTOR = 1.5
+RATE_WINDOW = 1.0   # seconds over which the measured rate is given
+
+
+@dataclass
+class SourceStats:
+    """One publisher (by DDS GID) as seen by one input."""
+
+    node: str = "?"
+    received: int = 0
+    last_seq: int = 0
+    lost: int = 0          # gaps in the publisher's sequence numbers
+    missed_head: int = 0   # messages it published before this input received its first
+    last: float = 0.0
+
+
+@dataclass
+class InputStats:
+    port: Input
+    sources: dict[bytes, SourceStats] = field(default_factory=dict)
+    last: Optional[float] = None
+    received: int = 0
+    window: deque[float] = field(default_factory=deque)
+    max_gap: float = 0.0             # largest wait while a normal functionality relied on it
+    needed_since: Optional[float] = None
+    publishers: dict[str, int] = field(default_factory=dict)   # connector -> matched publishers
+
+    def period_limit(self, factor: float) -> Optional[float]:
+        hz = self.port.assumption.hz
+        return None if hz is None else factor / float(hz)
+
+
+class Monitor:
+    """Per-input arrival statistics and per-functionality wire verdicts of one component."""
+
+    def __init__(self, component: Component, gap_factor: float = GAP_FACTOR) -> None:
+        self.component, self.factor = component, gap_factor
+        self.inputs = {p.name: InputStats(p) for p in component.inputs}
+        self.verdicts: dict[str, str] = {f.name: "unobserved" for f in component.functionalities}
+        self.violating: dict[str, float] = {}        # functionality -> since when
+        self.violations = 0
+        self.violation_seconds = 0.0
+        self.history: list[tuple[float, str, str]] = []   # (t, functionality, reason) of each violation
+
+    # --- arrivals ---
+    def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
+        st = self.inputs[port]
+        if st.last is not None and st.needed_since is not None:
+            st.max_gap = max(st.max_gap, now - max(st.last, st.needed_since))
+        elif st.needed_since is not None:
+            st.max_gap = max(st.max_gap, now - st.needed_since)
+        st.last, st.received = now, st.received + 1
+        st.window.append(now)
+        while st.window and st.window[0] < now - RATE_WINDOW:
+            st.window.popleft()
+        src = st.sources.get(gid)
+        if src is None:
+            src = st.sources[gid] = SourceStats(node=node)
+            if seq is not None and seq > 1:
+                src.missed_head = seq - 1
+        elif seq is not None and seq > src.last_seq + 1:
+            src.lost += seq - src.last_seq - 1
+        if seq is not None:
+            src.last_seq = max(src.last_seq, seq)
+        src.received, src.last = src.received + 1, now
+
+    def rate(self, port: str, now: float) -> float:
+        st = self.inputs[port]
+        return sum(1 for t in st.window if t > now - RATE_WINDOW) / RATE_WINDOW
+
+    def fresh_sources(self, port: str, now: float) -> list[str]:
+        """Nodes this input heard from within its assumption's gap limit (any time, if rate-less)."""
+        st = self.inputs[port]
+        limit = st.period_limit(self.factor)
+        return sorted({s.node for s in st.sources.values() if limit is None or now - s.last <= limit})
+
+    # --- verdicts ---
+    def _observers(self, f: Functionality, a: Predicate) -> list[InputStats]:
+        return [self.inputs[i.name] for i in f.inputs if i.assumption.satisfies(a)]
+
+    def judge(self, f: Functionality, now: float, attached: dict[str, list[str]]) -> str:
+        """"met", "unobserved" (only environment assumptions) or "not met: why", for f's normal mode."""
+        observed = False
+        for a in f.normal.assumes:
+            watchers = self._observers(f, a)
+            if not watchers:
+                continue
+            observed = True
+            why = []
+            for st in watchers:
+                name = st.port.name
+                if not attached.get(name):
+                    why.append(f"{name} is attached to nothing")
+                    continue
+                if a.hz is None:
+                    if st.received or any(st.publishers.get(k, 0) for k in attached[name]):
+                        break
+                    why.append(f"{name} has no publisher")
+                    continue
+                limit = self.factor / float(a.hz)
+                if st.last is not None and now - st.last <= limit:
+                    break
+                age = "nothing received" if st.last is None else f"last message {now - st.last:.3f} s ago"
+                why.append(f"{name}: {age} (limit {limit:.3f} s for {a})")
+            else:
+                return "not met: " + "; ".join(why)
+        return "met" if observed else "unobserved"
+
+    def check(self, now: float, modes: dict[str, str], attached: dict[str, list[str]]) -> bool:
+        """Update every verdict and violation; True when something a status shows changed."""
+        changed = False
+        needed: set[str] = set()
+        for f in self.component.functionalities:
+            verdict = self.judge(f, now, attached)
+            if verdict.split(":")[0] != self.verdicts[f.name].split(":")[0]:
+                changed = True
+            self.verdicts[f.name] = verdict
+            normal = modes.get(f.name) == "normal"
+            if normal:
+                needed |= {st.port.name for a in f.normal.assumes for st in self._observers(f, a)}
+            bad = normal and verdict.startswith("not met")
+            if bad and f.name not in self.violating:
+                self.violating[f.name] = now
+                self.violations += 1
+                self.history.append((now, f.name, verdict))
+                changed = True
+            elif not bad and f.name in self.violating:
+                self.violation_seconds += now - self.violating.pop(f.name)
+                changed = True
+        for name, st in self.inputs.items():
+            if name in needed:
+                if st.needed_since is None:
+                    st.needed_since = now
+                start = st.needed_since if st.last is None else max(st.last, st.needed_since)
+                st.max_gap = max(st.max_gap, now - start)
+            else:
+                st.needed_since = None
+        return changed
+
+    def status(self, now: float) -> dict[str, str]:
+        """The monitor's part of the component's status (docs/control-interface.md#status)."""
+        out = {"violations": str(self.violations),
+               "violation_s": f"{self.violation_seconds + sum(now - t for t in self.violating.values()):.3f}"}
+        for f, v in self.verdicts.items():
+            out[f"wire.{f}"] = v
+        for name, st in self.inputs.items():
+            out[f"in.{name}.received"] = str(st.received)
+            out[f"in.{name}.lost"] = str(sum(s.lost for s in st.sources.values()))
+            out[f"in.{name}.missed_head"] = str(sum(s.missed_head for s in st.sources.values()))
+            out[f"in.{name}.max_gap_s"] = f"{st.max_gap:.3f}"
+            out[f"in.{name}.rate_hz"] = f"{self.rate(name, now):.2f}"
+            out[f"in.{name}.age_s"] = "" if st.last is None else f"{now - st.last:.3f}"
+            out[f"in.{name}.fresh"] = ",".join(self.fresh_sources(name, now))
+            for k, n in sorted(st.publishers.items()):
+                out[f"in.{name}@{k}.publishers"] = str(n)
+        return out

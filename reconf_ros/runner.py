@@ -1,0 +1,96 @@
+"""`reconf-node`: run components as lifecycle nodes, or print them as `.arch` text.
+
+    reconf-node reconf_ros.demo.chatter:talker            a Component from a factory
+    reconf-node --arch robot.arch motor_controller        a model-driven node (reconf_ros.generic)
+    reconf-node ... --deployed robot.arch                 start as that architecture deploys it
+    reconf-node ... --describe                            print the model, run nothing
+
+Several components in one command share one process (and one DDS participant). Everything
+after `--ros-args` goes to ROS (`-r __ns:=/robot`). See docs/runtime.md.
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+from typing import Optional
+
+import click
+
+from checker.report import render_text
+from reconf_dsl.diagnostics import DiagnosticError
+from reconf_dsl.ir import System
+from reconf_dsl.loader import Sources, load
+
+from .model import Component, ModelError, components_to_arch
+
+
+def _factory(target: str) -> Component:
+    module, _, attr = target.partition(":")
+    if not attr:
+        raise click.UsageError(f"{target!r}: say MODULE:FACTORY, e.g. reconf_ros.demo.chatter:talker")
+    try:
+        made = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as e:
+        raise click.UsageError(f"cannot load {target}: {e}") from None
+    comp = made() if callable(made) else made
+    if not isinstance(comp, Component):
+        raise click.UsageError(f"{target} is not a Component (nor makes one)")
+    if comp.run is None:
+        comp.run = f"reconf-node {target}"
+    return comp
+
+
+def _load(path: str) -> System:
+    sources = Sources()
+    try:
+        return load([path], sources)
+    except DiagnosticError as e:
+        render_text(e.diagnostics, sources, sys.stderr)
+        sys.exit(2)
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"], "ignore_unknown_options": True})
+@click.argument("targets", nargs=-1, required=True)
+@click.option("--arch", "arch", type=click.Path(dir_okay=False, exists=True),
+              help="TARGETS are components of this architecture, run as model-driven nodes")
+@click.option("--deployed", type=click.Path(dir_okay=False, exists=True),
+              help="start active, attached as this architecture deploys the components; each functionality "
+                   "turns normal once its assumptions are met on the wire")
+@click.option("--describe", is_flag=True, help="print the components as .arch text and exit (no ROS needed)")
+@click.option("--system", "system_name", help="with --describe: start the text with `system NAME`")
+@click.option("--gap-factor", type=float, default=1.5, show_default=True,
+              help="the monitor's tolerance: an input assuming r Hz is met while messages arrive within k/r s")
+def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str], describe: bool,
+         system_name: Optional[str], gap_factor: float) -> None:
+    """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
+    argv = list(targets)
+    ros_args: list[str] = []
+    if "--ros-args" in argv:
+        i = argv.index("--ros-args")
+        argv, ros_args = argv[:i], argv[i:]
+    try:
+        if arch:
+            from .generic import from_architecture
+            system = _load(arch)
+            comps = [from_architecture(system, name) for name in argv]
+        else:
+            comps = [_factory(t) for t in argv]
+    except (ModelError, KeyError) as e:
+        raise click.UsageError(str(e)) from None
+    if describe:
+        click.echo(components_to_arch(comps, system_name), nl=False)
+        return
+    plan: Optional[dict[str, dict[str, list[str]]]] = None
+    if deployed:
+        system = _load(deployed)
+        plan = {c.name: {p.name: [] for p in c.ports} for c in comps}
+        for conn in system.connectors:
+            for r in conn.roles:
+                if r.component in plan:
+                    plan[r.component].setdefault(r.port, []).append(conn.name)
+    from .component import run_components
+    sys.exit(run_components(comps, args=[sys.argv[0]] + ros_args, deployed=plan, gap_factor=gap_factor))
+
+
+if __name__ == "__main__":
+    main()
