@@ -5,10 +5,13 @@ The caller decides everything and hands over a plan document, a JSON-able dict:
     {"format_version": 1, "system": name, "fingerprint": "sha256:...", "evidence": {...},
      "plan": plan.to_dict(), "model": model_data(system)}
 
-`render_plan_script` embeds it as a JSON literal in `templates/plan_ros2.py.j2`. The script
-replays the plan offline (`--dry-run`, no ROS needed) with its own copy of the satisfaction
-rules of DESIGN.md §3, or drives the running system through lifecycle services and the
-parameter-based control interface of docs/control-interface.md.
+`render_plan_script` embeds it as a JSON literal in `templates/plan_ros2.py.j2`, together with
+the text of the plan executor, `reconf_ros/executor.py` (read as package data: the executor
+imports only the standard library until it applies a plan, so the script is self-contained).
+The script replays the plan offline (`--dry-run`, no ROS needed) with the executor's copy of
+the satisfaction rules of DESIGN.md §3 (held to the checker's by tests), or drives the running
+system through lifecycle services, the parameter-based control interface of
+docs/control-interface.md and the nodes' statuses (docs/executor.md).
 
 `model_data` is a plain data conversion of the IR; rates become exact fractions in hertz,
 written as strings ("10", "1/2").
@@ -16,6 +19,7 @@ written as strings ("10", "1/2").
 from __future__ import annotations
 
 import json
+from importlib import resources
 from typing import Any, Optional
 
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
@@ -94,6 +98,13 @@ def _dump(value: Any, depth: int = 0, expand: int = 3) -> str:
     return "[\n" + ",\n".join(items) + "\n" + pad + "]"
 
 
+def executor_source() -> str:
+    """reconf_ros/executor.py without its module docstring (the script's own comes first)."""
+    text = resources.files("reconf_ros").joinpath("executor.py").read_text(encoding="utf-8")
+    start = text.index('"""', 3) + 3 if text.startswith('"""') else 0
+    return text[start:].lstrip("\n").rstrip("\n")
+
+
 def render_plan_script(plan_doc: dict[str, Any]) -> str:
     """The ROS 2 Python script for `plan_doc`; deterministic (same document, same text)."""
     missing = [k for k in _KEYS if k not in plan_doc]
@@ -106,6 +117,6 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
     # so three quotes in a row never occur, and the text ends with "}", never a backslash.
     assert '"""' not in text
     plan = plan_doc["plan"]
-    return render("plan_ros2.py.j2", doc_json=text, system=str(plan_doc["system"]),
+    return render("plan_ros2.py.j2", doc_json=text, executor=executor_source(), system=str(plan_doc["system"]),
                   fingerprint=str(plan_doc["fingerprint"]), strategy=str(plan.get("strategy", "")),
                   steps=len(plan.get("steps", [])))
