@@ -28,9 +28,11 @@ from .monitor import GAP_FACTOR, Monitor
 __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
 
 # Reliable with a deep history: messages published while a subscriber's callback is busy or
-# its node is suspended are delivered when it resumes (docs/control-interface.md).
+# its node is suspended are delivered when it resumes (docs/control-interface.md). Transient
+# local: a publisher's messages from before a subscriber matched it (DDS matching takes up to
+# seconds) are delivered on matching, so a make-before-break attach loses nothing.
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 MODES = ("normal", "degraded")
 

@@ -601,6 +601,21 @@ class Executor:
             if pubs and not self.wait_status(c, lambda st: int(st.get(f"in.{p}@{k}.publishers", "0")) >= len(pubs),
                                              wait):
                 raise StepFailed(f"{c}.{p} is not matched with the {len(pubs)} publisher(s) of {k} within {wait} s")
+        if kind == "output" and self.publishes(comp, port, after):
+            # Matched counts can be stale (a publisher just gone still counted): the data decides.
+            me = f"in.{{}}.from.{self.node_name(comp)}"
+            for c, p in subs:
+                if not self.wait_status(c, lambda st: me.format(p) in st, wait):
+                    raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+    def publishes(self, comp: str, port: str, state: State) -> bool:
+        """Whether `comp.port`'s functionality guarantees data there in `state`'s mode."""
+        for f in self.model.comps[comp]["functionalities"]:
+            if port in f["ports"]:
+                g = self.model.guarantee(self.model.mode(comp, f, state), port)
+                if g is not None and g.get("message") is not None:
+                    return True
+        return False
 
     # --- the six actions ---
     def perform(self, step: dict[str, Any], before: State, after: State) -> None:
@@ -742,8 +757,9 @@ class Executor:
     def apply(self, first: int) -> int:
         steps = self.steps
         system = self.doc["system"]
-        self.say(f"applying steps {first}..{len(steps)} of the plan for {system} ({self.doc['fingerprint']})")
-        for i in range(first, len(steps) + 1):
+        last = self.args.to_step
+        self.say(f"applying steps {first}..{last} of the plan for {system} ({self.doc['fingerprint']})")
+        for i in range(first, last + 1):
             self.say(label(i, steps[i - 1]))
         if not self.args.yes:
             try:
@@ -773,11 +789,12 @@ class Executor:
         watched = hood & start.components
         self.wait_status_all(watched)
         before_violations = self.violations(hood)
-        self.touched = {s["component"] for s in self.steps[first - 1:]} & hood
+        last = self.args.to_step
+        self.touched = {s["component"] for s in self.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         self.say(f"the live system matches the plan's state before step {first} "
                  f"({len(hood)} components checked in {check_at - t0:.2f} s)")
-        for i in range(first, len(self.steps) + 1):
+        for i in range(first, last + 1):
             step, before, after = self.steps[i - 1], self.states[i - 1], self.states[i]
             self.say(f"{label(i, step)} ...")
             s0 = time.monotonic()
@@ -791,30 +808,35 @@ class Executor:
                 return self.failed(i, step, why, t0)
             self.timings.append({"step": i, "action": step["action"], "seconds": time.monotonic() - s0, "ok": True})
             self.say(f"      done in {time.monotonic() - s0:.3f} s")
-        end = self.states[-1]
+        end = self.states[last]
         normal = [(c, f["name"]) for c in sorted(self.touched & end.components)
                   for f in self.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         self.rt.deadline = time.monotonic() + self.args.step_timeout
         unmet = [f"{c}.{f}" for c, f in normal if not self.wait_status(
             c, lambda st, f=f: st.get(f"wire.{f}", "").split(":")[0] in ("met", "unobserved"), self.args.wire_timeout)]
+        final = self.as_state(self.observe(hood))
+        wrong = self.model.differences(end, final, hood)
+        if wrong:
+            return self.failed(last, self.steps[last - 1], "after the last step: " + "; ".join(wrong), t0)
         after_violations = self.violations(hood)
         seen_bad = {c: after_violations[c] - n for c, n in before_violations.items()
                     if after_violations.get(c, n) > n}
         total = time.monotonic() - t0
-        self.say(f"all {len(self.steps) - first + 1} steps done in {total:.2f} s "
+        upto = "" if last == len(self.steps) else f"; stopped after step {last} as asked (--to-step)"
+        self.say(f"all {last - first + 1} steps done in {total:.2f} s "
                  f"(checking the live system {check_at - t0:.2f} s, steps "
-                 f"{sum(t['seconds'] for t in self.timings):.2f} s)")
+                 f"{sum(t['seconds'] for t in self.timings):.2f} s){upto}")
         if unmet or seen_bad:
             if unmet:
                 print(f"but on the wire, the assumptions of {', '.join(unmet)} are not met", file=self.err)
             for c, n in sorted(seen_bad.items()):
                 print(f"but the monitor of {c} saw {n} violation(s) of a normal mode's assumption during the run",
                       file=self.err)
-            self.report("violated", first, observed=None)
+            self.report("violated", first, observed=final)
             return EXIT_FAILED
         self.say("on the wire: every functionality the plan touched meets its assumptions, and no monitor saw a "
                  "normal mode's assumption violated during the run")
-        self.report("done", first, observed=None)
+        self.report("done", first, observed=final)
         return EXIT_OK
 
     def wait_status_all(self, comps: Iterable[str]) -> None:
@@ -914,6 +936,7 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap.add_argument("--dry-run", action="store_true", help="replay the plan against the embedded model; no ROS")
     ap.add_argument("--yes", "-y", action="store_true", help="do not ask for confirmation")
     ap.add_argument("--from-step", type=int, default=1, metavar="N", help="resume at step N (1-based)")
+    ap.add_argument("--to-step", type=int, default=0, metavar="N", help="stop after step N (default: the last)")
     ap.add_argument("--timeout", type=float, default=5.0, metavar="S", help="per service call, in seconds")
     ap.add_argument("--step-timeout", type=float, default=30.0, metavar="S", help="per step, in seconds")
     ap.add_argument("--wire-timeout", type=float, default=10.0, metavar="S",
@@ -941,6 +964,9 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     steps = plan["steps"]
     if not 1 <= args.from_step <= max(1, len(steps)):
         ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
+    args.to_step = args.to_step or len(steps)
+    if not args.from_step <= args.to_step <= len(steps):
+        ap.error(f"--to-step must be between --from-step and {len(steps)}")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
     print(f"plan for {doc['system']} ({doc['fingerprint']}): {len(steps)} steps, strategy {plan.get('strategy')}, "

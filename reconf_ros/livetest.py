@@ -1,0 +1,190 @@
+"""A live system for tests and benchmarks: real node processes over Fast DDS on loopback, in a
+domain of their own, a watcher of their statuses, plan scripts run as a user runs them, and
+every process ended by its PID at the end (docs/runtime.md#testing).
+
+    with LiveSystem(tmp_path) as live:
+        live.deploy("examples/chatter.arch")
+        live.wait_ready(["talker", "listener"])
+        res = live.run_plan(script)
+        assert live.violations() == {}
+"""
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable, Optional, Sequence
+
+__all__ = ["LiveSystem", "domain_id", "ros_available"]
+
+_COUNTER = itertools.count()
+
+
+def ros_available() -> bool:
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def domain_id() -> int:
+    """A domain for one live system: distinct within a session, spread across sessions."""
+    return 1 + (os.getpid() * 7 + next(_COUNTER)) % 100
+
+
+class LiveSystem:
+    def __init__(self, workdir: Path, domain: Optional[int] = None) -> None:
+        self.dir = Path(workdir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.domain = domain if domain is not None else domain_id()
+        bindir = os.path.dirname(sys.executable)
+        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+                        PATH=bindir + os.pathsep + os.environ.get("PATH", ""), PYTHONUNBUFFERED="1")
+        self.env.pop("ROS_LOCALHOST_ONLY", None)
+        self.procs: list[subprocess.Popen[bytes]] = []
+        self.pids: set[int] = set()
+        self.status_file = self.dir / "statuses.json"
+        self.watcher: Optional[subprocess.Popen[bytes]] = None
+
+    # --- processes ---
+    def start(self, argv: Sequence[str], log: str) -> subprocess.Popen[bytes]:
+        with open(self.dir / log, "ab") as fh:
+            proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
+                                    stderr=subprocess.STDOUT, start_new_session=True, cwd=self.dir)
+        self.procs.append(proc)
+        self.pids.add(proc.pid)
+        return proc
+
+    def deploy(self, arch: str, components: Optional[Sequence[str]] = None, *, group: bool = True,
+               generic: bool = False) -> list[subprocess.Popen[bytes]]:
+        """Start the deployed components of `arch` as it deploys them (active, attached, normal once
+        their assumptions are met): by their `run` lines, in one process when `group`."""
+        from reconf_dsl.loader import load
+        system = load([arch])
+        names = list(components) if components is not None else [c.name for c in system.components]
+        argvs: list[list[str]] = []
+        for name in names:
+            comp = system.component(name)
+            assert comp is not None, name
+            if generic or not comp.run:
+                argvs.append(["reconf-node", "--arch", os.path.abspath(arch), name])
+            else:
+                argvs.append(shlex.split(comp.run))
+        deployed = ["--deployed", os.path.abspath(arch)]
+        if group:
+            heads = {tuple(a[:3]) if a[1:2] == ["--arch"] else ("reconf-node",) for a in argvs}
+            if len(heads) == 1:
+                head = list(heads.pop())
+                targets = [a[len(head)] for a in argvs]
+                return [self.start(head + targets + deployed, "deployed.log")]
+        return [self.start(a + deployed, f"deployed-{i}.log") for i, a in enumerate(argvs)]
+
+    def watch(self) -> None:
+        self.watcher = self.start([sys.executable, "-m", "reconf_ros.watch", "--quiet", "--out",
+                                   str(self.status_file)], "watch.log")
+
+    def statuses(self) -> dict[str, Any]:
+        try:
+            return dict(json.loads(self.status_file.read_text()))
+        except (FileNotFoundError, json.JSONDecodeError):
+            return {}
+
+    def wait(self, cond: Callable[[dict[str, Any]], bool], timeout: float) -> bool:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if cond(self.statuses()):
+                return True
+            time.sleep(0.1)
+        return False
+
+    def wait_ready(self, components: Sequence[str], timeout: float = 20.0) -> None:
+        """Until each component reports every functionality normal and its assumptions met."""
+        def ready(st: dict[str, Any]) -> bool:
+            for c in components:
+                v = st.get(f"/{c}", {}).get("values", {})
+                modes = [x for k, x in v.items() if k.startswith("mode.")]
+                wires = [x for k, x in v.items() if k.startswith("wire.")]
+                if not modes or any(m != "normal" for m in modes) or any(w.startswith("not met") for w in wires):
+                    return False
+            return True
+        if not self.wait(ready, timeout):
+            raise TimeoutError(f"the system did not come up within {timeout} s: {self.statuses()}")
+
+    # --- plans ---
+    def plan_script(self, args: Sequence[str], name: str = "plan.py") -> Path:
+        out = self.dir / name
+        res = subprocess.run([os.path.join(os.path.dirname(sys.executable), "reconf"), "plan", *args,
+                              "--no-alloy", "-o", str(out)], capture_output=True, text=True, env=self.env)
+        if res.returncode != 0:
+            raise RuntimeError(f"reconf plan {' '.join(args)}: {res.stderr}")
+        return out
+
+    def run_plan(self, script: Path, *args: str, report: str = "report.json",
+                 timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
+        res = subprocess.run([sys.executable, str(script), "--yes", "--log-dir", str(self.dir / "logs"),
+                              "--report", str(self.dir / report), *args], capture_output=True, text=True,
+                             env=self.env, timeout=timeout, cwd=self.dir)
+        for info in self.report(report).get("started", {}).values():
+            self.pids.add(int(info["pid"]))
+        return res
+
+    def report(self, name: str = "report.json") -> dict[str, Any]:
+        try:
+            return dict(json.loads((self.dir / name).read_text()))
+        except FileNotFoundError:
+            return {}
+
+    def pid_of(self, component: str, report: str = "report.json") -> int:
+        return int(self.report(report)["started"][component]["pid"])
+
+    # --- the oracle ---
+    def settle_status(self, components: Sequence[str] = (), timeout: float = 10.0) -> dict[str, Any]:
+        """Statuses published after now by each of `components` (each publishes at least once a
+        second), and by every other component seen."""
+        since = time.time()
+        wanted = {f"/{c}" for c in components}
+
+        def fresh(st: dict[str, Any]) -> bool:
+            return all(n in st and st[n]["seen"] > since for n in wanted | set(st))
+        self.wait(fresh, timeout)
+        return self.statuses()
+
+    def violations(self, statuses: Optional[dict[str, Any]] = None) -> dict[str, str]:
+        """Components whose monitor saw a normal mode's assumption violated, with its report."""
+        st = self.statuses() if statuses is None else statuses
+        return {n: s["message"] for n, s in st.items() if s["values"].get("violations", "0") != "0"}
+
+    # --- the end ---
+    def stop(self) -> None:
+        for pid in sorted(self.pids):
+            try:
+                os.killpg(pid, signal.SIGTERM)
+            except (ProcessLookupError, PermissionError):
+                pass
+        end = time.monotonic() + 5
+        for proc in self.procs:
+            try:
+                proc.wait(timeout=max(0.1, end - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+        for pid in sorted(self.pids):
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+        for proc in self.procs:
+            if proc.poll() is None:
+                proc.wait(timeout=5)
+
+    def __enter__(self) -> "LiveSystem":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()
