@@ -339,8 +339,10 @@ def _register() -> None:
     from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
     from .plan_cli import plan
+    from .recover_cli import recover_cmd
     plan.add_command(transition_cmd)
     main.add_command(plan)
+    main.add_command(recover_cmd)
     main.add_command(gate_cmd)
     main.add_command(ftm_group)
     try:

@@ -26,7 +26,7 @@ from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, 
 
 from .render import render
 
-__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script"]
+__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script", "system_from_model_data"]
 
 FORMAT_VERSION = 1
 _KEYS = ("format_version", "system", "fingerprint", "evidence", "plan", "model")
@@ -120,3 +120,40 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
     return render("plan_ros2.py.j2", doc_json=text, executor=executor_source(), system=str(plan_doc["system"]),
                   fingerprint=str(plan_doc["fingerprint"]), strategy=str(plan.get("strategy", "")),
                   steps=len(plan.get("steps", [])))
+
+
+def _predicate_back(p: Optional[dict[str, Any]]) -> Optional[Predicate]:
+    from fractions import Fraction
+    from reconf_dsl.ir import Rate
+    if p is None:
+        return None
+    if p["message"] is None:
+        return Predicate(None)
+    return Predicate(p["message"], None if p["hz"] is None else Rate(Fraction(p["hz"]), "Hz"))
+
+
+def system_from_model_data(model: dict[str, Any]) -> System:
+    """The inverse of `model_data` (spans and layout aside): a plan document's model as IR, so a
+    run report can be planned from (`reconf recover`)."""
+    from reconf_dsl.ir import EnvGuarantee, Guarantee, Host, MessageType, Port, PortRef
+
+    def mode(m: Optional[dict[str, Any]], kind: Any) -> Optional[Mode]:
+        if m is None:
+            return None
+        return Mode(kind, tuple(_predicate_back(a) for a in m["assumptions"]),  # type: ignore[misc]
+                    tuple(Guarantee(g["port"], _predicate_back(g["predicate"])) for g in m["guarantees"]))  # type: ignore[arg-type]
+
+    def component(c: dict[str, Any]) -> Component:
+        ports = tuple(Port(p["name"], p["kind"], p["message"], _predicate_back(p["assumption"])) for p in c["ports"])
+        funcs = tuple(Functionality(f["name"], tuple(f["ports"]), mode(f["normal"], "normal"),
+                                    mode(f["degraded"], "degraded"), f["criticality"]) for f in c["functionalities"])
+        return Component(c["name"], ports, funcs, c.get("run"), c.get("host"), c.get("replaces"))
+
+    conns = tuple(Connector(k["name"], k["kind"], _predicate_back(k["guarantee"]), k["single"],  # type: ignore[arg-type]
+                            tuple(PortRef(c, p) for c, p in k["publishers"]),
+                            tuple(PortRef(c, p) for c, p in k["subscribers"])) for k in model["connectors"])
+    return System(model["name"], tuple(MessageType(m["name"], m["ros_type"]) for m in model["messages"]),
+                  tuple(EnvGuarantee(e["name"], _predicate_back(e["guarantee"])) for e in model["environment"]),  # type: ignore[arg-type]
+                  tuple(component(c) for c in model["components"] if c["deployed"]),
+                  tuple(component(c) for c in model["components"] if not c["deployed"]), conns,
+                  tuple(Host(h) for h in model.get("hosts", [])))

@@ -96,3 +96,22 @@ def test_rerun_of_a_finished_plan_is_refused(live: LiveSystem) -> None:
     assert res.returncode == 1
     assert "the plan's last: it was applied already" in res.stderr
     assert "started talker_v2" not in res.stdout
+
+
+def test_recover_after_a_failure(live: LiveSystem) -> None:
+    """A node killed mid-plan; `reconf recover` plans from what was observed to the target."""
+    script = deploy_chatter(live)
+    assert live.run_plan(script, "--to-step", "2", report="first.json").returncode == 0
+    os.kill(live.pid_of("talker_v2", "first.json"), signal.SIGKILL)
+    assert live.run_plan(script, "--from-step", "3", report="failed.json").returncode == 1
+    out = live.dir / "recover.py"
+    res = subprocess.run([os.path.join(os.path.dirname(sys.executable), "reconf"), "recover",
+                          str(live.dir / "failed.json"), "--no-alloy", "-o", str(out)],
+                         capture_output=True, text=True, env=live.env)
+    assert res.returncode == 0, res.stderr
+    assert "create talker_v2" in res.stderr and "remove talker" in res.stderr
+    done = live.run_plan(out, report="recovered.json")
+    assert done.returncode == 0, done.stdout + done.stderr
+    report = live.report("recovered.json")
+    assert report["observed"]["components"] == ["listener", "talker_v2"]
+    assert live.violations(live.settle_status(["listener", "talker_v2"])) == {}

@@ -1,0 +1,47 @@
+"""Recovery: plan from an observed configuration (a failed run's report) to a target.
+
+The observed configuration may be invalid (a node died): the plan then starts by degrading,
+as `settle` finds them, the functionalities whose assumptions fail; a degraded mode assumes
+nothing, so those steps only take away what the running system no longer has. From there
+it is an ordinary plan, verified step by step (docs/executor.md#recovery).
+"""
+from __future__ import annotations
+
+from dataclasses import replace as dc_replace
+
+from reconf_dsl.ir import System
+
+from ..actions import Degrade, effect, failing_assumptions
+from ..config import Configuration
+from .operations import solve
+from .plan import Goal, NoSafePlan, Plan, Problem, disruption, settle
+
+__all__ = ["plan_recovery"]
+
+
+def plan_recovery(system: System, observed: Configuration, target: Configuration,
+                  strategy: str = "default") -> Plan:
+    settled = settle(system, Goal(observed.components, observed.roles, observed.degraded))
+    emergency = [Degrade(c, f) for c, f in sorted(settled.degraded - observed.degraded)]
+    states = [observed]
+    for a in emergency:
+        states.append(effect(system, states[-1], a))
+    start = states[-1]
+    if failing_assumptions(system, start):
+        raise NoSafePlan(["degrading what fails does not make the observed configuration valid"])
+    goal = Goal(target.components, target.roles, target.degraded)
+    known = {c.name for c in system.components + system.versions}
+    unknown = sorted(target.components - known)
+    if unknown:
+        raise NoSafePlan([f"the target needs {', '.join(unknown)}, which the model does not declare"])
+    deployed = tuple(c for c in system.components + system.versions if c.name in start.components)
+    rest = tuple(c for c in system.components + system.versions if c.name not in start.components)
+    base = dc_replace(system, components=deployed, versions=rest)
+    plan = solve(Problem(base, start, goal), strategy)
+    if not emergency:
+        return plan
+    steps = list(emergency) + plan.steps
+    all_states = states + plan.states[1:]
+    notes = [f"the observed configuration is not valid: steps 1-{len(emergency)} degrade what fails in it"] + plan.notes
+    return Plan(base, steps, all_states, plan.strategy, disruption(base, all_states, steps), plan.goal,
+                plan.renames, notes, plan.verification)
