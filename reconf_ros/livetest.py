@@ -63,9 +63,10 @@ class LiveSystem:
         return proc
 
     def deploy(self, arch: str, components: Optional[Sequence[str]] = None, *, group: bool = True,
-               generic: bool = False) -> list[subprocess.Popen[bytes]]:
+               generic: bool = False, per_process: int = 0) -> list[subprocess.Popen[bytes]]:
         """Start the deployed components of `arch` as it deploys them (active, attached, normal once
-        their assumptions are met): by their `run` lines, in one process when `group`."""
+        their assumptions are met): by their `run` lines (model-driven nodes with `generic`), in
+        one process when `group`, or in processes of at most `per_process` components."""
         from reconf_dsl.loader import load
         system = load([arch])
         names = list(components) if components is not None else [c.name for c in system.components]
@@ -78,12 +79,13 @@ class LiveSystem:
             else:
                 argvs.append(shlex.split(comp.run))
         deployed = ["--deployed", os.path.abspath(arch)]
-        if group:
-            heads = {tuple(a[:3]) if a[1:2] == ["--arch"] else ("reconf-node",) for a in argvs}
-            if len(heads) == 1:
-                head = list(heads.pop())
-                targets = [a[len(head)] for a in argvs]
-                return [self.start(head + targets + deployed, "deployed.log")]
+        heads = {tuple(a[:-1]) for a in argvs}
+        if (group or per_process) and len(heads) == 1:
+            head = list(heads.pop())
+            size = per_process or len(argvs)
+            chunks = [argvs[i:i + size] for i in range(0, len(argvs), size)]
+            return [self.start(head + [a[-1] for a in chunk] + deployed, f"deployed-{i}.log")
+                    for i, chunk in enumerate(chunks)]
         return [self.start(a + deployed, f"deployed-{i}.log") for i, a in enumerate(argvs)]
 
     def watch(self) -> None:

@@ -239,6 +239,7 @@ class Component:
         self.name, self.run, self.host, self.replaces = name, run, host, replaces
         self.ports: list[Port] = []
         self.functionalities: list[Functionality] = []
+        self.extra_messages: dict[str, str] = {}
         self.node: Any = None     # the running ComponentNode, once started
 
     # --- the API of paper 001 §5.2 ---
@@ -266,6 +267,11 @@ class Component:
         f = Functionality(self, name, inputs, outputs, criticality)
         self.functionalities.append(f)
         return f
+
+    def message(self, alias: str, msg_type: MsgType) -> str:
+        """Name a message type that only an assumption uses (e.g. an environment's camera)."""
+        self.extra_messages[alias] = ros_type_name(msg_type)
+        return alias
 
     def start(self, args: Optional[list[str]] = None, **options: Any) -> int:
         """Bring the component up as a lifecycle node and spin until it is shut down."""
@@ -296,7 +302,7 @@ class Component:
 
     def messages(self) -> dict[str, str]:
         """alias -> ROS type of every port and assumption."""
-        out: dict[str, str] = {}
+        out: dict[str, str] = dict(self.extra_messages)
         for p in self.ports:
             if out.setdefault(p.alias, p.msg_type) != p.msg_type:
                 raise ModelError(f"{self.name}: {p.alias} names both {out[p.alias]} and {p.msg_type}")

@@ -12,7 +12,8 @@ def obstacle_detector() -> Component:
     out = comp.create_output("out", OBSTACLES, alias="Obstacles")
     detect = comp.create_functionality("detect", outputs=[out], criticality=3)
     # The camera is the environment's (Image @ 30 Hz): assumed, not an input port.
-    detect.set_normal_mode(lambda: out.write(out.new()), rate=1, outputs=[out], assumes=["Image @ 15 Hz"])
+    image = comp.message("Image", "sensor_msgs/msg/Image")
+    detect.set_normal_mode(lambda: out.write(out.new()), rate=1, outputs=[out], assumes=[f"{image} @ 15 Hz"])
     detect.set_degraded_mode()
     return comp
 

@@ -1,38 +1,1005 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 7 steps, strategy paper.
 
-Architecture fingerprint: sha256:a187d17777a06185d1cb4ed3e17472de4874ed061b1d701e56a0ecbd77757072
+Architecture fingerprint: sha256:65cacd404aaae5dfbdea0860f9b19833de27f51dc2572e027463f265e287fb6e
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
-    python3 this_file.py               apply the plan to the running system (ROS 2 sourced)
+    python3 this_file.py               apply the plan to the running system (needs rclpy)
 
 Options: --yes (no confirmation prompt), --from-step N (resume at step N), --timeout S (per
-service call), --step-timeout S (per step), --namespace NS (of the components' nodes).
-Exit status: 0 every step done (or, with --dry-run, every state safe); 1 a state is unsafe
-or a step failed; 2 bad usage or ROS 2 not available.
+service call), --step-timeout S (per step), --wire-timeout S (wait for matching and data),
+--namespace NS (of the components' nodes), --log-dir DIR (output of started processes),
+--report FILE (the run's report, JSON), --stop-started (on failure, stop what this run started).
+Exit status: 0 every step done and the wire showed no violated assumption (or, with --dry-run,
+every state safe); 1 a state is unsafe, the live system does not match the plan, a step failed,
+or the monitors saw a violated assumption; 2 bad usage or ROS 2 not available.
 
 Each component runs one lifecycle node named after it that implements the reconf control
-interface (docs/control-interface.md): parameters `reconf.mode.<functionality>` ("normal" or
-"degraded") and `reconf.port.<port>` (the connectors the port is attached to), read and written
-through the node's standard get_parameters / set_parameters services.
+interface (docs/control-interface.md). The executor below is reconf_ros/executor.py, embedded
+as it is (docs/executor.md); the plan is the JSON document at the end.
 
 Generated from the plan below; edit the plan, not this file.
 """
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
+import os
 import shlex
+import shutil
+import signal
 import subprocess
 import sys
 import time
 from fractions import Fraction
+from typing import Any, Callable, Iterable, Optional
+
+SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
+           "upgrade": "\u2191"}
+STATUS_PREFIX = "reconf:"
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def join_list(items: Iterable[str]) -> str:
+    return ",".join(sorted(items))
+
+
+def split_list(text: str) -> list[str]:
+    return [x for x in text.split(",") if x]
+
+
+def parse_status(values: Iterable[Any]) -> dict[str, str]:
+    """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
+    return {kv.key: kv.value for kv in values}
+
+
+# --- the model: satisfaction exactly as DESIGN.md section 3 states it ----------------------
+
+class State:
+    """A configuration: present components, degraded (component, functionality), roles
+    (connector, component, port)."""
+
+    def __init__(self, components: Iterable[str], degraded: Iterable[Any], roles: Iterable[Any]) -> None:
+        self.components = frozenset(components)
+        self.degraded = frozenset((d[0], d[1]) for d in degraded)
+        self.roles = frozenset((r[0], r[1], r[2]) for r in roles)
+
+    @staticmethod
+    def from_doc(d: dict[str, Any]) -> "State":
+        return State(d["components"], d["degraded"], d["roles"])
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"components": sorted(self.components), "degraded": [list(d) for d in sorted(self.degraded)],
+                "roles": [list(r) for r in sorted(self.roles)]}
+
+    def key(self) -> tuple[frozenset[str], frozenset[tuple[str, str]], frozenset[tuple[str, str, str]]]:
+        return (self.components, self.degraded, self.roles)
+
+    def only(self, comps: Iterable[str]) -> "State":
+        keep = set(comps)
+        return State(self.components & keep, [d for d in self.degraded if d[0] in keep],
+                     [r for r in self.roles if r[1] in keep])
+
+    def describe(self) -> str:
+        comps = ", ".join(sorted(self.components)) or "-"
+        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(self.degraded) if c in self.components) or "-"
+        roles = ", ".join(f"{c}.{p}@{n}" for n, c, p in sorted(self.roles)) or "-"
+        return f"components: {comps}\n    degraded: {degraded}\n    attachments: {roles}"
+
+
+def rate(p: Optional[dict[str, Any]]) -> Optional[Fraction]:
+    return None if p is None or p.get("hz") is None else Fraction(p["hz"])
+
+
+def satisfies(p: Optional[dict[str, Any]], q: Optional[dict[str, Any]]) -> bool:
+    """p satisfies q iff both are data of the same type and (q has no rate, or p has a rate >= q's)."""
+    if p is None or q is None or p["message"] is None or q["message"] is None or p["message"] != q["message"]:
+        return False
+    q_hz = rate(q)
+    if q_hz is None:
+        return True
+    p_hz = rate(p)
+    return p_hz is not None and p_hz >= q_hz
+
+
+class Model:
+    """A plan document's model: components, connectors, environment."""
+
+    def __init__(self, model: dict[str, Any]) -> None:
+        self.comps = {c["name"]: c for c in model["components"]}
+        self.conns = {c["name"]: c for c in model["connectors"]}
+        self.env = [e["guarantee"] for e in model["environment"]]
+
+    def port(self, comp: str, name: str) -> Optional[dict[str, Any]]:
+        for p in self.comps[comp]["ports"]:
+            if p["name"] == name:
+                return p
+        return None
+
+    def mode(self, comp: str, f: dict[str, Any], state: State) -> dict[str, Any]:
+        return f["degraded"] if (comp, f["name"]) in state.degraded else f["normal"]
+
+    @staticmethod
+    def guarantee(mode: dict[str, Any], port: str) -> Optional[dict[str, Any]]:
+        for g in mode["guarantees"]:
+            if g["port"] == port:
+                return g["predicate"]
+        return None
+
+    def satisfying(self, state: State, conn: str) -> list[str]:
+        """The present components whose outputs satisfy `conn` in `state`."""
+        want = self.conns[conn]["guarantee"]
+        out = []
+        for n, comp, pname in sorted(state.roles):
+            if n != conn or comp not in state.components or comp not in self.comps:
+                continue
+            p = self.port(comp, pname)
+            if p is None or p["kind"] != "output":
+                continue
+            if any(pname in f["ports"] and satisfies(self.guarantee(self.mode(comp, f, state), pname), want)
+                   for f in self.comps[comp]["functionalities"]):
+                out.append(comp)
+        return out
+
+    def failures(self, state: State) -> list[str]:
+        """Every assumption of a present functionality's current mode that does not hold."""
+        present = [c for c in sorted(state.components) if c in self.comps]
+        feeds: dict[tuple[str, str], list[str]] = {}
+        for conn, comp, pname in sorted(state.roles):
+            p = self.port(comp, pname) if comp in self.comps else None
+            if comp in present and conn in self.conns and p is not None and p["kind"] == "input":
+                feeds.setdefault((comp, pname), []).append(conn)
+        conn_sat = {name: bool(self.satisfying(state, name)) for name in self.conns}
+
+        def input_sat(comp: str, p: dict[str, Any]) -> bool:
+            return any(conn_sat[cn] and satisfies(self.conns[cn]["guarantee"], p["assumption"])
+                       for cn in feeds.get((comp, p["name"]), []))
+
+        def holds(comp: str, f: dict[str, Any], a: dict[str, Any]) -> bool:
+            for pname in f["ports"]:
+                p = self.port(comp, pname)
+                if p is not None and p["kind"] == "input" and input_sat(comp, p) and satisfies(p["assumption"], a):
+                    return True
+            return any(satisfies(e, a) for e in self.env)
+
+        out = []
+        for comp in present:
+            for f in self.comps[comp]["functionalities"]:
+                for a in self.mode(comp, f, state)["assumptions"]:
+                    if not holds(comp, f, a):
+                        out.append(f"{comp}.{f['name']} assumes {a['text']}, which does not hold")
+        return out
+
+    def relying_inputs(self, comp: str, state: State) -> list[str]:
+        """Inputs of `comp` that a functionality in its normal mode (in `state`) relies on."""
+        out = set()
+        for f in self.comps[comp]["functionalities"]:
+            if (comp, f["name"]) in state.degraded:
+                continue
+            for a in f["normal"]["assumptions"]:
+                for pname in f["ports"]:
+                    p = self.port(comp, pname)
+                    if p is not None and p["kind"] == "input" and satisfies(p["assumption"], a):
+                        out.add(pname)
+        return sorted(out)
+
+    def refusal(self, state: State, step: dict[str, Any]) -> Optional[str]:
+        """Why `step` cannot run in `state` at all (the structural part of its preconditions)."""
+        kind, comp = step["action"], step["component"]
+        if kind == "create":
+            if comp not in self.comps:
+                return f"no component {comp} is declared"
+            return f"{comp} is already in the system" if comp in state.components else None
+        if comp not in state.components:
+            return f"{comp} is not in the system"
+        if kind == "remove":
+            attached = [f"{comp}.{p} is attached to {n}" for n, c, p in sorted(state.roles) if c == comp]
+            return f"{comp} is not isolated: " + "; ".join(attached) if attached else None
+        if kind in ("attach", "detach"):
+            if step["connector"] not in self.conns or self.port(comp, step["port"]) is None:
+                return f"{comp}.{step['port']} or {step['connector']} is not declared"
+            role = (step["connector"], comp, step["port"])
+            if kind == "attach" and role in state.roles:
+                return f"{comp}.{step['port']} is already attached to {step['connector']}"
+            if kind == "detach" and role not in state.roles:
+                return f"{comp}.{step['port']} is not attached to {step['connector']}"
+            return None
+        names = [f["name"] for f in self.comps[comp]["functionalities"]]
+        fid = (comp, step["functionality"])
+        if step["functionality"] not in names:
+            return f"{comp} has no functionality {step['functionality']}"
+        if kind == "degrade" and fid in state.degraded:
+            return f"{comp}.{step['functionality']} is already degraded"
+        if kind == "upgrade" and fid not in state.degraded:
+            return f"{comp}.{step['functionality']} is not degraded"
+        return None
+
+    def effect(self, state: State, step: dict[str, Any]) -> State:
+        kind, comp = step["action"], step["component"]
+        if kind == "remove":
+            return State(state.components - {comp}, [d for d in state.degraded if d[0] != comp], state.roles)
+        if kind == "create":
+            funcs = [(comp, f["name"]) for f in self.comps[comp]["functionalities"]]
+            return State(state.components | {comp}, state.degraded | set(funcs), state.roles)
+        if kind in ("attach", "detach"):
+            role = (step["connector"], comp, step["port"])
+            roles = state.roles | {role} if kind == "attach" else state.roles - {role}
+            return State(state.components, state.degraded, roles)
+        fid = (comp, step["functionality"])
+        degraded = state.degraded | {fid} if kind == "degrade" else state.degraded - {fid}
+        return State(state.components, degraded, state.roles)
+
+    def differences(self, expected: State, observed: State, comps: Iterable[str]) -> list[str]:
+        """What differs between two configurations, for the components `comps`, in words."""
+        out = []
+        for c in sorted(comps):
+            if (c in expected.components) != (c in observed.components):
+                out.append(f"{c} is {'running' if c in observed.components else 'not running'}, "
+                           f"the plan expects it {'present' if c in expected.components else 'absent'}")
+                continue
+            if c not in observed.components:
+                continue
+            for f in self.comps[c]["functionalities"]:
+                e, o = (c, f["name"]) in expected.degraded, (c, f["name"]) in observed.degraded
+                if e != o:
+                    out.append(f"{c}.{f['name']} is {'degraded' if o else 'normal'}, "
+                               f"the plan expects {'degraded' if e else 'normal'}")
+            for p in self.comps[c]["ports"]:
+                e2 = sorted(n for n, cc, pp in expected.roles if cc == c and pp == p["name"])
+                o2 = sorted(n for n, cc, pp in observed.roles if cc == c and pp == p["name"])
+                if e2 != o2:
+                    out.append(f"{c}.{p['name']} is attached to {o2 or 'nothing'}, the plan expects {e2 or 'nothing'}")
+        return out
+
+
+def describe(step: dict[str, Any]) -> str:
+    kind, comp = step["action"], step["component"]
+    if kind == "create":
+        return f"create {comp} (all functionalities degraded)"
+    if kind == "remove":
+        return f"remove {comp}"
+    if kind == "attach":
+        return f"attach {comp}.{step['port']} to {step['connector']}"
+    if kind == "detach":
+        return f"detach {comp}.{step['port']} from {step['connector']}"
+    return f"{kind} {comp}.{step['functionality']}"
+
+
+def label(i: int, step: dict[str, Any]) -> str:
+    return f"{i:>3}. {SYMBOLS.get(step['action'], '?')} {describe(step)}"
+
+
+def replay(doc: dict[str, Any], out: Any) -> bool:
+    """Replay the plan from its first state; print every state; True when all are safe."""
+    model, plan = Model(doc["model"]), doc["plan"]
+    steps, recorded = plan["steps"], plan.get("states", [])
+    state = State.from_doc(recorded[0]) if recorded else State([], [], [])
+    ok, refused = True, None
+    rows = [("  0.   initial state", state)]
+    for i, step in enumerate(steps, 1):
+        why = model.refusal(state, step)
+        if why:
+            refused = (i, step, why)
+            break
+        state = model.effect(state, step)
+        if i < len(recorded) and State.from_doc(recorded[i]).key() != state.key():
+            print(f"dry run: after step {i} the embedded plan records a different state than the steps give",
+                  file=out)
+            ok = False
+        rows.append((label(i, step), state))
+    unsafe = []
+    for i, (text, st) in enumerate(rows):
+        bad = model.failures(st)
+        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
+        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
+        for reason in bad:
+            print(f"       {reason}", file=out)
+        if bad:
+            unsafe.append(i)
+    if refused is not None:
+        i, step, why = refused
+        print(f"{label(i, step):<60} [REFUSED]  {why}", file=out)
+        print(f"dry run: step {i} ({describe(step)}) cannot run: {why}", file=out)
+        ok = False
+    if unsafe:
+        where = ", ".join(f"step {i} ({describe(steps[i - 1])})" if i else "the initial state" for i in unsafe)
+        print(f"dry run: UNSAFE after {where}", file=out)
+        ok = False
+    if ok:
+        print(f"dry run: all {len(rows)} states are safe", file=out)
+    return ok
+
+
+# --- the running system ----------------------------------------------------------------------
+
+class StepFailed(Exception):
+    pass
+
+
+class Runtime:
+    """The ROS side: lifecycle and parameter services of each component's node, the graph, and
+    the nodes' statuses on /diagnostics."""
+
+    def __init__(self, name: str, namespace: str, timeout: float) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from lifecycle_msgs.msg import State as LcState
+        from lifecycle_msgs.msg import Transition
+        from lifecycle_msgs.srv import ChangeState, GetState
+        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+        from rcl_interfaces.srv import GetParameters, SetParameters
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+        self.rclpy, self.LcState, self.Transition = rclpy, LcState, Transition
+        self.ChangeState, self.GetState = ChangeState, GetState
+        self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
+        self.GetParameters, self.SetParameters = GetParameters, SetParameters
+        self.timeout = timeout
+        ns = namespace.strip("/")
+        self.namespace = f"/{ns}" if ns else ""
+        self.deadline = float("inf")
+        self.clients: dict[str, Any] = {}
+        self.statuses: dict[str, tuple[float, dict[str, str]]] = {}
+        rclpy.init()
+        safe = "".join(ch if ch.isalnum() else "_" for ch in name)
+        self.node = rclpy.create_node(f"reconf_plan_{safe}_{os.getpid()}")
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        try:
+            self.rclpy.shutdown()
+        except Exception:
+            pass
+
+    def _on_status(self, msg: Any) -> None:
+        now = time.monotonic()
+        for st in msg.status:
+            if st.name.startswith(STATUS_PREFIX):
+                self.statuses[st.name[len(STATUS_PREFIX):]] = (now, parse_status(st.values))
+
+    def status(self, fqn: str) -> Optional[dict[str, str]]:
+        got = self.statuses.get(fqn)
+        return None if got is None else got[1]
+
+    def spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return
+            self.rclpy.spin_once(self.node, timeout_sec=min(left, 0.02))
+
+    def left(self) -> float:
+        remaining = self.deadline - time.monotonic()
+        if remaining <= 0:
+            raise StepFailed("the step took longer than --step-timeout")
+        return remaining
+
+    def wait(self, cond: Callable[[], bool], seconds: float) -> bool:
+        """Spin until `cond()` or `seconds` (and the step's deadline) pass."""
+        end = min(time.monotonic() + seconds, self.deadline)
+        while True:
+            if cond():
+                return True
+            if time.monotonic() >= end:
+                return False
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def nodes(self) -> list[str]:
+        return [f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()]
+
+    def client(self, srv_type: Any, name: str) -> Any:
+        if name not in self.clients:
+            self.clients[name] = self.node.create_client(srv_type, name)
+        return self.clients[name]
+
+    def forget(self, fqn: str) -> None:
+        """Drop the clients of a node that is gone (a new node of that name needs new ones)."""
+        for name in [n for n in self.clients if n.startswith(fqn + "/")]:
+            self.node.destroy_client(self.clients.pop(name))
+
+    def call(self, srv_type: Any, name: str, request: Any, *, read_only: bool = False,
+             attempts: int = 3) -> Any:
+        """One service call; a read-only one is repeated when its answer does not come (Fast DDS
+        can lose the first answer of a new service)."""
+        cli = self.client(srv_type, name)
+        tries = attempts if read_only else 1
+        for attempt in range(1, tries + 1):
+            if not cli.wait_for_service(timeout_sec=min(self.timeout, self.left())):
+                raise StepFailed(f"service {name} is not available")
+            fut = cli.call_async(request)
+            wait = min(self.timeout if attempt == tries else min(1.0, self.timeout), self.left())
+            self.rclpy.spin_until_future_complete(self.node, fut, timeout_sec=wait)
+            if fut.done():
+                if fut.exception() is not None:
+                    raise StepFailed(f"{name} failed: {fut.exception()}")
+                return fut.result()
+            fut.cancel()
+            cli.remove_pending_request(fut)
+        raise StepFailed(f"no answer from {name} within {self.timeout} s")
+
+    def lifecycle(self, fqn: str) -> tuple[int, str]:
+        res = self.call(self.GetState, f"{fqn}/get_state", self.GetState.Request(), read_only=True)
+        return res.current_state.id, res.current_state.label
+
+    def transition(self, fqn: str, transition_id: int, name: str) -> None:
+        req = self.ChangeState.Request()
+        req.transition.id = transition_id
+        res = self.call(self.ChangeState, f"{fqn}/change_state", req)
+        if not res.success:
+            raise StepFailed(f"{fqn} refused the lifecycle transition {name}")
+
+    def get(self, fqn: str, names: list[str]) -> dict[str, Any]:
+        req = self.GetParameters.Request()
+        req.names = list(names)
+        res = self.call(self.GetParameters, f"{fqn}/get_parameters", req, read_only=True)
+        values: dict[str, Any] = {}
+        for n, v in zip(names, res.values):
+            if v.type == self.ParameterType.PARAMETER_STRING:
+                values[n] = v.string_value
+            elif v.type == self.ParameterType.PARAMETER_STRING_ARRAY:
+                values[n] = sorted(v.string_array_value)
+            else:
+                raise StepFailed(f"{fqn} does not implement the control interface: parameter {n} is not "
+                                 "declared as a string or a string array")
+        return values
+
+    def set(self, fqn: str, name: str, value: Any) -> None:
+        pv = self.ParameterValue()
+        if isinstance(value, str):
+            pv.type, pv.string_value = self.ParameterType.PARAMETER_STRING, value
+        else:
+            pv.type, pv.string_array_value = self.ParameterType.PARAMETER_STRING_ARRAY, sorted(value)
+        req = self.SetParameters.Request()
+        req.parameters = [self.Parameter(name=name, value=pv)]
+        res = self.call(self.SetParameters, f"{fqn}/set_parameters", req)
+        if not res.results or not res.results[0].successful:
+            reason = res.results[0].reason if res.results else "no result"
+            raise StepFailed(f"{fqn} refused {name}={value!r}: {reason}")
+
+
+class Observed:
+    """What the executor saw of one component's node."""
+
+    def __init__(self, comp: str, lifecycle: str, modes: dict[str, str], ports: dict[str, list[str]]) -> None:
+        self.comp, self.lifecycle, self.modes, self.ports = comp, lifecycle, modes, ports
+
+    @property
+    def present(self) -> bool:
+        return self.lifecycle == "active"
+
+
+class Executor:
+    """Applies a plan document's steps to the running system (docs/executor.md)."""
+
+    def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Any = sys.stdout,
+                 err: Any = sys.stderr) -> None:
+        self.doc, self.args, self.out, self.err = doc, args, out, err
+        self.plan, self.model = doc["plan"], Model(doc["model"])
+        self.steps = self.plan["steps"]
+        self.states = [State.from_doc(s) for s in self.plan.get("states", [])]
+        self.renames: dict[str, str] = self.plan.get("renames", {})
+        self.runs = {c["name"]: c.get("run") for c in doc["model"]["components"]}
+        self.started: dict[str, dict[str, Any]] = {}
+        self.touched: set[str] = set()
+        self.timings: list[dict[str, Any]] = []
+        self.rt: Any = None
+        self.log_dir = args.log_dir or os.path.join(
+            "reconf-logs", f"{doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
+
+    # --- names ---
+    def node_name(self, comp: str) -> str:
+        return self.renames.get(comp, comp)
+
+    def fqn(self, comp: str) -> str:
+        return f"{self.rt.namespace}/{self.node_name(comp)}"
+
+    def conn_name(self, conn: str) -> str:
+        return self.renames.get(conn, conn)
+
+    def say(self, text: str) -> None:
+        print(text, file=self.out, flush=True)
+
+    # --- observation ---
+    def observe(self, comps: Iterable[str], present: Optional[set[str]] = None) -> dict[str, Observed]:
+        """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
+        or finalized)."""
+        graph = set(self.rt.nodes()) if present is None else present
+        seen: dict[str, Observed] = {}
+        for c in sorted(comps):
+            fqn = self.fqn(c)
+            if fqn not in graph:
+                seen[c] = Observed(c, "absent", {}, {})
+                continue
+            try:
+                _, lc = self.rt.lifecycle(fqn)
+            except StepFailed:
+                seen[c] = Observed(c, "absent", {}, {})
+                continue
+            if lc != "active":
+                seen[c] = Observed(c, "absent" if lc == "finalized" else lc, {}, {})
+                continue
+            info = self.model.comps[c]
+            names = [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
+                    [f"reconf.port.{p['name']}" for p in info["ports"]]
+            values = self.rt.get(fqn, names)
+            modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
+            ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
+            seen[c] = Observed(c, lc, modes, ports)
+        return seen
+
+    def as_state(self, seen: dict[str, Observed]) -> State:
+        back = {v: k for k, v in self.renames.items()}
+        comps = [c for c, o in seen.items() if o.present]
+        degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
+        roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
+        return State(comps, degraded, roles)
+
+    def neighbourhood(self) -> set[str]:
+        """The components the plan touches, and those attached to a connector it touches."""
+        comps = {s["component"] for s in self.steps}
+        conns = {s["connector"] for s in self.steps if "connector" in s}
+        for st in self.states:
+            conns |= {n for n, c, p in st.roles if c in comps}
+        for st in self.states:
+            comps |= {c for n, c, p in st.roles if n in conns}
+        return comps & set(self.model.comps)
+
+    def settle(self, expected: Iterable[str], seconds: float) -> None:
+        """Let discovery see every node the plan expects running (bounded), then a little more."""
+        want = {self.fqn(c) for c in expected}
+        self.rt.wait(lambda: want <= set(self.rt.nodes()), seconds)
+        self.rt.spin(0.3)
+
+    # --- the wire ---
+    def wait_status(self, comp: str, cond: Callable[[dict[str, str]], bool], seconds: float) -> bool:
+        return self.rt.wait(lambda: (st := self.rt.status(self.fqn(comp))) is not None and cond(st), seconds)
+
+    def wire_before(self, step: dict[str, Any], before: State, after: State) -> None:
+        """What the wire must show before the step: an upgraded functionality's assumptions met;
+        a connector that loses a publisher still delivering from the ones that remain."""
+        kind, comp = step["action"], step["component"]
+        wait = self.args.wire_timeout
+        if kind == "upgrade":
+            f = step["functionality"]
+            if not self.wait_status(comp, lambda st: st.get(f"wire.{f}", "").split(":")[0] in ("met", "unobserved"),
+                                    wait):
+                st = self.rt.status(self.fqn(comp)) or {}
+                raise StepFailed(f"{comp}.{f}: its assumptions are not met on the wire "
+                                 f"({st.get(f'wire.{f}', 'no status from the node')})")
+        for conn in self.model.conns:
+            kept = self.model.satisfying(after, conn)
+            if not kept or set(kept) >= set(self.model.satisfying(before, conn)):
+                continue
+            names = {self.node_name(c) for c in kept}
+            for n, reader, port in sorted(after.roles):
+                if n != conn or reader not in after.components or port not in self.model.relying_inputs(reader, after):
+                    continue
+                if not self.wait_status(reader, lambda st: bool(names & set(split_list(st.get(f"in.{port}.fresh", "")))),
+                                        wait):
+                    st = self.rt.status(self.fqn(reader)) or {}
+                    raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on "
+                                     f"{self.conn_name(conn)} (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); "
+                                     f"taking {comp}'s away would leave it without data")
+
+    def wire_after(self, step: dict[str, Any], after: State) -> None:
+        """An attached port is matched with the other side of its connector as the plan has it."""
+        if step["action"] != "attach":
+            return
+        comp, port, conn = step["component"], step["port"], step["connector"]
+        k = self.conn_name(conn)
+        pubs = [c for n, c, p in after.roles if n == conn and c in after.components
+                and (self.model.port(c, p) or {}).get("kind") == "output"]
+        subs = [(c, p) for n, c, p in after.roles if n == conn and c in after.components
+                and (self.model.port(c, p) or {}).get("kind") == "input"]
+        kind = (self.model.port(comp, port) or {}).get("kind")
+        wait = self.args.wire_timeout
+        if kind == "output" and subs:
+            if not self.wait_status(comp, lambda st: int(st.get(f"out.{port}@{k}.subscribers", "0")) >= len(subs),
+                                    wait):
+                raise StepFailed(f"{comp}.{port} is not matched with the {len(subs)} subscriber(s) of {k} "
+                                 f"within {wait} s")
+        readers = subs if kind == "output" else [(comp, port)]
+        for c, p in readers:
+            if pubs and not self.wait_status(c, lambda st: int(st.get(f"in.{p}@{k}.publishers", "0")) >= len(pubs),
+                                             wait):
+                raise StepFailed(f"{c}.{p} is not matched with the {len(pubs)} publisher(s) of {k} within {wait} s")
+        if kind == "output" and self.publishes(comp, port, after):
+            # Matched counts can be stale (a publisher just gone still counted): the data decides.
+            me = f"in.{{}}.from.{self.node_name(comp)}"
+            for c, p in subs:
+                if not self.wait_status(c, lambda st: me.format(p) in st, wait):
+                    raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+    def publishes(self, comp: str, port: str, state: State) -> bool:
+        """Whether `comp.port`'s functionality guarantees data there in `state`'s mode."""
+        for f in self.model.comps[comp]["functionalities"]:
+            if port in f["ports"]:
+                g = self.model.guarantee(self.model.mode(comp, f, state), port)
+                if g is not None and g.get("message") is not None:
+                    return True
+        return False
+
+    # --- the six actions ---
+    def perform(self, step: dict[str, Any], before: State, after: State) -> None:
+        self.rt.deadline = time.monotonic() + self.args.step_timeout
+        self.wire_before(step, before, after)
+        getattr(self, "do_" + step["action"])(step)
+        self.wire_after(step, after)
+
+    def expect_active(self, comp: str, when: str) -> None:
+        _, lc = self.rt.lifecycle(self.fqn(comp))
+        if lc != "active":
+            raise StepFailed(f"{when}, {comp} is in lifecycle state {lc!r}")
+
+    def command(self, comp: str) -> list[str]:
+        run = self.runs.get(comp)
+        if not run:
+            raise StepFailed(f"{comp} has no run command in the architecture")
+        argv = shlex.split(run)
+        exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
+        if exe is None:
+            raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
+        argv[0] = exe
+        if self.rt.namespace:
+            argv += ["--ros-args"] if "--ros-args" not in argv else []
+            argv += ["-r", f"__ns:={self.rt.namespace}"]
+        return argv
+
+    def do_create(self, step: dict[str, Any]) -> None:
+        comp = step["component"]
+        fqn = self.fqn(comp)
+        if fqn in self.rt.nodes() or self.rt.node.count_services(f"{fqn}/get_state"):
+            raise StepFailed(f"before the step, a node {fqn} is already running")
+        argv = self.command(comp)
+        os.makedirs(self.log_dir, exist_ok=True)
+        log = os.path.join(self.log_dir, f"{self.node_name(comp)}.log")
+        with open(log, "ab") as fh:
+            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
+        self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc}
+        self.say(f"      started {comp}: pid {proc.pid}, log {log}")
+        self.rt.forget(fqn)
+        cli = self.rt.client(self.rt.GetState, f"{fqn}/get_state")
+        while not cli.wait_for_service(timeout_sec=min(0.2, self.rt.left())):
+            if proc.poll() is not None:
+                raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
+                                 f"(see {log})")
+        if self.rt.nodes().count(fqn) > 1:
+            raise StepFailed(f"two nodes named {fqn} are running")
+        sid, lc = self.rt.lifecycle(fqn)
+        if lc == "unconfigured":
+            self.rt.transition(fqn, self.rt.Transition.TRANSITION_CONFIGURE, "configure")
+        elif lc != "inactive":
+            raise StepFailed(f"after start, {comp} is in lifecycle state {lc!r}")
+        self.rt.transition(fqn, self.rt.Transition.TRANSITION_ACTIVATE, "activate")
+
+    def do_remove(self, step: dict[str, Any]) -> None:
+        comp = step["component"]
+        fqn = self.fqn(comp)
+        _, lc = self.rt.lifecycle(fqn)
+        if lc not in ("active", "inactive"):
+            raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
+        ports = [p["name"] for p in self.model.comps[comp]["ports"]]
+        attached = {n: v for n, v in self.rt.get(fqn, [f"reconf.port.{p}" for p in ports]).items() if v}
+        if attached:
+            raise StepFailed(f"before the step, {comp} is not isolated: "
+                             + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
+        if lc == "active":
+            self.rt.transition(fqn, self.rt.Transition.TRANSITION_DEACTIVATE, "deactivate")
+        self.rt.transition(fqn, self.rt.Transition.TRANSITION_CLEANUP, "cleanup")
+        self.rt.transition(fqn, self.rt.Transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
+        # finalized: the node may exit at once, which counts as removed
+        try:
+            _, lc = self.rt.lifecycle(fqn)
+        except StepFailed:
+            lc = "finalized"
+        if lc != "finalized":
+            raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
+        info = self.started.get(comp)
+        if info is not None:
+            proc = info["proc"]
+            try:
+                proc.wait(timeout=max(0.1, min(self.args.timeout, self.rt.deadline - time.monotonic())))
+            except subprocess.TimeoutExpired:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=2)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+            info["ended"] = proc.returncode
+        self.rt.forget(fqn)
+
+    def do_attach(self, step: dict[str, Any]) -> None:
+        self.port_step(step, attach=True)
+
+    def do_detach(self, step: dict[str, Any]) -> None:
+        self.port_step(step, attach=False)
+
+    def port_step(self, step: dict[str, Any], attach: bool) -> None:
+        comp, port, conn = step["component"], step["port"], self.conn_name(step["connector"])
+        fqn, name = self.fqn(comp), f"reconf.port.{step['port']}"
+        self.expect_active(comp, "before the step")
+        now = self.rt.get(fqn, [name])[name]
+        if (conn in now) == attach:
+            raise StepFailed(f"before the step, {comp}.{port} is {'already' if attach else 'not'} attached to "
+                             f"{conn} ({name}={now!r})")
+        self.rt.set(fqn, name, sorted(set(now) | {conn}) if attach else [c for c in now if c != conn])
+
+    def do_degrade(self, step: dict[str, Any]) -> None:
+        self.mode_step(step, "normal", "degraded")
+
+    def do_upgrade(self, step: dict[str, Any]) -> None:
+        self.mode_step(step, "degraded", "normal")
+
+    def mode_step(self, step: dict[str, Any], before: str, after: str) -> None:
+        comp, func = step["component"], step["functionality"]
+        fqn, name = self.fqn(comp), f"reconf.mode.{func}"
+        self.expect_active(comp, "before the step")
+        now = self.rt.get(fqn, [name])[name]
+        if now != before:
+            raise StepFailed(f"before the step, {comp}.{func} is {now!r}, not {before!r}")
+        self.rt.set(fqn, name, after)
+
+    # --- the run ---
+    def check_touched(self, expected: State, when: str) -> None:
+        seen = self.observe(self.touched)
+        diffs = self.model.differences(expected, self.as_state(seen), self.touched)
+        if diffs:
+            raise StepFailed(f"{when}: " + "; ".join(diffs))
+
+    def violations(self, comps: Iterable[str]) -> dict[str, int]:
+        out = {}
+        for c in comps:
+            st = self.rt.status(self.fqn(c))
+            if st is not None:
+                out[c] = int(st.get("violations", "0"))
+        return out
+
+    def apply(self, first: int) -> int:
+        steps = self.steps
+        system = self.doc["system"]
+        last = self.args.to_step
+        self.say(f"applying steps {first}..{last} of the plan for {system} ({self.doc['fingerprint']})")
+        for i in range(first, last + 1):
+            self.say(label(i, steps[i - 1]))
+        if not self.args.yes:
+            try:
+                answer = input("Apply these steps to the running system? [y/N] ")
+            except EOFError:
+                answer = ""
+            if answer.strip().lower() not in ("y", "yes"):
+                self.say("nothing done")
+                return EXIT_FAILED
+        t0 = time.monotonic()
+        self.rt = Runtime(system, self.args.namespace, self.args.timeout)
+        try:
+            return self._apply(first, t0)
+        finally:
+            self.rt.close()
+
+    def _apply(self, first: int, t0: float) -> int:
+        start = self.states[first - 1]
+        hood = self.neighbourhood()
+        self.rt.deadline = time.monotonic() + self.args.step_timeout
+        self.settle(start.components & hood, self.args.discovery_timeout)
+        seen = self.observe(hood)
+        observed = self.as_state(seen)
+        diffs = self.model.differences(start, observed, hood)
+        if diffs:
+            return self.stale(first, observed, diffs, hood)
+        watched = hood & start.components
+        self.wait_status_all(watched)
+        before_violations = self.violations(hood)
+        last = self.args.to_step
+        self.touched = {s["component"] for s in self.steps[first - 1:last]} & hood
+        check_at = time.monotonic()
+        self.say(f"the live system matches the plan's state before step {first} "
+                 f"({len(hood)} components checked in {check_at - t0:.2f} s)")
+        for i in range(first, last + 1):
+            step, before, after = self.steps[i - 1], self.states[i - 1], self.states[i]
+            self.say(f"{label(i, step)} ...")
+            s0 = time.monotonic()
+            try:
+                self.perform(step, before, after)
+                self.rt.deadline = time.monotonic() + self.args.step_timeout
+                self.check_touched(after, f"after step {i}")
+            except (StepFailed, OSError, KeyboardInterrupt) as e:
+                why = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
+                self.timings.append({"step": i, "seconds": time.monotonic() - s0, "ok": False})
+                return self.failed(i, step, why, t0)
+            self.timings.append({"step": i, "action": step["action"], "seconds": time.monotonic() - s0, "ok": True})
+            self.say(f"      done in {time.monotonic() - s0:.3f} s")
+        end = self.states[last]
+        normal = [(c, f["name"]) for c in sorted(self.touched & end.components)
+                  for f in self.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
+        self.rt.deadline = time.monotonic() + self.args.step_timeout
+        unmet = [f"{c}.{f}" for c, f in normal if not self.wait_status(
+            c, lambda st, f=f: st.get(f"wire.{f}", "").split(":")[0] in ("met", "unobserved"), self.args.wire_timeout)]
+        final = self.as_state(self.observe(hood))
+        wrong = self.model.differences(end, final, hood)
+        if wrong:
+            return self.failed(last, self.steps[last - 1], "after the last step: " + "; ".join(wrong), t0)
+        after_violations = self.violations(hood)
+        seen_bad = {c: after_violations[c] - n for c, n in before_violations.items()
+                    if after_violations.get(c, n) > n}
+        total = time.monotonic() - t0
+        upto = "" if last == len(self.steps) else f"; stopped after step {last} as asked (--to-step)"
+        self.say(f"all {last - first + 1} steps done in {total:.2f} s "
+                 f"(checking the live system {check_at - t0:.2f} s, steps "
+                 f"{sum(t['seconds'] for t in self.timings):.2f} s){upto}")
+        if unmet or seen_bad:
+            if unmet:
+                print(f"but on the wire, the assumptions of {', '.join(unmet)} are not met", file=self.err)
+            for c, n in sorted(seen_bad.items()):
+                print(f"but the monitor of {c} saw {n} violation(s) of a normal mode's assumption during the run",
+                      file=self.err)
+            self.report("violated", first, observed=final)
+            return EXIT_FAILED
+        self.say("on the wire: every functionality the plan touched meets its assumptions, and no monitor saw a "
+                 "normal mode's assumption violated during the run")
+        self.report("done", first, observed=final)
+        return EXIT_OK
+
+    def wait_status_all(self, comps: Iterable[str]) -> None:
+        """Wait (bounded) for a status from each running component, so violations can be counted."""
+        want = list(comps)
+        self.rt.wait(lambda: all(self.rt.status(self.fqn(c)) is not None for c in want), 3.0)
+
+    def stale(self, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
+        print(f"refusing to apply: the live system does not match the plan's state before step {first}:",
+              file=self.err)
+        for d in diffs:
+            print(f"  - {d}", file=self.err)
+        matches = [i for i, s in enumerate(self.states) if not self.model.differences(s, observed, hood)]
+        if matches:
+            i = matches[-1]
+            print(f"It matches the state after step {i}" + (" (the plan's last: it was applied already)"
+                                                           if i == len(self.steps) else "")
+                  + (f"; resume with --from-step {i + 1}" if i < len(self.steps) else "") + ".", file=self.err)
+        else:
+            print("Plan again from the running system (the plan is stale).", file=self.err)
+        self.report("stale", first, observed=observed)
+        return EXIT_FAILED
+
+    def failed(self, i: int, step: dict[str, Any], why: str, t0: float) -> int:
+        print(f"step {i} ({describe(step)}) FAILED: {why}", file=self.err)
+        self.rt.deadline = time.monotonic() + self.args.step_timeout
+        try:
+            seen = self.observe(self.model.comps)
+            observed: Optional[State] = self.as_state(seen)
+        except StepFailed as e:
+            print(f"could not observe the system after the failure: {e}", file=self.err)
+            observed, seen = None, {}
+        if observed is not None:
+            print("Observed configuration (read from the running nodes):\n    " + observed.describe(), file=self.err)
+            odd = [f"{c} is {o.lifecycle}" for c, o in sorted(seen.items()) if o.lifecycle not in ("absent", "active")]
+            for line in odd:
+                print(f"    ({line}: not counted as present)", file=self.err)
+            bad = self.model.failures(observed)
+            if bad:
+                print("It is NOT valid:", file=self.err)
+                for b in bad:
+                    print(f"  - {b}", file=self.err)
+            else:
+                print("It is valid: every assumption of every present functionality holds in the model.",
+                      file=self.err)
+            for k, name in ((i - 1, "before"), (i, "after")):
+                if not self.model.differences(self.states[k], observed, self.model.comps):
+                    print(f"It is the plan's state {name} step {i}.", file=self.err)
+        if self.started:
+            print("Processes this run started:", file=self.err)
+            for c, info in sorted(self.started.items()):
+                proc = info["proc"]
+                alive = proc.poll() is None
+                if alive and self.args.stop_started:
+                    proc.terminate()
+                    try:
+                        proc.wait(timeout=3)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+                    print(f"  {c}: pid {info['pid']} stopped (--stop-started), log {info['log']}", file=self.err)
+                else:
+                    state = "running" if alive else f"exited with status {proc.returncode}"
+                    print(f"  {c}: pid {info['pid']} {state}, log {info['log']}", file=self.err)
+            if self.args.stop_started:
+                seen = self.observe(self.model.comps)
+                observed = self.as_state(seen)
+        path = self.report("failed", i, observed=observed, failed_step=i, why=why)
+        print(f"To recover, plan from the observed configuration:\n"
+              f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
+              f"    reconf recover {path} --back -o recover.py    (back to the plan's start)", file=self.err)
+        return EXIT_FAILED
+
+    def report(self, outcome: str, first: int, observed: Optional[State], failed_step: Optional[int] = None,
+               why: Optional[str] = None) -> str:
+        """Write the run's report (JSON); return its path."""
+        path = self.args.report or (f"reconf-{self.doc['system']}-{outcome}.json" if outcome != "done" else "")
+        if not path:
+            return ""
+        body = {"format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
+                "system": self.doc["system"], "fingerprint": self.doc["fingerprint"], "from_step": first,
+                "failed_step": failed_step, "reason": why,
+                "observed": None if observed is None else observed.to_doc(),
+                "observed_valid": None if observed is None else not self.model.failures(observed),
+                "timings": self.timings,
+                "started": {c: {k: v for k, v in info.items() if k != "proc"} for c, info in self.started.items()},
+                "plan_document": self.doc}
+        tmp = f"{path}.tmp{os.getpid()}"
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(body, fh, indent=1, sort_keys=True)
+        os.replace(tmp, path)
+        print(f"report: {path}", file=self.err if outcome != "done" else self.out)
+        return path
+
+
+def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(description=f"Reconfiguration plan for {doc['system']} ({doc['fingerprint']}).")
+    ap.add_argument("--dry-run", action="store_true", help="replay the plan against the embedded model; no ROS")
+    ap.add_argument("--yes", "-y", action="store_true", help="do not ask for confirmation")
+    ap.add_argument("--from-step", type=int, default=1, metavar="N", help="resume at step N (1-based)")
+    ap.add_argument("--to-step", type=int, default=0, metavar="N", help="stop after step N (default: the last)")
+    ap.add_argument("--timeout", type=float, default=5.0, metavar="S", help="per service call, in seconds")
+    ap.add_argument("--step-timeout", type=float, default=30.0, metavar="S", help="per step, in seconds")
+    ap.add_argument("--wire-timeout", type=float, default=10.0, metavar="S",
+                    help="how long a step waits for the wire (matching, data, assumptions met)")
+    ap.add_argument("--discovery-timeout", type=float, default=5.0, metavar="S",
+                    help="how long to wait for the plan's running nodes to be discovered")
+    ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
+    ap.add_argument("--log-dir", default="", metavar="DIR",
+                    help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")
+    ap.add_argument("--report", default="", metavar="FILE",
+                    help="write the run's report (JSON) here; on failure one is always written")
+    ap.add_argument("--stop-started", action="store_true",
+                    help="on failure, stop the processes this run started (they are named either way)")
+    return ap
+
+
+def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
+    try:
+        sys.stdout.reconfigure(errors="replace")  # type: ignore[union-attr]
+    except AttributeError:
+        pass
+    ap = arguments(doc)
+    args = ap.parse_args(argv)
+    plan = doc["plan"]
+    steps = plan["steps"]
+    if not 1 <= args.from_step <= max(1, len(steps)):
+        ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
+    args.to_step = args.to_step or len(steps)
+    if not args.from_step <= args.to_step <= len(steps):
+        ap.error(f"--to-step must be between --from-step and {len(steps)}")
+    if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
+        ap.error("timeouts must be positive")
+    print(f"plan for {doc['system']} ({doc['fingerprint']}): {len(steps)} steps, strategy {plan.get('strategy')}, "
+          f"disruption {plan.get('disruption')}")
+    for key, value in sorted(doc.get("evidence", {}).items()):
+        print(f"evidence: {key}: {json.dumps(value, sort_keys=True)}")
+    safe = replay(doc, sys.stdout)
+    if args.dry_run or not safe:
+        if not safe and not args.dry_run:
+            print("refusing to apply an unsafe plan", file=sys.stderr)
+        return EXIT_OK if safe else EXIT_FAILED
+    if not steps:
+        print("nothing to do")
+        return EXIT_OK
+    try:
+        import rclpy  # noqa: F401
+    except ImportError as e:
+        print(f"ROS 2 is not available ({e}): install reconf with its `ros` extra (pip install 'reconf[ros]'), "
+              "or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
+        return EXIT_USAGE
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    return Executor(doc, args).apply(args.from_step)
 
 DOC = json.loads(r"""{
  "evidence": {
   "python_engine": "all 8 states valid"
  },
- "fingerprint": "sha256:a187d17777a06185d1cb4ed3e17472de4874ed061b1d701e56a0ecbd77757072",
+ "fingerprint": "sha256:65cacd404aaae5dfbdea0860f9b19833de27f51dc2572e027463f265e287fb6e",
  "format_version": 1,
  "model": {
   "components": [
@@ -47,7 +1014,7 @@ DOC = json.loads(r"""{
      {"assumption": null, "kind": "output", "message": "String", "name": "out"}
     ],
     "replaces": null,
-    "run": "ros2 run demo_nodes_py talker"
+    "run": "reconf-node reconf_ros.demo.chatter:talker"
    },
    {
     "deployed": true,
@@ -60,7 +1027,7 @@ DOC = json.loads(r"""{
      {"assumption": {"hz": "10", "message": "String", "text": "String @ 10 Hz"}, "kind": "input", "message": "String", "name": "in"}
     ],
     "replaces": null,
-    "run": "ros2 run demo_nodes_py listener"
+    "run": "reconf-node reconf_ros.demo.chatter:listener"
    },
    {
     "deployed": false,
@@ -73,7 +1040,7 @@ DOC = json.loads(r"""{
      {"assumption": null, "kind": "output", "message": "String", "name": "out"}
     ],
     "replaces": "talker",
-    "run": "ros2 run demo_nodes_py talker --ros-args -p version:=2"
+    "run": "reconf-node reconf_ros.demo.chatter:talker_v2"
    }
   ],
   "connectors": [
@@ -135,510 +1102,5 @@ DOC = json.loads(r"""{
  "system": "chatter"
 }""")
 
-
-PLAN = DOC["plan"]
-MODEL = DOC["model"]
-# Planning names of changed components and connectors (`name@new`) -> names in the running system.
-RENAMES = PLAN.get("renames", {})
-SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7",
-           "degrade": "\u2193", "upgrade": "\u2191"}
-
-
-# --- the model: satisfaction exactly as DESIGN.md section 3 states it ---------------------
-
-class State:
-    """A configuration: present components, degraded (component, functionality), roles
-    (connector, component, port)."""
-
-    def __init__(self, components, degraded, roles):
-        self.components = frozenset(components)
-        self.degraded = frozenset(tuple(d) for d in degraded)
-        self.roles = frozenset(tuple(r) for r in roles)
-
-    @staticmethod
-    def from_doc(d):
-        return State(d["components"], d["degraded"], d["roles"])
-
-    def key(self):
-        return (self.components, self.degraded, self.roles)
-
-    def describe(self):
-        comps = ", ".join(sorted(self.components)) or "-"
-        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(self.degraded)) or "-"
-        roles = ", ".join(f"{c}.{p}@{n}" for n, c, p in sorted(self.roles)) or "-"
-        return f"components: {comps}\n    degraded: {degraded}\n    attachments: {roles}"
-
-
-def rate(p):
-    return None if p is None or p.get("hz") is None else Fraction(p["hz"])
-
-
-def satisfies(p, q):
-    """p satisfies q iff both are data of the same type and (q has no rate, or p has a rate >= q's)."""
-    if p is None or q is None or p["message"] is None or q["message"] is None or p["message"] != q["message"]:
-        return False
-    q_hz = rate(q)
-    if q_hz is None:
-        return True
-    p_hz = rate(p)
-    return p_hz is not None and p_hz >= q_hz
-
-
-class Model:
-    def __init__(self, model):
-        self.comps = {c["name"]: c for c in model["components"]}
-        self.conns = {c["name"]: c for c in model["connectors"]}
-        self.env = [e["guarantee"] for e in model["environment"]]
-
-    def port(self, comp, name):
-        for p in self.comps[comp]["ports"]:
-            if p["name"] == name:
-                return p
-        return None
-
-    def mode(self, comp, f, state):
-        return f["degraded"] if (comp, f["name"]) in state.degraded else f["normal"]
-
-    @staticmethod
-    def guarantee(mode, port):
-        for g in mode["guarantees"]:
-            if g["port"] == port:
-                return g["predicate"]
-        return None
-
-    def failures(self, state):
-        """Every assumption of a present functionality's current mode that does not hold."""
-        present = [c for c in sorted(state.components) if c in self.comps]
-        publishers, feeds = {}, {}
-        for conn, comp, pname in sorted(state.roles):
-            if comp not in present or conn not in self.conns:
-                continue
-            p = self.port(comp, pname)
-            if p is None:
-                continue
-            if p["kind"] == "output":
-                publishers.setdefault(conn, []).append((comp, pname))
-            else:
-                feeds.setdefault((comp, pname), []).append(conn)
-
-        def output_satisfies(comp, pname, want):
-            return any(pname in f["ports"] and satisfies(self.guarantee(self.mode(comp, f, state), pname), want)
-                       for f in self.comps[comp]["functionalities"])
-
-        conn_sat = {name: any(output_satisfies(c, p, conn["guarantee"]) for c, p in publishers.get(name, []))
-                    for name, conn in self.conns.items()}
-
-        def input_sat(comp, p):
-            return any(conn_sat[cn] and satisfies(self.conns[cn]["guarantee"], p["assumption"])
-                       for cn in feeds.get((comp, p["name"]), []))
-
-        def holds(comp, f, a):
-            for pname in f["ports"]:
-                p = self.port(comp, pname)
-                if p is not None and p["kind"] == "input" and input_sat(comp, p) and satisfies(p["assumption"], a):
-                    return True
-            return any(satisfies(e, a) for e in self.env)
-
-        out = []
-        for comp in present:
-            for f in self.comps[comp]["functionalities"]:
-                for a in self.mode(comp, f, state)["assumptions"]:
-                    if not holds(comp, f, a):
-                        out.append(f"{comp}.{f['name']} assumes {a['text']}, which does not hold")
-        return out
-
-    def refusal(self, state, step):
-        """Why `step` cannot run in `state` at all (the structural part of its preconditions)."""
-        kind, comp = step["action"], step["component"]
-        if kind == "create":
-            if comp not in self.comps:
-                return f"no component {comp} is declared"
-            return f"{comp} is already in the system" if comp in state.components else None
-        if comp not in state.components:
-            return f"{comp} is not in the system"
-        if kind == "remove":
-            attached = [f"{comp}.{p} is attached to {n}" for n, c, p in sorted(state.roles) if c == comp]
-            return f"{comp} is not isolated: " + "; ".join(attached) if attached else None
-        if kind in ("attach", "detach"):
-            if step["connector"] not in self.conns or self.port(comp, step["port"]) is None:
-                return f"{comp}.{step['port']} or {step['connector']} is not declared"
-            role = (step["connector"], comp, step["port"])
-            if kind == "attach" and role in state.roles:
-                return f"{comp}.{step['port']} is already attached to {step['connector']}"
-            if kind == "detach" and role not in state.roles:
-                return f"{comp}.{step['port']} is not attached to {step['connector']}"
-            return None
-        names = [f["name"] for f in self.comps[comp]["functionalities"]]
-        fid = (comp, step["functionality"])
-        if step["functionality"] not in names:
-            return f"{comp} has no functionality {step['functionality']}"
-        if kind == "degrade" and fid in state.degraded:
-            return f"{comp}.{step['functionality']} is already degraded"
-        if kind == "upgrade" and fid not in state.degraded:
-            return f"{comp}.{step['functionality']} is not degraded"
-        return None
-
-    def effect(self, state, step):
-        kind, comp = step["action"], step["component"]
-        if kind == "remove":
-            return State(state.components - {comp}, [d for d in state.degraded if d[0] != comp], state.roles)
-        if kind == "create":
-            funcs = [(comp, f["name"]) for f in self.comps[comp]["functionalities"]]
-            return State(state.components | {comp}, state.degraded | set(funcs), state.roles)
-        if kind in ("attach", "detach"):
-            role = (step["connector"], comp, step["port"])
-            roles = state.roles | {role} if kind == "attach" else state.roles - {role}
-            return State(state.components, state.degraded, roles)
-        fid = (comp, step["functionality"])
-        degraded = state.degraded | {fid} if kind == "degrade" else state.degraded - {fid}
-        return State(state.components, degraded, state.roles)
-
-
-def describe(step):
-    kind, comp = step["action"], step["component"]
-    if kind == "create":
-        return f"create {comp} (all functionalities degraded)"
-    if kind == "remove":
-        return f"remove {comp}"
-    if kind == "attach":
-        return f"attach {comp}.{step['port']} to {step['connector']}"
-    if kind == "detach":
-        return f"detach {comp}.{step['port']} from {step['connector']}"
-    return f"{kind} {comp}.{step['functionality']}"
-
-
-def label(i, step):
-    return f"{i:>3}. {SYMBOLS.get(step['action'], '?')} {describe(step)}"
-
-
-def replay(model, out):
-    """Replay the plan from its first state; print every state; True when all are safe."""
-    steps, recorded = PLAN["steps"], PLAN.get("states", [])
-    state = State.from_doc(recorded[0]) if recorded else State([], [], [])
-    ok, refused = True, None
-    rows = [("  0.   initial state", state)]
-    for i, step in enumerate(steps, 1):
-        why = model.refusal(state, step)
-        if why:
-            refused = (i, step, why)
-            break
-        state = model.effect(state, step)
-        if i < len(recorded) and State.from_doc(recorded[i]).key() != state.key():
-            print(f"dry run: after step {i} the embedded plan records a different state than the steps give",
-                  file=out)
-            ok = False
-        rows.append((label(i, step), state))
-    unsafe = []
-    for i, (text, st) in enumerate(rows):
-        bad = model.failures(st)
-        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
-        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
-        for reason in bad:
-            print(f"       {reason}", file=out)
-        if bad:
-            unsafe.append(i)
-    if refused is not None:
-        i, step, why = refused
-        print(f"{label(i, step):<60} [REFUSED]  {why}", file=out)
-        print(f"dry run: step {i} ({describe(step)}) cannot run: {why}", file=out)
-        ok = False
-    if unsafe:
-        where = ", ".join(f"step {i} ({describe(steps[i - 1])})" if i else "the initial state" for i in unsafe)
-        print(f"dry run: UNSAFE after {where}", file=out)
-        ok = False
-    if ok:
-        print(f"dry run: all {len(rows)} states are safe", file=out)
-    return ok
-
-
-# --- the running system -------------------------------------------------------------------
-
-class StepFailed(Exception):
-    pass
-
-
-class Runtime:
-    """Lifecycle services and the reconf control interface (parameters) of each component's node."""
-
-    def __init__(self, args):
-        try:
-            import rclpy
-            from lifecycle_msgs.msg import State as LcState, Transition
-            from lifecycle_msgs.srv import ChangeState, GetState
-            from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-            from rcl_interfaces.srv import GetParameters, SetParameters
-        except ImportError as e:
-            print(f"ROS 2 is not available ({e}). Source your ROS 2 installation first, e.g. "
-                  "`source /opt/ros/$ROS_DISTRO/setup.bash`, or use --dry-run.", file=sys.stderr)
-            raise SystemExit(2)
-        self.rclpy, self.LcState, self.Transition = rclpy, LcState, Transition
-        self.ChangeState, self.GetState = ChangeState, GetState
-        self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
-        self.GetParameters, self.SetParameters = GetParameters, SetParameters
-        self.timeout, self.step_timeout = args.timeout, args.step_timeout
-        ns = args.namespace.strip("/")
-        self.namespace = f"/{ns}" if ns else ""
-        self.deadline = 0.0
-        self.processes = {}
-        self.clients = {}
-        rclpy.init()
-        name = "".join(ch if ch.isalnum() else "_" for ch in DOC["system"])
-        self.node = rclpy.create_node(f"reconf_plan_{name}")
-
-    def close(self):
-        self.node.destroy_node()
-        try:
-            self.rclpy.shutdown()
-        except Exception:
-            pass
-
-    def fqn(self, comp):
-        return f"{self.namespace}/{RENAMES.get(comp, comp)}"
-
-    def left(self):
-        remaining = self.deadline - time.monotonic()
-        if remaining <= 0:
-            raise StepFailed(f"the step took longer than --step-timeout {self.step_timeout} s")
-        return remaining
-
-    def client(self, srv_type, name):
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
-
-    def call(self, srv_type, name, request):
-        cli = self.client(srv_type, name)
-        if not cli.wait_for_service(timeout_sec=min(self.timeout, self.left())):
-            raise StepFailed(f"service {name} is not available")
-        fut = cli.call_async(request)
-        self.rclpy.spin_until_future_complete(self.node, fut, timeout_sec=min(self.timeout, self.left()))
-        if not fut.done():
-            fut.cancel()
-            raise StepFailed(f"no answer from {name} within {self.timeout} s")
-        if fut.exception() is not None:
-            raise StepFailed(f"{name} failed: {fut.exception()}")
-        return fut.result()
-
-    # lifecycle
-    def lifecycle_state(self, comp):
-        res = self.call(self.GetState, f"{self.fqn(comp)}/get_state", self.GetState.Request())
-        return res.current_state.id, res.current_state.label
-
-    def transition(self, comp, transition_id, name):
-        req = self.ChangeState.Request()
-        req.transition.id = transition_id
-        res = self.call(self.ChangeState, f"{self.fqn(comp)}/change_state", req)
-        if not res.success:
-            raise StepFailed(f"{comp} refused the lifecycle transition {name}")
-
-    def expect_lifecycle(self, comp, wanted, when):
-        sid, slabel = self.lifecycle_state(comp)
-        if sid not in wanted:
-            raise StepFailed(f"{when}, {comp} is in lifecycle state {slabel!r}")
-        return sid
-
-    # control interface
-    def get(self, comp, names):
-        req = self.GetParameters.Request()
-        req.names = list(names)
-        res = self.call(self.GetParameters, f"{self.fqn(comp)}/get_parameters", req)
-        values = {}
-        for n, v in zip(names, res.values):
-            if v.type == self.ParameterType.PARAMETER_STRING:
-                values[n] = v.string_value
-            elif v.type == self.ParameterType.PARAMETER_STRING_ARRAY:
-                values[n] = sorted(v.string_array_value)
-            else:
-                raise StepFailed(f"{comp} does not implement the control interface: parameter {n} "
-                                 "is not declared as a string or string array")
-        return values
-
-    def set(self, comp, name, value):
-        pv = self.ParameterValue()
-        if isinstance(value, str):
-            pv.type, pv.string_value = self.ParameterType.PARAMETER_STRING, value
-        else:
-            pv.type, pv.string_array_value = self.ParameterType.PARAMETER_STRING_ARRAY, sorted(value)
-        req = self.SetParameters.Request()
-        req.parameters = [self.Parameter(name=name, value=pv)]
-        res = self.call(self.SetParameters, f"{self.fqn(comp)}/set_parameters", req)
-        if not res.results or not res.results[0].successful:
-            reason = res.results[0].reason if res.results else "no result"
-            raise StepFailed(f"{comp} refused {name}={value!r}: {reason}")
-
-    def mode(self, comp, func):
-        name = f"reconf.mode.{func}"
-        return self.get(comp, [name])[name]
-
-    def attachments(self, comp, port):
-        name = f"reconf.port.{port}"
-        return self.get(comp, [name])[name]
-
-    # the six actions: precondition on the node, action, effect on the node
-    def perform(self, step):
-        self.deadline = time.monotonic() + self.step_timeout
-        getattr(self, "do_" + step["action"])(step)
-
-    def do_create(self, step):
-        comp = step["component"]
-        ns = self.namespace or "/"
-        if (RENAMES.get(comp, comp), ns) in self.node.get_node_names_and_namespaces():
-            raise StepFailed(f"before the step, a node {self.fqn(comp)} is already running")
-        run = MODEL_RUN.get(comp)
-        if not run:
-            raise StepFailed(f"{comp} has no run command in the architecture")
-        proc = subprocess.Popen(shlex.split(run), start_new_session=True)
-        self.processes[comp] = proc
-        cli = self.client(self.GetState, f"{self.fqn(comp)}/get_state")
-        while not cli.wait_for_service(timeout_sec=min(0.2, self.left())):
-            if proc.poll() is not None:
-                raise StepFailed(f"{run!r} exited with status {proc.returncode} before {comp} came up")
-        sid = self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_UNCONFIGURED, self.LcState.PRIMARY_STATE_INACTIVE),
-                                    "after start")
-        if sid == self.LcState.PRIMARY_STATE_UNCONFIGURED:
-            self.transition(comp, self.Transition.TRANSITION_CONFIGURE, "configure")
-        self.transition(comp, self.Transition.TRANSITION_ACTIVATE, "activate")
-        self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_ACTIVE,), "after activate")
-        info = MODEL_COMPONENTS[comp]
-        values = self.get(comp, [f"reconf.mode.{f}" for f in info["functionalities"]]
-                          + [f"reconf.port.{p}" for p in info["ports"]])
-        wrong = [f"{n}={v!r}" for n, v in values.items()
-                 if (n.startswith("reconf.mode.") and v != "degraded") or (n.startswith("reconf.port.") and v)]
-        if wrong:
-            raise StepFailed(f"{comp} should start with every functionality degraded and no attachment, "
-                             f"but has {', '.join(wrong)}")
-
-    def do_remove(self, step):
-        comp = step["component"]
-        sid = self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_ACTIVE, self.LcState.PRIMARY_STATE_INACTIVE),
-                                    "before the step")
-        ports = MODEL_COMPONENTS[comp]["ports"]
-        attached = {n: v for n, v in self.get(comp, [f"reconf.port.{p}" for p in ports]).items() if v}
-        if attached:
-            raise StepFailed(f"before the step, {comp} is not isolated: "
-                             + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
-        if sid == self.LcState.PRIMARY_STATE_ACTIVE:
-            self.transition(comp, self.Transition.TRANSITION_DEACTIVATE, "deactivate")
-        self.transition(comp, self.Transition.TRANSITION_CLEANUP, "cleanup")
-        self.transition(comp, self.Transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
-        self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_FINALIZED,), "after shutdown")
-        proc = self.processes.pop(comp, None)
-        if proc is not None and proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=max(0.1, min(self.timeout, self.deadline - time.monotonic())))
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-
-    def do_attach(self, step):
-        self.port_step(step, attach=True)
-
-    def do_detach(self, step):
-        self.port_step(step, attach=False)
-
-    def port_step(self, step, attach):
-        comp, port, conn = step["component"], step["port"], RENAMES.get(step["connector"], step["connector"])
-        self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_ACTIVE,), "before the step")
-        now = self.attachments(comp, port)
-        if (conn in now) == attach:
-            raise StepFailed(f"before the step, {comp}.{port} is {'already' if attach else 'not'} attached to {conn} "
-                             f"(reconf.port.{port}={now!r})")
-        self.set(comp, f"reconf.port.{port}", sorted(set(now) | {conn}) if attach else [c for c in now if c != conn])
-        after = self.attachments(comp, port)
-        if (conn in after) != attach:
-            raise StepFailed(f"after the step, reconf.port.{port} of {comp} is {after!r}")
-
-    def do_degrade(self, step):
-        self.mode_step(step, "normal", "degraded")
-
-    def do_upgrade(self, step):
-        self.mode_step(step, "degraded", "normal")
-
-    def mode_step(self, step, before, after):
-        comp, func = step["component"], step["functionality"]
-        self.expect_lifecycle(comp, (self.LcState.PRIMARY_STATE_ACTIVE,), "before the step")
-        now = self.mode(comp, func)
-        if now != before:
-            raise StepFailed(f"before the step, {comp}.{func} is {now!r}, not {before!r}")
-        self.set(comp, f"reconf.mode.{func}", after)
-        now = self.mode(comp, func)
-        if now != after:
-            raise StepFailed(f"after the step, {comp}.{func} is {now!r}, not {after!r}")
-
-
-MODEL_RUN = {c["name"]: c["run"] for c in MODEL["components"]}
-MODEL_COMPONENTS = {c["name"]: {"functionalities": [f["name"] for f in c["functionalities"]],
-                                "ports": [p["name"] for p in c["ports"]]} for c in MODEL["components"]}
-
-
-def apply_plan(args, first):
-    steps, recorded = PLAN["steps"], PLAN.get("states", [])
-    print(f"applying steps {first}..{len(steps)} of the plan for {DOC['system']} ({DOC['fingerprint']})")
-    for i in range(first, len(steps) + 1):
-        print(label(i, steps[i - 1]))
-    rt = Runtime(args)
-    try:
-        if not args.yes:
-            try:
-                answer = input("Apply these steps to the running system? [y/N] ")
-            except EOFError:
-                answer = ""
-            if answer.strip().lower() not in ("y", "yes"):
-                print("nothing done")
-                return 1
-        for i in range(first, len(steps) + 1):
-            step = steps[i - 1]
-            print(f"{label(i, step)} ...", flush=True)
-            try:
-                rt.perform(step)
-            except (StepFailed, OSError, KeyboardInterrupt) as e:
-                why = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
-                print(f"step {i} ({describe(step)}) FAILED: {why}", file=sys.stderr)
-                last = State.from_doc(recorded[i - 1]).describe() if i - 1 < len(recorded) else "unknown"
-                print(f"The system is left in the state before step {i} (the last good state of the plan), "
-                      f"unless step {i} was partly done:\n    {last}\n"
-                      f"Fix the cause, then resume with --from-step {i}.", file=sys.stderr)
-                return 1
-            print("      done")
-    finally:
-        rt.close()
-    print(f"all {len(steps) - first + 1} steps done")
-    return 0
-
-
-def main(argv=None):
-    try:
-        sys.stdout.reconfigure(errors="replace")
-    except AttributeError:
-        pass
-    ap = argparse.ArgumentParser(description=f"Reconfiguration plan for {DOC['system']} ({DOC['fingerprint']}).")
-    ap.add_argument("--dry-run", action="store_true", help="replay the plan against the embedded model; no ROS")
-    ap.add_argument("--yes", "-y", action="store_true", help="do not ask for confirmation")
-    ap.add_argument("--from-step", type=int, default=1, metavar="N", help="resume at step N (1-based)")
-    ap.add_argument("--timeout", type=float, default=5.0, metavar="S", help="per service call, in seconds")
-    ap.add_argument("--step-timeout", type=float, default=30.0, metavar="S", help="per step, in seconds")
-    ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
-    args = ap.parse_args(argv)
-    steps = PLAN["steps"]
-    if not 1 <= args.from_step <= max(1, len(steps)):
-        ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
-    if args.timeout <= 0 or args.step_timeout <= 0:
-        ap.error("timeouts must be positive")
-    print(f"plan for {DOC['system']} ({DOC['fingerprint']}): {len(steps)} steps, strategy {PLAN.get('strategy')}, "
-          f"disruption {PLAN.get('disruption')}")
-    for key, value in sorted(DOC.get("evidence", {}).items()):
-        print(f"evidence: {key}: {json.dumps(value, sort_keys=True)}")
-    safe = replay(Model(MODEL), sys.stdout)
-    if args.dry_run or not safe:
-        if not safe and not args.dry_run:
-            print("refusing to apply an unsafe plan", file=sys.stderr)
-        return 0 if safe else 1
-    if not steps:
-        print("nothing to do")
-        return 0
-    return apply_plan(args, args.from_step)
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(DOC))

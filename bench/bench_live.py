@@ -1,0 +1,190 @@
+"""Plans carried out on live ROS 2 systems, measured on the wire (docs/runtime.md).
+
+For each scenario and strategy, N runs (default 20) of: deploy the example with its real nodes,
+plan the change (`--no-alloy`: the Python engine verifies it), run the plan script, read what
+the monitors saw. Prints, per scenario, the median / p95 / max of: plan wall time (the script,
+from start to exit), per-step latency, the largest input gap of a normal-mode functionality
+against its assumed period, messages lost (sequence gaps, and the head a new publisher lost
+before its subscribers heard it), steps and seconds a functionality spent degraded; and runs
+with a violation or a failure. Then a 50-component live system (model-driven nodes in five
+processes): the wall time of replacing its hub.
+
+    python -m bench.bench_live [--runs 20] [--only chatter] [--big-runs 5]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from reconf_ros.livetest import LiveSystem
+
+ROOT = Path(__file__).resolve().parent.parent
+EX = ROOT / "examples"
+
+# name, architecture, plan arguments, components to wait for
+SCENARIOS = [
+    ("chatter replace talker", "chatter.arch", ["replace", "talker"], ["talker", "listener"]),
+    ("robot remove obstacle_detector", "robot.arch", ["remove", "obstacle_detector"],
+     ["obstacle_detector", "motor_controller", "base_driver"]),
+    ("redundant replace lidar_rear", "redundant.arch", ["replace", "lidar_rear"],
+     ["lidar_front", "lidar_rear", "mapper"]),
+    ("chain5 replace stage0", "chain5.arch", ["replace", "stage0"], [f"stage{i}" for i in range(5)]),
+    ("chatter migrate", "chatter.arch", ["migrate", str(EX / "chatter.arch"), str(EX / "chatter_migrated.arch")],
+     ["talker", "listener"]),
+]
+
+
+def pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))] if xs else float("nan")
+
+
+def measure(arch: str, args: list[str], ready: list[str], strategy: str, work: Path) -> dict[str, Any]:
+    with LiveSystem(work) as live:
+        live.watch()
+        live.deploy(str(EX / arch))
+        live.wait_ready(ready, timeout=30)
+        plan_args = list(args) + ([] if args[0] == "migrate" else ["-f", str(EX / arch)]) + ["--strategy", strategy]
+        script = live.plan_script(plan_args)
+        t0 = time.monotonic()
+        res = live.run_plan(script)
+        wall = time.monotonic() - t0
+        report = live.report()
+        final = (report.get("observed") or {}).get("components", [])
+        statuses = live.settle_status(final)
+    doc = report.get("plan_document", {})
+    states = doc.get("plan", {}).get("states", [])
+    created = {s["component"] for s in doc.get("plan", {}).get("steps", []) if s["action"] == "create"}
+    renames = doc.get("plan", {}).get("renames", {})
+    created = {renames.get(c, c) for c in created}
+    lost, gap_ratio = 0, 0.0
+    for name, st in statuses.items():
+        v = st["values"]
+        for k, x in v.items():
+            if ".from." in k:
+                node = k.split(".from.", 1)[1]
+                _, seq_lost, head = (int(y) for y in x.split("/"))
+                lost += seq_lost + (head if node in created else 0)
+            if k.endswith(".max_gap_s"):
+                port = k.split(".")[1]
+                period = assumed_period(doc, name.lstrip("/"), port)
+                if period:
+                    gap_ratio = max(gap_ratio, float(x) / period)
+    timings = report.get("timings", [])
+    # degraded: steps and seconds each functionality spent degraded (functionalities normal at the end)
+    end = states[-1] if states else {"degraded": []}
+    residual = {tuple(d) for d in end["degraded"]}
+    steps_deg, secs_deg = 0, 0.0
+    for f in {tuple(d) for s in states[1:] for d in s["degraded"]} - residual:
+        n = [i for i, s in enumerate(states[1:], 1) if list(f) in s["degraded"] and f[0] in s["components"]]
+        steps_deg = max(steps_deg, len(n))
+        secs_deg = max(secs_deg, sum(t["seconds"] for t in timings if t["step"] in {i + 1 for i in n}))
+    return {"ok": res.returncode == 0, "violations": len(live.violations(statuses)), "wall": wall,
+            "steps": [t["seconds"] for t in timings], "gap_ratio": gap_ratio, "lost": lost,
+            "steps_degraded": steps_deg, "seconds_degraded": secs_deg, "stderr": res.stderr[-400:]}
+
+
+def assumed_period(doc: dict[str, Any], comp: str, port: str) -> float:
+    for c in doc.get("model", {}).get("components", []):
+        if c["name"] == comp:
+            for p in c["ports"]:
+                if p["name"] == port and p.get("assumption") and p["assumption"].get("hz"):
+                    from fractions import Fraction
+                    return 1 / float(Fraction(p["assumption"]["hz"]))
+    return 0.0
+
+
+def big_system(path: Path, n: int = 50) -> None:
+    """A hub at 10 Hz, relays reading it, sinks reading the relays: n components in all."""
+    relays = (n - 1) // 2
+    sinks = n - 1 - relays
+    lines = ["system big", "message String = std_msgs/msg/String", ""]
+    run = f'  run "reconf-node --arch {path} {{}}"'
+    for name, extra in (("hub", ""), ("hub_v2", " replaces hub")):
+        lines += [f"component {name}{extra} {{", run.format(name), "  output out: String",
+                  "  functionality pub (out) { normal { out: String @ 10 Hz } degraded { out: nothing } }", "}"]
+    for i in range(relays):
+        lines += [f"component relay{i} {{", run.format(f"relay{i}"), "  input in: String @ 10 Hz", "  output out: String",
+                  "  functionality relay (in, out) { normal { assume String @ 10 Hz  out: String @ 5 Hz }"
+                  " degraded { out: nothing } }", "}"]
+    for i in range(sinks):
+        lines += [f"component sink{i} {{", run.format(f"sink{i}"), "  input in: String @ 5 Hz",
+                  "  functionality use (in) { normal { assume String @ 5 Hz } degraded { } }", "}"]
+    lines.append("topic /hub: String @ 10 Hz { hub.out -> " + ", ".join(f"relay{i}.in" for i in range(relays)) + " }")
+    for i in range(relays):
+        subs = ", ".join(f"sink{j}.in" for j in range(sinks) if j % relays == i)
+        lines.append(f"topic /relay{i}: String @ 5 Hz {{ relay{i}.out -> {subs} }}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def measure_big(work: Path, n: int) -> dict[str, Any]:
+    arch = work / "big.arch"
+    big_system(arch, n)
+    with LiveSystem(work) as live:
+        live.watch()
+        live.deploy(str(arch), per_process=10)
+        from reconf_dsl.loader import load
+        names = [c.name for c in load([str(arch)]).components]
+        live.wait_ready(names, timeout=90)
+        script = live.plan_script(["replace", "hub", "-f", str(arch)])
+        t0 = time.monotonic()
+        res = live.run_plan(script)
+        wall = time.monotonic() - t0
+        statuses = live.settle_status(["hub_v2"])
+        return {"ok": res.returncode == 0, "wall": wall, "violations": len(live.violations(statuses)),
+                "timings": live.report().get("timings", []), "stderr": res.stderr[-600:]}
+
+
+def row(name: str, runs: list[dict[str, Any]]) -> str:
+    def stat(key: str, fmt: str = "{:.2f}") -> str:
+        xs = [r[key] for r in runs]
+        return "/".join(fmt.format(x) for x in (statistics.median(xs), pct(xs, 0.95), max(xs)))
+    steps = [s for r in runs for s in r["steps"]]
+    step = "/".join(f"{x:.3f}" for x in (statistics.median(steps), pct(steps, 0.95), max(steps))) if steps else "-"
+    bad = sum(1 for r in runs if not r["ok"] or r["violations"])
+    return (f"| {name} | {len(runs)} | {bad} | {stat('wall')} | {step} | {stat('gap_ratio')} | "
+            f"{stat('lost', '{:.0f}')} | {stat('steps_degraded', '{:.0f}')} | {stat('seconds_degraded')} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=20)
+    ap.add_argument("--only", default="", help="scenarios whose name contains this")
+    ap.add_argument("--strategies", default="default,paper")
+    ap.add_argument("--big-runs", type=int, default=5)
+    ap.add_argument("--big-n", type=int, default=50)
+    args = ap.parse_args()
+    print("| scenario | runs | failed or violated | plan wall s | step s | largest gap / period | "
+          "lost | steps degraded | s degraded |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, arch, plan_args, ready in SCENARIOS:
+            if args.only not in name:
+                continue
+            for strategy in args.strategies.split(","):
+                runs = []
+                for i in range(args.runs):
+                    r = measure(arch, plan_args, ready, strategy, Path(tmp) / f"{len(name)}-{strategy}-{i}")
+                    if not r["ok"] or r["violations"]:
+                        print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
+                    runs.append(r)
+                print(row(f"{name} ({strategy})", runs), flush=True)
+        if args.big_runs:
+            walls = []
+            for i in range(args.big_runs):
+                r = measure_big(Path(tmp) / f"big-{i}", args.big_n)
+                if not r["ok"] or r["violations"]:
+                    print(f"  (big run {i}: {r['stderr']})")
+                walls.append(r["wall"])
+            print(f"\n{args.big_n}-component live system, replace the hub (default strategy), {len(walls)} runs: "
+                  f"plan wall median {statistics.median(walls):.2f} s, max {max(walls):.2f} s")
+    print("(median/p95/max; gap = largest wait of a normal functionality's input over its assumed period; lost = "
+          "sequence gaps plus what a created publisher lost before its subscribers heard it)")
+
+
+if __name__ == "__main__":
+    main()

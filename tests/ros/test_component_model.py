@@ -1,0 +1,106 @@
+"""The Component API's model half (no ROS needed): the demo nodes are the examples' components,
+written once next to the code; the monitor's rule of docs/runtime.md."""
+from __future__ import annotations
+
+import importlib
+import shlex
+
+import pytest
+
+from reconf_dsl.ir import Component as IrComponent
+from reconf_dsl.ir import System
+from reconf_dsl.loader import load, load_text
+from reconf_ros import Component, components_to_arch
+from reconf_ros.model import ModelError, parse_predicate
+from reconf_ros.monitor import Monitor
+
+from .conftest import example
+
+EXAMPLES = ["chatter.arch", "chatter_migrated.arch", "robot.arch", "redundant.arch", "chain5.arch"]
+
+
+def normal_form(c: IrComponent, system: System) -> tuple[object, ...]:
+    """What the model says of a component, rates in hertz (`@ 1 s` is `@ 1 Hz`)."""
+    types = {m.name: m.ros_type for m in system.messages}
+
+    def pred(p: object) -> object:
+        return None if p is None else (getattr(p, "message"), getattr(p, "hz"))
+    ports = tuple((p.name, p.kind, types[p.message], pred(p.assumption)) for p in c.ports)
+    funcs = tuple((f.name, f.ports, f.criticality,
+                   tuple((m.kind, tuple(pred(a) for a in m.assumptions),
+                          tuple((g.port, pred(g.predicate)) for g in m.guarantees if not g.predicate.is_nothing))
+                         for m in (f.normal, f.degraded) if m is not None))
+                  for f in c.functionalities)
+    return (c.name, c.host, ports, funcs)
+
+
+def factory(run: str) -> Component:
+    target = shlex.split(run)[1]
+    module, attr = target.split(":")
+    comp: Component = getattr(importlib.import_module(module), attr)()
+    return comp
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_demo_nodes_are_the_examples_components(name: str) -> None:
+    system = load([example(name)])
+    for c in system.components + system.versions:
+        assert c.run and c.run.startswith("reconf-node "), c.name
+        comp = factory(c.run)
+        assert comp.replaces == c.replaces, c.name
+        comp.replaces = None          # a version alone would replace an unknown component
+        text = components_to_arch([comp], system="check")
+        mine = load_text(text).component(c.name)
+        assert mine is not None
+        assert normal_form(mine, load_text(text)) == normal_form(c, system), text
+
+
+def test_a_system_assembled_from_nodes_checks() -> None:
+    from reconf_ros.demo import chatter
+    text = components_to_arch([chatter.talker(), chatter.listener()], system="chatter")
+    text += "topic /chatter: String @ 10 Hz { talker.out -> listener.in }\n"
+    from checker.semantics import evaluate
+    from checker.config import Configuration
+    system = load_text(text)
+    assert not evaluate(system, Configuration.initial(system), explain=False).unsatisfied
+
+
+def test_model_errors_are_clear() -> None:
+    comp = Component("c")
+    with pytest.raises(ModelError, match="not a ROS 2 type name"):
+        comp.create_output("o", "String")
+    out = comp.create_output("o", "std_msgs/msg/String")
+    with pytest.raises(ModelError, match="already has a port o"):
+        comp.create_input("o", "std_msgs/msg/String")
+    f = comp.create_functionality("f", outputs=[out])
+    with pytest.raises(ModelError, match="a rate must be positive"):
+        f.set_normal_mode(None, rate=0, outputs=[out])
+    with pytest.raises(ModelError, match="not a predicate"):
+        parse_predicate("@ 10 Hz")
+
+
+def test_monitor_rule() -> None:
+    comp = Component("listener")
+    inp = comp.create_input("in", "std_msgs/msg/String", rate=10)
+    f = comp.create_functionality("listen", inputs=[inp])
+    f.set_normal_mode(lambda msg: None)
+    m = Monitor(comp, gap_factor=1.5)
+    attached = {"in": ["/chatter"]}
+    assert m.judge(f, 0.0, {"in": []}).startswith("not met: in is attached to nothing")
+    m.on_message("in", 1.0, b"a", 1, "talker")
+    assert m.check(1.1, {"listen": "normal"}, attached) and m.verdicts["listen"] == "met"
+    m.on_message("in", 1.2, b"a", 2, "talker")
+    m.check(1.34, {"listen": "normal"}, attached)
+    assert m.violations == 0
+    m.check(1.36, {"listen": "normal"}, attached)            # 0.16 s > 1.5 x 0.1 s
+    assert m.violations == 1 and m.verdicts["listen"].startswith("not met")
+    m.on_message("in", 1.4, b"a", 5, "talker")               # two messages of talker lost
+    m.check(1.4, {"listen": "normal"}, attached)
+    assert m.violations == 1 and not m.violating
+    st = m.status(1.4)
+    assert st["in.in.lost"] == "2" and st["in.in.from.talker"] == "3/2/0"
+    assert float(st["in.in.max_gap_s"]) == pytest.approx(0.2, abs=1e-6)
+    m.on_message("in", 1.45, b"b", 7, "talker_v2")           # a new publisher, first seen at its 7th
+    assert m.status(1.45)["in.in.from.talker_v2"] == "1/0/6"
+    m.check(3.0, {"listen": "degraded"}, attached)           # degraded: no violation
+    assert m.violations == 1
