@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# The ROS 2 wheels pull in lark-parser 0.12 (for rosidl code generation), which installs the
-# same `lark` package as lark 1.x; reinstalling lark last keeps the one reconf needs.
+# The ROS 2 wheels pull in lark-parser 0.12 (for rosidl code generation, not needed to run),
+# which installs the same `lark` package as lark 1.x and its own stubs: it is removed, and lark
+# installed again, so reconf and mypy see lark 1.x.
 LARK := lark==1.3.1
 
 .PHONY: demo test typecheck bench clean
@@ -13,6 +14,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[test,ros]'
+	$(BIN)/pip uninstall -q -y lark-parser
 	$(BIN)/pip install -q --force-reinstall --no-deps '$(LARK)'
 	touch $(STAMP)
 

@@ -7,6 +7,7 @@ before `set_parameters` answers. The node publishes its status on `/diagnostics`
 """
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import time
@@ -172,15 +173,15 @@ class ComponentNode(LifecycleNode):
         for k in sorted(set(wanted) - set(self.attached[port])):
             if isinstance(p, Output):
                 self.matched_out[(port, k)] = 0
+                on_out = functools.partial(self._matched_out, (port, k))
                 self.pubs[(port, k)] = self.create_publisher(
-                    cls, k, DATA_QOS, event_callbacks=PublisherEventCallbacks(
-                        matched=lambda info, key=(port, k): self._matched_out(key, info)))
+                    cls, k, DATA_QOS, event_callbacks=PublisherEventCallbacks(matched=on_out))
             else:
                 self.monitor.inputs[port].publishers[k] = 0
+                on_msg = functools.partial(self._on_message, (port, k))
+                on_in = functools.partial(self._matched_in, (port, k))
                 self.subs[(port, k)] = self.create_subscription(
-                    cls, k, lambda msg, info, key=(port, k): self._on_message(key, msg, info), DATA_QOS,
-                    event_callbacks=SubscriptionEventCallbacks(
-                        matched=lambda info, key=(port, k): self._matched_in(key, info)))
+                    cls, k, on_msg, DATA_QOS, event_callbacks=SubscriptionEventCallbacks(matched=on_in))
         self.attached[port] = sorted(set(wanted))
         self.get_logger().info(f"{port} attached to {self.attached[port] or 'nothing'}")
         self._changed()

@@ -52,7 +52,8 @@ def from_architecture(system: System, name: str) -> Component:
         for mode, setter in ((f.normal, fn.set_normal_mode), (f.degraded, fn.set_degraded_mode)):
             if mode is None:
                 continue
-            gs = {ports[g.port]: _rate(g.predicate) for g in mode.guarantees if not g.predicate.is_nothing}
+            gs: dict[Output, Any] = {ports[g.port]: _rate(g.predicate) for g in mode.guarantees
+                                     if not g.predicate.is_nothing}
             hz = max((r.hz for r in gs.values() if r is not None), default=DEFAULT_HZ)
             callback = _publisher(list(gs)) if gs else None
             if mode.kind == "normal":
