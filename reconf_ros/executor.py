@@ -984,11 +984,10 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     if not steps:
         print("nothing to do")
         return EXIT_OK
-    try:
-        import rclpy  # noqa: F401
-    except ImportError as e:
-        print(f"ROS 2 is not available ({e}): install reconf with its `ros` extra (pip install 'reconf[ros]'), "
-              "or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
+    import importlib.util
+    if importlib.util.find_spec("rclpy") is None:
+        print("ROS 2 is not available (no module rclpy): install reconf with its `ros` extra "
+              "(pip install 'reconf[ros]'), or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
         return EXIT_USAGE
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     return Executor(doc, args).apply(args.from_step)

@@ -124,7 +124,7 @@ def test_model_data_rates_are_exact_fractions() -> None:
     assert control["normal"]["assumptions"][0] == {"message": "Obstacles", "hz": "1", "text": "Obstacles @ 1 s"}
     assert ctrl["ports"][0] == {"name": "in", "kind": "input", "message": "Obstacles",
                                 "assumption": {"message": "Obstacles", "hz": "1", "text": "Obstacles @ 1 Hz"}}
-    assert ctrl["run"] == "ros2 run control motor_controller" and ctrl["host"] == "base"
+    assert ctrl["run"] == "reconf-node reconf_ros.demo.robot:motor_controller" and ctrl["host"] == "base"
     assert data["environment"] == [{"name": "camera",
                                     "guarantee": {"message": "Image", "hz": "30", "text": "Image @ 30 Hz"}}]
     cmd_vel = next(c for c in data["connectors"] if c["name"] == "/cmd_vel")
@@ -219,13 +219,6 @@ def test_structurally_impossible_step_is_refused(tmp_path: Path) -> None:
     res = run(write_script(tmp_path, doc), "--dry-run")
     assert res.returncode == 1
     assert "step 1 (remove listener) cannot run: listener is not isolated" in res.stdout
-
-
-def test_without_ros_exits_2(tmp_path: Path) -> None:
-    _, doc = case_doc("chatter_paper")
-    res = run(write_script(tmp_path, doc), "--yes")
-    assert res.returncode == 2
-    assert "ROS 2 is not available" in res.stderr
 
 
 def test_bad_from_step_is_a_usage_error(tmp_path: Path) -> None:

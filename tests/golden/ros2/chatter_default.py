@@ -557,6 +557,11 @@ class Executor:
     def wait_status(self, comp: str, cond: Callable[[dict[str, str]], bool], seconds: float) -> bool:
         return self.rt.wait(lambda: (st := self.rt.status(self.fqn(comp))) is not None and cond(st), seconds)
 
+    @staticmethod
+    def meets(func: str) -> Callable[[dict[str, str]], bool]:
+        """Whether a status shows `func`'s normal assumptions met on the wire (or not observed)."""
+        return lambda st: st.get(f"wire.{func}", "").split(":")[0] in ("met", "unobserved")
+
     def wire_before(self, step: dict[str, Any], before: State, after: State) -> None:
         """What the wire must show before the step: an upgraded functionality's assumptions met;
         a connector that loses a publisher still delivering from the ones that remain."""
@@ -564,8 +569,7 @@ class Executor:
         wait = self.args.wire_timeout
         if kind == "upgrade":
             f = step["functionality"]
-            if not self.wait_status(comp, lambda st: st.get(f"wire.{f}", "").split(":")[0] in ("met", "unobserved"),
-                                    wait):
+            if not self.wait_status(comp, self.meets(f), wait):
                 st = self.rt.status(self.fqn(comp)) or {}
                 raise StepFailed(f"{comp}.{f}: its assumptions are not met on the wire "
                                  f"({st.get(f'wire.{f}', 'no status from the node')})")
@@ -817,8 +821,7 @@ class Executor:
         normal = [(c, f["name"]) for c in sorted(self.touched & end.components)
                   for f in self.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         self.rt.deadline = time.monotonic() + self.args.step_timeout
-        unmet = [f"{c}.{f}" for c, f in normal if not self.wait_status(
-            c, lambda st, f=f: st.get(f"wire.{f}", "").split(":")[0] in ("met", "unobserved"), self.args.wire_timeout)]
+        unmet = [f"{c}.{f}" for c, f in normal if not self.wait_status(c, self.meets(f), self.args.wire_timeout)]
         final = self.as_state(self.observe(hood))
         wrong = self.model.differences(end, final, hood)
         if wrong:
@@ -986,11 +989,10 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     if not steps:
         print("nothing to do")
         return EXIT_OK
-    try:
-        import rclpy  # noqa: F401
-    except ImportError as e:
-        print(f"ROS 2 is not available ({e}): install reconf with its `ros` extra (pip install 'reconf[ros]'), "
-              "or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
+    import importlib.util
+    if importlib.util.find_spec("rclpy") is None:
+        print("ROS 2 is not available (no module rclpy): install reconf with its `ros` extra "
+              "(pip install 'reconf[ros]'), or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
         return EXIT_USAGE
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     return Executor(doc, args).apply(args.from_step)
