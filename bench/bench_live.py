@@ -25,16 +25,13 @@ from reconf_ros.livetest import LiveSystem
 ROOT = Path(__file__).resolve().parent.parent
 EX = ROOT / "examples"
 
-# name, architecture, plan arguments, components to wait for
+# name, architecture, plan arguments
 SCENARIOS = [
-    ("chatter replace talker", "chatter.arch", ["replace", "talker"], ["talker", "listener"]),
-    ("robot remove obstacle_detector", "robot.arch", ["remove", "obstacle_detector"],
-     ["obstacle_detector", "motor_controller", "base_driver"]),
-    ("redundant replace lidar_rear", "redundant.arch", ["replace", "lidar_rear"],
-     ["lidar_front", "lidar_rear", "mapper"]),
-    ("chain5 replace stage0", "chain5.arch", ["replace", "stage0"], [f"stage{i}" for i in range(5)]),
-    ("chatter migrate", "chatter.arch", ["migrate", str(EX / "chatter.arch"), str(EX / "chatter_migrated.arch")],
-     ["talker", "listener"]),
+    ("chatter replace talker", "chatter.arch", ["replace", "talker"]),
+    ("robot remove obstacle_detector", "robot.arch", ["remove", "obstacle_detector"]),
+    ("redundant replace lidar_rear", "redundant.arch", ["replace", "lidar_rear"]),
+    ("chain5 replace stage0", "chain5.arch", ["replace", "stage0"]),
+    ("chatter migrate", "chatter.arch", ["migrate", str(EX / "chatter.arch"), str(EX / "chatter_migrated.arch")]),
 ]
 
 
@@ -43,11 +40,11 @@ def pct(xs: list[float], q: float) -> float:
     return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))] if xs else float("nan")
 
 
-def measure(arch: str, args: list[str], ready: list[str], strategy: str, work: Path) -> dict[str, Any]:
+def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, Any]:
     with LiveSystem(work) as live:
         live.watch()
         live.deploy(str(EX / arch))
-        live.wait_ready(ready, timeout=30)
+        live.wait_ready(timeout=30)
         plan_args = list(args) + ([] if args[0] == "migrate" else ["-f", str(EX / arch)]) + ["--strategy", strategy]
         script = live.plan_script(plan_args)
         t0 = time.monotonic()
@@ -127,9 +124,7 @@ def measure_big(work: Path, n: int) -> dict[str, Any]:
     with LiveSystem(work) as live:
         live.watch()
         live.deploy(str(arch), per_process=10)
-        from reconf_dsl.loader import load
-        names = [c.name for c in load([str(arch)]).components]
-        live.wait_ready(names, timeout=90)
+        live.wait_ready(timeout=90)
         script = live.plan_script(["replace", "hub", "-f", str(arch)])
         t0 = time.monotonic()
         res = live.run_plan(script)
@@ -162,13 +157,13 @@ def main() -> None:
           "lost | steps degraded | s degraded |")
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for name, arch, plan_args, ready in SCENARIOS:
+        for name, arch, plan_args in SCENARIOS:
             if args.only not in name:
                 continue
             for strategy in args.strategies.split(","):
                 runs = []
                 for i in range(args.runs):
-                    r = measure(arch, plan_args, ready, strategy, Path(tmp) / f"{len(name)}-{strategy}-{i}")
+                    r = measure(arch, plan_args, strategy, Path(tmp) / f"{len(name)}-{strategy}-{i}")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
                     runs.append(r)

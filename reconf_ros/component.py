@@ -22,8 +22,8 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .executor import STATUS_PREFIX, join_list, split_list
-from .model import Component, Functionality, Input, Output
+from .executor import STATUS_PREFIX, join_list
+from .model import Component, Functionality, Output
 from .monitor import GAP_FACTOR, Monitor
 
 __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
@@ -44,7 +44,7 @@ class ComponentNode(LifecycleNode):
     def __init__(self, component: Component, *, namespace: str = "", gap_factor: float = GAP_FACTOR,
                  status_period: float = 1.0, deployed: Optional[dict[str, list[str]]] = None) -> None:
         super().__init__(component.name, namespace=namespace or None)
-        self.component, self.model = component, component
+        self.component = component
         component.node = self
         self.monitor = Monitor(component, gap_factor)
         self.active = False
@@ -125,14 +125,16 @@ class ComponentNode(LifecycleNode):
         return next(f for f in self.component.functionalities if f.name == name)
 
     def set_mode(self, name: str, mode: str) -> None:
-        if self.modes[name] == mode and (name in self.mode_timers) == bool(self.functionality(name).mode(mode).rate):
-            return
+        m = self.functionality(name).mode(mode)
+        timed = m.rate is not None and m.callback is not None
+        if self.modes[name] == mode and (name in self.mode_timers) == timed:
+            return      # already so (a first activation still starts a timed degraded mode)
         old = self.mode_timers.pop(name, None)
         if old is not None:
             self.destroy_timer(old)
         self.modes[name] = mode
-        m = self.functionality(name).mode(mode)
-        if m.rate is not None and m.callback is not None:
+        if timed:
+            assert m.rate is not None and m.callback is not None
             self.mode_timers[name] = self.create_timer(1.0 / float(m.rate.hz), self._runner(name, m.callback))
         self.get_logger().info(f"{name} is {mode}")
         self._changed()
@@ -297,9 +299,11 @@ class ComponentNode(LifecycleNode):
         """Attach as deployed, then make each functionality normal once its assumptions are met
         on the wire; the node's own safe start, used before any plan runs."""
         assert self.deployed is not None
+        changed = False
         for port, conns in list(self.deployed.items()):
             if sorted(conns) != self.attached[port]:
                 why = self.set_attachments(port, conns)
+                changed = True
                 if why:
                     self.get_logger().error(f"cannot attach {port} as deployed: {why}")
                     self.deployed.pop(port)
@@ -307,9 +311,11 @@ class ComponentNode(LifecycleNode):
         for f in pending:
             if not self.monitor.verdicts[f].startswith("not met"):
                 self.set_mode(f, "normal")
+                changed = True
         if not pending:
             self.deployed = None
-        self._store_params()
+        if changed:
+            self._store_params()
 
     # --- lifecycle ---
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -11,7 +11,7 @@ from reconf_dsl.ir import Component as IrComponent
 from reconf_dsl.ir import Predicate as IrPredicate
 from reconf_dsl.ir import System
 
-from .model import Component, Output, Rate, parse_predicate
+from .model import Component, Output, Rate
 
 __all__ = ["from_architecture"]
 
@@ -40,9 +40,8 @@ def from_architecture(system: System, name: str) -> Component:
     for p in ir.ports:
         if p.kind == "input":
             a = p.assumption
-            ports[p.name] = comp.create_input(p.name, types[p.message], None, alias=p.message)
-            if a is not None:
-                ports[p.name].assumption = parse_predicate(str(a))
+            ports[p.name] = comp.create_input(p.name, types[p.message], None if a is None else _rate(a),
+                                              alias=p.message)
         else:
             ports[p.name] = comp.create_output(p.name, types[p.message], alias=p.message)
     for f in ir.functionalities:

@@ -10,6 +10,8 @@ every process ended by its PID at the end (docs/runtime.md#testing).
 """
 from __future__ import annotations
 
+import ctypes
+import importlib.util
 import itertools
 import json
 import os
@@ -27,11 +29,16 @@ _COUNTER = itertools.count()
 
 
 def ros_available() -> bool:
+    return importlib.util.find_spec("rclpy") is not None
+
+
+def _die_with_parent() -> None:
+    """In the child: end it (SIGTERM) when the process that started it dies, so a test run that
+    is itself killed leaves no node behind (Linux PR_SET_PDEATHSIG)."""
     try:
-        import rclpy  # noqa: F401
-    except ImportError:
-        return False
-    return True
+        ctypes.CDLL(None).prctl(1, signal.SIGTERM)
+    except (OSError, AttributeError):
+        pass
 
 
 def domain_id() -> int:
@@ -51,13 +58,15 @@ class LiveSystem:
         self.procs: list[subprocess.Popen[bytes]] = []
         self.pids: set[int] = set()
         self.status_file = self.dir / "statuses.json"
+        self.deployed: list[str] = []
         self.watcher: Optional[subprocess.Popen[bytes]] = None
 
     # --- processes ---
     def start(self, argv: Sequence[str], log: str) -> subprocess.Popen[bytes]:
         with open(self.dir / log, "ab") as fh:
             proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
-                                    stderr=subprocess.STDOUT, start_new_session=True, cwd=self.dir)
+                                    stderr=subprocess.STDOUT, start_new_session=True, cwd=self.dir,
+                                    preexec_fn=_die_with_parent)
         self.procs.append(proc)
         self.pids.add(proc.pid)
         return proc
@@ -70,6 +79,7 @@ class LiveSystem:
         from reconf_dsl.loader import load
         system = load([arch])
         names = list(components) if components is not None else [c.name for c in system.components]
+        self.deployed += names
         argvs: list[list[str]] = []
         for name in names:
             comp = system.component(name)
@@ -106,8 +116,10 @@ class LiveSystem:
             time.sleep(0.1)
         return False
 
-    def wait_ready(self, components: Sequence[str], timeout: float = 20.0) -> None:
-        """Until each component reports every functionality normal and its assumptions met."""
+    def wait_ready(self, components: Optional[Sequence[str]] = None, timeout: float = 20.0) -> None:
+        """Until each component (by default, each deployed) reports every functionality normal and
+        its assumptions met."""
+        components = self.deployed if components is None else components
         def ready(st: dict[str, Any]) -> bool:
             for c in components:
                 v = st.get(f"/{c}", {}).get("values", {})

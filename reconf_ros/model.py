@@ -15,7 +15,7 @@ __all__ = ["Component", "Functionality", "Input", "Output", "Mode", "Predicate",
            "ModelError"]
 
 MsgType = Union[str, type]
-RateLike = Union[int, float, Fraction, str, None]
+RateLike = Union[int, float, Fraction, str, "Rate", None]
 
 
 class ModelError(ValueError):

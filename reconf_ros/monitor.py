@@ -48,6 +48,11 @@ class InputStats:
     needed_since: Optional[float] = None
     publishers: dict[str, int] = field(default_factory=dict)   # connector -> matched publishers
 
+    def waited(self, now: float) -> float:
+        """How long a normal functionality relying on this input has waited for a message."""
+        assert self.needed_since is not None
+        return now - (self.needed_since if self.last is None else max(self.last, self.needed_since))
+
     def period_limit(self, factor: float) -> Optional[float]:
         hz = self.port.assumption.hz
         return None if hz is None else factor / float(hz)
@@ -68,10 +73,8 @@ class Monitor:
     # --- arrivals ---
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
         st = self.inputs[port]
-        if st.last is not None and st.needed_since is not None:
-            st.max_gap = max(st.max_gap, now - max(st.last, st.needed_since))
-        elif st.needed_since is not None:
-            st.max_gap = max(st.max_gap, now - st.needed_since)
+        if st.needed_since is not None:
+            st.max_gap = max(st.max_gap, st.waited(now))
         st.last, st.received = now, st.received + 1
         st.window.append(now)
         while st.window and st.window[0] < now - RATE_WINDOW:
@@ -154,8 +157,7 @@ class Monitor:
             if name in needed:
                 if st.needed_since is None:
                     st.needed_since = now
-                start = st.needed_since if st.last is None else max(st.last, st.needed_since)
-                st.max_gap = max(st.max_gap, now - start)
+                st.max_gap = max(st.max_gap, st.waited(now))
             else:
                 st.needed_since = None
         return changed

@@ -11,10 +11,10 @@ from dataclasses import replace as dc_replace
 
 from reconf_dsl.ir import System
 
-from ..actions import Degrade, effect, failing_assumptions
+from ..actions import Degrade, effect
 from ..config import Configuration
 from .operations import solve
-from .plan import Goal, NoSafePlan, Plan, Problem, disruption, settle
+from .plan import Goal, Plan, Problem, disruption, settle
 
 __all__ = ["plan_recovery"]
 
@@ -26,14 +26,8 @@ def plan_recovery(system: System, observed: Configuration, target: Configuration
     states = [observed]
     for a in emergency:
         states.append(effect(system, states[-1], a))
-    start = states[-1]
-    if failing_assumptions(system, start):
-        raise NoSafePlan(["degrading what fails does not make the observed configuration valid"])
+    start = states[-1]       # valid: settle degrades until nothing fails
     goal = Goal(target.components, target.roles, target.degraded)
-    known = {c.name for c in system.components + system.versions}
-    unknown = sorted(target.components - known)
-    if unknown:
-        raise NoSafePlan([f"the target needs {', '.join(unknown)}, which the model does not declare"])
     deployed = tuple(c for c in system.components + system.versions if c.name in start.components)
     rest = tuple(c for c in system.components + system.versions if c.name not in start.components)
     base = dc_replace(system, components=deployed, versions=rest)

@@ -15,7 +15,7 @@ from .conftest import example
 def deploy_chatter(live: LiveSystem, strategy: str = "default") -> object:
     arch = example("chatter.arch")
     live.deploy(arch)
-    live.wait_ready(["talker", "listener"])
+    live.wait_ready()
     return live.plan_script(["replace", "talker", "-f", arch, "--strategy", strategy])
 
 

@@ -32,14 +32,17 @@ def applied(live: LiveSystem, res: Any) -> dict[str, Any]:
     return statuses
 
 
+def planned(live: LiveSystem, arch: str, *plan: str) -> dict[str, Any]:
+    """Deploy `arch`, wait until it is up, plan `plan` on it, run the script; what the nodes saw."""
+    live.deploy(example(arch))
+    live.wait_ready()
+    files = [] if plan[0] == "migrate" else ["-f", example(arch)]
+    return applied(live, live.run_plan(live.plan_script([*plan, *files])))
+
+
 @pytest.mark.parametrize("strategy", ["default", "paper"])
 def test_replace_talker(live: LiveSystem, strategy: str) -> None:
-    arch = example("chatter.arch")
-    live.deploy(arch)
-    live.wait_ready(["talker", "listener"])
-    script = live.plan_script(["replace", "talker", "-f", arch, "--strategy", strategy])
-    res = live.run_plan(script)
-    statuses = applied(live, res)
+    statuses = planned(live, "chatter.arch", "replace", "talker", "--strategy", strategy)
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
     assert statuses["/talker_v2"]["values"]["mode.talk"] == "normal"
@@ -49,43 +52,27 @@ def test_replace_talker(live: LiveSystem, strategy: str) -> None:
 
 
 def test_remove_obstacle_detector(live: LiveSystem) -> None:
-    arch = example("robot.arch")
-    live.deploy(arch)
-    live.wait_ready(["obstacle_detector", "motor_controller", "base_driver"])
-    script = live.plan_script(["remove", "obstacle_detector", "-f", arch])
-    statuses = applied(live, live.run_plan(script))
+    statuses = planned(live, "robot.arch", "remove", "obstacle_detector")
     mc = statuses["/motor_controller"]["values"]
     assert mc["mode.control"] == "degraded" and mc["port.in"] == "/obstacles"   # left degraded: nothing publishes
     assert statuses["/base_driver"]["values"]["mode.drive"] == "normal"
 
 
 def test_replace_one_of_two_redundant_publishers(live: LiveSystem) -> None:
-    arch = example("redundant.arch")
-    live.deploy(arch)
-    live.wait_ready(["lidar_front", "lidar_rear", "mapper"])
-    script = live.plan_script(["replace", "lidar_rear", "-f", arch])
-    statuses = applied(live, live.run_plan(script))
+    statuses = planned(live, "redundant.arch", "replace", "lidar_rear")
     assert statuses["/mapper"]["values"]["mode.map"] == "normal"
     received, lost, head = source(statuses, "mapper", "scan", "lidar_rear_v2")
     assert received > 0 and lost == 0 and head == 0
 
 
 def test_replace_the_head_of_the_chain(live: LiveSystem) -> None:
-    arch = example("chain5.arch")
-    live.deploy(arch)
-    live.wait_ready([f"stage{i}" for i in range(5)])
-    script = live.plan_script(["replace", "stage0", "-f", arch])
-    statuses = applied(live, live.run_plan(script))
+    statuses = planned(live, "chain5.arch", "replace", "stage0")
     assert all(statuses[f"/stage{i}"]["values"]["mode.step"] == "normal" for i in range(1, 5))
     assert statuses["/stage0_v2"]["values"]["mode.step"] == "normal"
 
 
 def test_migration(live: LiveSystem) -> None:
-    arch = example("chatter.arch")
-    live.deploy(arch)
-    live.wait_ready(["talker", "listener"])
-    script = live.plan_script(["migrate", arch, example("chatter_migrated.arch")])
-    statuses = applied(live, live.run_plan(script))
+    statuses = planned(live, "chatter.arch", "migrate", example("chatter.arch"), example("chatter_migrated.arch"))
     for comp in ("listener", "logger"):
         received, lost, head = source(statuses, comp, "in", "talker_fast")
         assert received > 0 and lost == 0 and head == 0, (comp, statuses[f"/{comp}"]["values"])
