@@ -36,6 +36,7 @@ DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=Re
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 MODES = ("normal", "degraded")
+TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silence a gap
 
 
 class ComponentNode(LifecycleNode):
@@ -75,7 +76,8 @@ class ComponentNode(LifecycleNode):
         self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
         limits = [self.monitor.inputs[i.name].period_limit(gap_factor) for i in component.inputs]
         period = min([0.05] + [x / 4 for x in limits if x])
-        self.create_timer(max(period, 0.005), self._check)
+        self.check_period = max(period, 0.005)
+        self.create_timer(self.check_period, self._tick)
         self.create_timer(status_period, self.publish_status)
         self._dirty = True
 
@@ -212,10 +214,12 @@ class ComponentNode(LifecycleNode):
 
     def _on_message(self, key: tuple[str, str], msg: Any, info: Any) -> None:
         port, topic = key
-        now = time.monotonic()
-        gid = bytes(info.get("publisher_gid", {}).get("data", b"")) if isinstance(info, dict) else b""
-        seq = info.get("publication_sequence_number") if isinstance(info, dict) else None
-        self._check(now)      # a gap that ends now is judged before the message closes it
+        info = info if isinstance(info, dict) else {}
+        received = info.get("received_timestamp")
+        now = received / 1e9 if received else time.time()     # when the middleware received it
+        gid = bytes(info.get("publisher_gid", {}).get("data", b""))
+        seq = info.get("publication_sequence_number")
+        self._check(now)      # a gap that ends now is judged, exactly, before the message closes it
         fresh_before = self.monitor.fresh_sources(port, now)
         self.monitor.on_message(port, now, gid, seq, self._source(topic, gid))
         self.last[port] = msg
@@ -249,9 +253,12 @@ class ComponentNode(LifecycleNode):
         return True
 
     # --- monitor and status ---
-    def _check(self, now: Optional[float] = None) -> None:
-        now = time.monotonic() if now is None else now
-        if self.monitor.check(now, self.modes if self.active else {}, self.attached):
+    def _tick(self) -> None:
+        # a silence is judged with the timer's own period and scheduling as grace
+        self._check(time.time(), grace=self.check_period + TICK_GRACE)
+
+    def _check(self, now: float, grace: float = 0.0) -> None:
+        if self.monitor.check(now, self.modes if self.active else {}, self.attached, grace):
             self._changed()
         if self.deployed is not None and self.active:
             self._bring_up()
@@ -262,7 +269,7 @@ class ComponentNode(LifecycleNode):
         self._dirty = True
 
     def status(self) -> dict[str, str]:
-        now = time.monotonic()
+        now = time.time()
         out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
                "pid": str(os.getpid()), "errors": str(len(self.errors))}
         out.update({f"mode.{f}": m for f, m in self.modes.items()})

@@ -508,8 +508,8 @@ class Executor:
                 continue
             try:
                 lc = self.rt.lifecycle(fqn)
-            except StepFailed:
-                seen[c] = Observed(c, "absent", {}, {})
+            except StepFailed:    # in the graph, but not answering: say so, do not guess
+                seen[c] = Observed(c, "unresponsive", {}, {})
                 continue
             if lc != "active":
                 seen[c] = Observed(c, "absent" if lc == "finalized" else lc, {}, {})
@@ -787,6 +787,7 @@ class Executor:
         observed = self.as_state(seen)
         diffs = self.model.differences(start, observed, hood)
         if diffs:
+            self.unusual(seen)
             return self.stale(first, observed, diffs, hood)
         watched = hood & start.components
         self.wait_status_all(watched)
@@ -845,6 +846,12 @@ class Executor:
         want = list(comps)
         self.rt.wait(lambda: all(self.rt.status(self.fqn(c)) is not None for c in want), 3.0)
 
+    def unusual(self, seen: dict[str, Observed]) -> None:
+        """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
+        for c, o in sorted(seen.items()):
+            if o.lifecycle not in ("absent", "active"):
+                print(f"    ({c} is {o.lifecycle}: not counted as present)", file=self.err)
+
     def stale(self, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
         print(f"refusing to apply: the live system does not match the plan's state before step {first}:",
               file=self.err)
@@ -872,9 +879,7 @@ class Executor:
             observed, seen = None, {}
         if observed is not None:
             print("Observed configuration (read from the running nodes):\n    " + observed.describe(), file=self.err)
-            odd = [f"{c} is {o.lifecycle}" for c, o in sorted(seen.items()) if o.lifecycle not in ("absent", "active")]
-            for line in odd:
-                print(f"    ({line}: not counted as present)", file=self.err)
+            self.unusual(seen)
             bad = self.model.failures(observed)
             if bad:
                 print("It is NOT valid:", file=self.err)

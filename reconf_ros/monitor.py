@@ -10,6 +10,11 @@ functionalities' assumptions are met. docs/runtime.md states the rule:
 
 A *violation* is a stretch of time in which a functionality is in its normal mode and one of
 its observed assumptions is not met: the safety property of DESIGN.md §3, on the wire.
+
+Times are the middleware's: an arrival is timed by its reception timestamp, so a node that is
+itself slow to run its callbacks does not mistake its own delay for a gap on the wire. A gap is
+judged exactly when the message that ends it arrives; a silence is judged by a timer, which
+allows itself `grace` (its own period and scheduling) before it calls a gap a violation.
 """
 from __future__ import annotations
 
@@ -51,7 +56,7 @@ class InputStats:
     def waited(self, now: float) -> float:
         """How long a normal functionality relying on this input has waited for a message."""
         assert self.needed_since is not None
-        return now - (self.needed_since if self.last is None else max(self.last, self.needed_since))
+        return max(0.0, now - (self.needed_since if self.last is None else max(self.last, self.needed_since)))
 
     def period_limit(self, factor: float) -> Optional[float]:
         hz = self.port.assumption.hz
@@ -75,6 +80,7 @@ class Monitor:
         st = self.inputs[port]
         if st.needed_since is not None:
             st.max_gap = max(st.max_gap, st.waited(now))
+        now = max(now, st.last or now)     # reception order, in case timestamps disagree by a hair
         st.last, st.received = now, st.received + 1
         st.window.append(now)
         while st.window and st.window[0] < now - RATE_WINDOW:
@@ -104,7 +110,7 @@ class Monitor:
     def _observers(self, f: Functionality, a: Predicate) -> list[InputStats]:
         return [self.inputs[i.name] for i in f.inputs if i.assumption.satisfies(a)]
 
-    def judge(self, f: Functionality, now: float, attached: dict[str, list[str]]) -> str:
+    def judge(self, f: Functionality, now: float, attached: dict[str, list[str]], grace: float = 0.0) -> str:
         """"met", "unobserved" (only environment assumptions) or "not met: why", for f's normal mode."""
         observed = False
         for a in f.normal.assumes:
@@ -124,7 +130,7 @@ class Monitor:
                     why.append(f"{name} has no publisher")
                     continue
                 limit = self.factor / float(a.hz)
-                if st.last is not None and now - st.last <= limit:
+                if st.last is not None and now - st.last <= limit + grace:
                     break
                 age = "nothing received" if st.last is None else f"last message {now - st.last:.3f} s ago"
                 why.append(f"{name}: {age} (limit {limit:.3f} s for {a})")
@@ -132,12 +138,13 @@ class Monitor:
                 return "not met: " + "; ".join(why)
         return "met" if observed else "unobserved"
 
-    def check(self, now: float, modes: dict[str, str], attached: dict[str, list[str]]) -> bool:
-        """Update every verdict and violation; True when something a status shows changed."""
+    def check(self, now: float, modes: dict[str, str], attached: dict[str, list[str]], grace: float = 0.0) -> bool:
+        """Update every verdict and violation at `now` (a timer passes its `grace`); True when
+        something a status shows changed."""
         changed = False
         needed: set[str] = set()
         for f in self.component.functionalities:
-            verdict = self.judge(f, now, attached)
+            verdict = self.judge(f, now, attached, grace)
             if verdict.split(":")[0] != self.verdicts[f.name].split(":")[0]:
                 changed = True
             self.verdicts[f.name] = verdict
@@ -151,7 +158,7 @@ class Monitor:
                 self.history.append((now, f.name, verdict))
                 changed = True
             elif not bad and f.name in self.violating:
-                self.violation_seconds += now - self.violating.pop(f.name)
+                self.violation_seconds += max(0.0, now - self.violating.pop(f.name))
                 changed = True
         for name, st in self.inputs.items():
             if name in needed:

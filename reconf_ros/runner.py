@@ -14,14 +14,14 @@ import importlib
 import sys
 from typing import Optional
 
+from typing import TYPE_CHECKING
+
 import click
 
-from checker.report import render_text
-from reconf_dsl.diagnostics import DiagnosticError
-from reconf_dsl.ir import System
-from reconf_dsl.loader import Sources, load
-
 from .model import Component, ModelError, components_to_arch
+
+if TYPE_CHECKING:
+    from reconf_dsl.ir import System
 
 
 def _factory(target: str) -> Component:
@@ -40,7 +40,12 @@ def _factory(target: str) -> Component:
     return comp
 
 
-def _load(path: str) -> System:
+def _load(path: str) -> "System":
+    # Imported here, not at the top: a node a plan starts (MODULE:FACTORY) needs none of it, and
+    # its start-up competes for the CPU with the nodes already running.
+    from checker.report import render_text
+    from reconf_dsl.diagnostics import DiagnosticError
+    from reconf_dsl.loader import Sources, load
     sources = Sources()
     try:
         return load([path], sources)

@@ -92,6 +92,8 @@ def test_monitor_rule() -> None:
     m.on_message("in", 1.2, b"a", 2, "talker")
     m.check(1.34, {"listen": "normal"}, attached)
     assert m.violations == 0
+    m.check(1.36, {"listen": "normal"}, attached, grace=0.05)   # a timer allows for its own delay
+    assert m.violations == 0
     m.check(1.36, {"listen": "normal"}, attached)            # 0.16 s > 1.5 x 0.1 s
     assert m.violations == 1 and m.verdicts["listen"].startswith("not met")
     m.on_message("in", 1.4, b"a", 5, "talker")               # two messages of talker lost

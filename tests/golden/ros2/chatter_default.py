@@ -324,13 +324,12 @@ class Runtime:
     def __init__(self, name: str, namespace: str, timeout: float) -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
-        from lifecycle_msgs.msg import State as LcState
         from lifecycle_msgs.msg import Transition
         from lifecycle_msgs.srv import ChangeState, GetState
         from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
         from rcl_interfaces.srv import GetParameters, SetParameters
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-        self.rclpy, self.LcState, self.Transition = rclpy, LcState, Transition
+        self.rclpy, self.Transition = rclpy, Transition
         self.ChangeState, self.GetState = ChangeState, GetState
         self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
         self.GetParameters, self.SetParameters = GetParameters, SetParameters
@@ -339,7 +338,7 @@ class Runtime:
         self.namespace = f"/{ns}" if ns else ""
         self.deadline = float("inf")
         self.clients: dict[str, Any] = {}
-        self.statuses: dict[str, tuple[float, dict[str, str]]] = {}
+        self.statuses: dict[str, dict[str, str]] = {}   # node fqn -> its last status
         rclpy.init()
         safe = "".join(ch if ch.isalnum() else "_" for ch in name)
         self.node = rclpy.create_node(f"reconf_plan_{safe}_{os.getpid()}")
@@ -354,14 +353,12 @@ class Runtime:
             pass
 
     def _on_status(self, msg: Any) -> None:
-        now = time.monotonic()
         for st in msg.status:
             if st.name.startswith(STATUS_PREFIX):
-                self.statuses[st.name[len(STATUS_PREFIX):]] = (now, parse_status(st.values))
+                self.statuses[st.name[len(STATUS_PREFIX):]] = parse_status(st.values)
 
     def status(self, fqn: str) -> Optional[dict[str, str]]:
-        got = self.statuses.get(fqn)
-        return None if got is None else got[1]
+        return self.statuses.get(fqn)
 
     def spin(self, seconds: float) -> None:
         end = time.monotonic() + seconds
@@ -420,9 +417,10 @@ class Runtime:
             cli.remove_pending_request(fut)
         raise StepFailed(f"no answer from {name} within {self.timeout} s")
 
-    def lifecycle(self, fqn: str) -> tuple[int, str]:
+    def lifecycle(self, fqn: str) -> str:
+        """The node's lifecycle state, by label (`active`, `inactive`, …)."""
         res = self.call(self.GetState, f"{fqn}/get_state", self.GetState.Request(), read_only=True)
-        return res.current_state.id, res.current_state.label
+        return str(res.current_state.label)
 
     def transition(self, fqn: str, transition_id: int, name: str) -> None:
         req = self.ChangeState.Request()
@@ -503,10 +501,10 @@ class Executor:
         print(text, file=self.out, flush=True)
 
     # --- observation ---
-    def observe(self, comps: Iterable[str], present: Optional[set[str]] = None) -> dict[str, Observed]:
+    def observe(self, comps: Iterable[str]) -> dict[str, Observed]:
         """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
         or finalized)."""
-        graph = set(self.rt.nodes()) if present is None else present
+        graph = set(self.rt.nodes())
         seen: dict[str, Observed] = {}
         for c in sorted(comps):
             fqn = self.fqn(c)
@@ -514,9 +512,9 @@ class Executor:
                 seen[c] = Observed(c, "absent", {}, {})
                 continue
             try:
-                _, lc = self.rt.lifecycle(fqn)
-            except StepFailed:
-                seen[c] = Observed(c, "absent", {}, {})
+                lc = self.rt.lifecycle(fqn)
+            except StepFailed:    # in the graph, but not answering: say so, do not guess
+                seen[c] = Observed(c, "unresponsive", {}, {})
                 continue
             if lc != "active":
                 seen[c] = Observed(c, "absent" if lc == "finalized" else lc, {}, {})
@@ -634,7 +632,7 @@ class Executor:
         self.wire_after(step, after)
 
     def expect_active(self, comp: str, when: str) -> None:
-        _, lc = self.rt.lifecycle(self.fqn(comp))
+        lc = self.rt.lifecycle(self.fqn(comp))
         if lc != "active":
             raise StepFailed(f"{when}, {comp} is in lifecycle state {lc!r}")
 
@@ -673,7 +671,7 @@ class Executor:
                                  f"(see {log})")
         if self.rt.nodes().count(fqn) > 1:
             raise StepFailed(f"two nodes named {fqn} are running")
-        sid, lc = self.rt.lifecycle(fqn)
+        lc = self.rt.lifecycle(fqn)
         if lc == "unconfigured":
             self.rt.transition(fqn, self.rt.Transition.TRANSITION_CONFIGURE, "configure")
         elif lc != "inactive":
@@ -683,7 +681,7 @@ class Executor:
     def do_remove(self, step: dict[str, Any]) -> None:
         comp = step["component"]
         fqn = self.fqn(comp)
-        _, lc = self.rt.lifecycle(fqn)
+        lc = self.rt.lifecycle(fqn)
         if lc not in ("active", "inactive"):
             raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
         ports = [p["name"] for p in self.model.comps[comp]["ports"]]
@@ -697,7 +695,7 @@ class Executor:
         self.rt.transition(fqn, self.rt.Transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
         # finalized: the node may exit at once, which counts as removed
         try:
-            _, lc = self.rt.lifecycle(fqn)
+            lc = self.rt.lifecycle(fqn)
         except StepFailed:
             lc = "finalized"
         if lc != "finalized":
@@ -794,6 +792,7 @@ class Executor:
         observed = self.as_state(seen)
         diffs = self.model.differences(start, observed, hood)
         if diffs:
+            self.unusual(seen)
             return self.stale(first, observed, diffs, hood)
         watched = hood & start.components
         self.wait_status_all(watched)
@@ -852,6 +851,12 @@ class Executor:
         want = list(comps)
         self.rt.wait(lambda: all(self.rt.status(self.fqn(c)) is not None for c in want), 3.0)
 
+    def unusual(self, seen: dict[str, Observed]) -> None:
+        """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
+        for c, o in sorted(seen.items()):
+            if o.lifecycle not in ("absent", "active"):
+                print(f"    ({c} is {o.lifecycle}: not counted as present)", file=self.err)
+
     def stale(self, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
         print(f"refusing to apply: the live system does not match the plan's state before step {first}:",
               file=self.err)
@@ -879,9 +884,7 @@ class Executor:
             observed, seen = None, {}
         if observed is not None:
             print("Observed configuration (read from the running nodes):\n    " + observed.describe(), file=self.err)
-            odd = [f"{c} is {o.lifecycle}" for c, o in sorted(seen.items()) if o.lifecycle not in ("absent", "active")]
-            for line in odd:
-                print(f"    ({line}: not counted as present)", file=self.err)
+            self.unusual(seen)
             bad = self.model.failures(observed)
             if bad:
                 print("It is NOT valid:", file=self.err)
