@@ -38,6 +38,11 @@ from typing import Any, Callable, Iterable, Optional
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
 STATUS_PREFIX = "reconf:"
+# Fast DDS announces each participant every 3 s; a node that missed the executor's first
+# announcements (e.g. it still held the last run's executor at the same port) is heard at its
+# next one. So the graph is read after one period and a margin, and once it has been quiet.
+DISCOVERY_ROUND = 3.5
+GRAPH_QUIET = 1.0
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
@@ -385,7 +390,10 @@ class Runtime:
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
 
     def nodes(self) -> list[str]:
-        return [f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()]
+        """Nodes discovered in the graph, and nodes heard on /diagnostics (a reconf node publishes
+        its status at least once a second, which discovery may not have caught up with)."""
+        graph = [f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()]
+        return graph + sorted(set(self.statuses) - set(graph))
 
     def client(self, srv_type: Any, name: str) -> Any:
         if name not in self.clients:
@@ -546,10 +554,21 @@ class Executor:
         return comps & set(self.model.comps)
 
     def settle(self, expected: Iterable[str], seconds: float) -> None:
-        """Let discovery see every node the plan expects running (bounded), then a little more."""
+        """Let discovery catch up before reading the graph (bounded by `seconds`): every node the
+        plan expects running seen, one announcement period passed, and the graph unchanged for a
+        while. A node the plan expects absent but that runs must not be missed (a re-run would
+        start a second one)."""
         want = {self.fqn(c) for c in expected}
-        self.rt.wait(lambda: want <= set(self.rt.nodes()), seconds)
-        self.rt.spin(0.3)
+        start = time.monotonic()
+        seen, since = set(self.rt.nodes()), start
+
+        def quiet() -> bool:
+            nonlocal seen, since
+            now, nodes = time.monotonic(), set(self.rt.nodes())
+            if nodes != seen:
+                seen, since = nodes, now
+            return want <= nodes and now - start >= DISCOVERY_ROUND and now - since >= GRAPH_QUIET
+        self.rt.wait(quiet, seconds)
 
     # --- the wire ---
     def wait_status(self, comp: str, cond: Callable[[dict[str, str]], bool], seconds: float) -> bool:
