@@ -119,6 +119,7 @@ def big_system(path: Path, n: int = 50) -> None:
 
 
 def measure_big(work: Path, n: int) -> dict[str, Any]:
+    work.mkdir(parents=True, exist_ok=True)
     arch = work / "big.arch"
     big_system(arch, n)
     with LiveSystem(work) as live:
