@@ -74,12 +74,18 @@ class ComponentNode(LifecycleNode):
         self._store_params()
         self.add_on_set_parameters_callback(self._on_set)
         self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
-        limits = [self.monitor.inputs[i.name].period_limit(gap_factor) for i in component.inputs]
-        period = min([0.05] + [x / 4 for x in limits if x])
-        self.check_period = max(period, 0.005)
-        self.create_timer(self.check_period, self._tick)
-        self.create_timer(status_period, self.publish_status)
-        self._dirty = True
+        # No polling: a silence timer per rated input, restarted by each arrival, fires only when
+        # the input has been silent for its gap limit; changes are flushed through a guard
+        # condition; the status is repeated at `status_period` (docs/runtime.md#cost).
+        self.silence: dict[str, Any] = {}
+        for i in component.inputs:
+            limit = self.monitor.inputs[i.name].period_limit(gap_factor)
+            if limit:
+                self.silence[i.name] = self.create_timer(limit, self._tick)
+        self.create_timer(status_period, self._repeat_status)
+        self._dirty = False
+        self._flush = self.create_guard_condition(self._tick)
+        self._changed()
 
     # --- parameters: the control interface ---
     def _store_params(self) -> None:
@@ -222,6 +228,8 @@ class ComponentNode(LifecycleNode):
         self._check(now)      # a gap that ends now is judged, exactly, before the message closes it
         fresh_before = self.monitor.fresh_sources(port, now)
         self.monitor.on_message(port, now, gid, seq, self._source(topic, gid))
+        if port in self.silence:
+            self.silence[port].reset()
         self.last[port] = msg
         if self.monitor.fresh_sources(port, now) != fresh_before:
             self._changed()
@@ -254,8 +262,12 @@ class ComponentNode(LifecycleNode):
 
     # --- monitor and status ---
     def _tick(self) -> None:
-        # a silence is judged with the timer's own period and scheduling as grace
-        self._check(time.time(), grace=self.check_period + TICK_GRACE)
+        # a silence is judged with the timer's scheduling as grace
+        self._check(time.time(), grace=TICK_GRACE)
+
+    def _repeat_status(self) -> None:
+        self._dirty = True
+        self._check(time.time(), grace=TICK_GRACE)
 
     def _check(self, now: float, grace: float = 0.0) -> None:
         if self.monitor.check(now, self.modes if self.active else {}, self.attached, grace):
@@ -266,7 +278,9 @@ class ComponentNode(LifecycleNode):
             self.publish_status()
 
     def _changed(self) -> None:
-        self._dirty = True
+        if not self._dirty:
+            self._dirty = True
+            self._flush.trigger()
 
     def status(self) -> dict[str, str]:
         now = time.time()

@@ -14,7 +14,10 @@ its observed assumptions is not met: the safety property of DESIGN.md §3, on th
 Times are the middleware's: an arrival is timed by its reception timestamp, so a node that is
 itself slow to run its callbacks does not mistake its own delay for a gap on the wire. A gap is
 judged exactly when the message that ends it arrives; a silence is judged by a timer, which
-allows itself `grace` (its own period and scheduling) before it calls a gap a violation.
+allows itself `grace` before it calls a gap a violation. A timer's verdict is provisional: the
+timer may run while a message that arrived in time still waits for its callback, so when the
+next arrival shows the input was within its limit, the provisional violation is withdrawn. A
+gap is never lost this way: the arrival that ends it judges it exactly.
 """
 from __future__ import annotations
 
@@ -74,6 +77,7 @@ class Monitor:
         self.violations = 0
         self.violation_seconds = 0.0
         self.history: list[tuple[float, str, str]] = []   # (t, functionality, reason) of each violation
+        self.provisional: set[str] = set()     # violations only a timer has seen so far
 
     # --- arrivals ---
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
@@ -139,9 +143,10 @@ class Monitor:
         return "met" if observed else "unobserved"
 
     def check(self, now: float, modes: dict[str, str], attached: dict[str, list[str]], grace: float = 0.0) -> bool:
-        """Update every verdict and violation at `now` (a timer passes its `grace`); True when
-        something a status shows changed."""
+        """Update every verdict and violation at `now`; True when something a status shows changed.
+        A timer passes its `grace` (> 0) and its violations are provisional; an arrival passes 0."""
         changed = False
+        exact = grace == 0.0
         needed: set[str] = set()
         for f in self.component.functionalities:
             verdict = self.judge(f, now, attached, grace)
@@ -156,9 +161,19 @@ class Monitor:
                 self.violating[f.name] = now
                 self.violations += 1
                 self.history.append((now, f.name, verdict))
+                if not exact:
+                    self.provisional.add(f.name)
                 changed = True
+            elif bad and exact:
+                self.provisional.discard(f.name)       # an arrival confirms it
             elif not bad and f.name in self.violating:
-                self.violation_seconds += max(0.0, now - self.violating.pop(f.name))
+                since = self.violating.pop(f.name)
+                if exact and f.name in self.provisional:   # the timer ran ahead of a message on time
+                    self.violations -= 1
+                    self.history = [h for h in self.history if not (h[0] == since and h[1] == f.name)]
+                else:
+                    self.violation_seconds += max(0.0, now - since)
+                self.provisional.discard(f.name)
                 changed = True
         for name, st in self.inputs.items():
             if name in needed:

@@ -106,3 +106,26 @@ def test_monitor_rule() -> None:
     assert m.status(1.45)["in.in.from.talker_v2"] == "1/0/6"
     m.check(3.0, {"listen": "degraded"}, attached)           # degraded: no violation
     assert m.violations == 1
+
+
+def test_a_timer_ahead_of_a_message_on_time_is_withdrawn() -> None:
+    """A timer may judge a silence while a message that arrived in time waits for its callback;
+    the arrival withdraws that provisional violation, and a real gap is still counted."""
+    comp = Component("listener")
+    inp = comp.create_input("in", "std_msgs/msg/String", rate=10)
+    f = comp.create_functionality("listen", inputs=[inp])
+    f.set_normal_mode(lambda msg: None)
+    m = Monitor(comp, gap_factor=1.5)
+    attached, normal = {"in": ["/chatter"]}, {"listen": "normal"}
+    m.on_message("in", 1.0, b"a", 1, "talker")
+    m.check(1.0, normal, attached)
+    m.check(1.25, normal, attached, grace=0.05)               # the timer: 0.25 s > 0.15 + 0.05
+    assert m.violations == 1 and m.violating
+    m.check(1.14, normal, attached)                           # ... but a message came at 1.14
+    m.on_message("in", 1.14, b"a", 2, "talker")
+    assert m.violations == 0 and not m.violating and m.history == []
+    m.check(1.5, normal, attached, grace=0.05)                # a real silence: provisional ...
+    m.check(1.6, normal, attached)                            # ... confirmed by the arrival at 1.6
+    m.on_message("in", 1.6, b"a", 3, "talker")
+    m.check(1.6, normal, attached)
+    assert m.violations == 1 and not m.violating and m.violation_seconds == pytest.approx(0.1)
