@@ -38,6 +38,8 @@ STATUS_PREFIX = "reconf:"
 # next one. So the graph is read after one period and a margin, and once it has been quiet.
 DISCOVERY_ROUND = 3.5
 GRAPH_QUIET = 1.0
+STATUS_FRESH = 2.5    # s a status counts as a sign of life (nodes repeat theirs every second)
+RETRY_AFTER = 0.3     # s before a read-only call is repeated (then 0.6 s, then the full timeout)
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
@@ -321,7 +323,7 @@ class Runtime:
     """The ROS side: lifecycle and parameter services of each component's node, the graph, and
     the nodes' statuses on /diagnostics."""
 
-    def __init__(self, name: str, namespace: str, timeout: float) -> None:
+    def __init__(self, name: str, namespace: str, timeout: float, node_name: str = "") -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from lifecycle_msgs.msg import Transition
@@ -339,9 +341,14 @@ class Runtime:
         self.deadline = float("inf")
         self.clients: dict[str, Any] = {}
         self.statuses: dict[str, dict[str, str]] = {}   # node fqn -> its last status
+        self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
         rclpy.init()
         safe = "".join(ch if ch.isalnum() else "_" for ch in name)
-        self.node = rclpy.create_node(f"reconf_plan_{safe}_{os.getpid()}")
+        self.node = rclpy.create_node(node_name or f"reconf_plan_{safe}_{os.getpid()}",
+                                      namespace=self.namespace or None)
+        self.started_at = time.monotonic()               # discovery began here
+        self.graph_seen: set[str] = set()
+        self.graph_since = self.started_at                # the graph last changed here
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
 
@@ -355,7 +362,9 @@ class Runtime:
     def _on_status(self, msg: Any) -> None:
         for st in msg.status:
             if st.name.startswith(STATUS_PREFIX):
-                self.statuses[st.name[len(STATUS_PREFIX):]] = parse_status(st.values)
+                fqn = st.name[len(STATUS_PREFIX):]
+                self.statuses[fqn] = parse_status(st.values)
+                self.heard[fqn] = time.monotonic()
 
     def status(self, fqn: str) -> Optional[dict[str, str]]:
         return self.statuses.get(fqn)
@@ -388,7 +397,16 @@ class Runtime:
         """Nodes discovered in the graph, and nodes heard on /diagnostics (a reconf node publishes
         its status at least once a second, which discovery may not have caught up with)."""
         graph = [f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()]
-        return graph + sorted(set(self.statuses) - set(graph))
+        now = time.monotonic()
+        heard = {n for n, t in self.heard.items() if now - t <= STATUS_FRESH}
+        return graph + sorted(heard - set(graph))
+
+    def graph(self) -> set[str]:
+        """The nodes now, noting when the set last changed (see `Executor.settle`)."""
+        nodes = set(self.nodes())
+        if nodes != self.graph_seen:
+            self.graph_seen, self.graph_since = nodes, time.monotonic()
+        return nodes
 
     def client(self, srv_type: Any, name: str) -> Any:
         if name not in self.clients:
@@ -410,7 +428,7 @@ class Runtime:
             if not cli.wait_for_service(timeout_sec=min(self.timeout, self.left())):
                 raise StepFailed(f"service {name} is not available")
             fut = cli.call_async(request)
-            wait = min(self.timeout if attempt == tries else min(1.0, self.timeout), self.left())
+            wait = min(self.timeout if attempt == tries else min(RETRY_AFTER * attempt, self.timeout), self.left())
             self.rclpy.spin_until_future_complete(self.node, fut, timeout_sec=wait)
             if fut.done():
                 if fut.exception() is not None:
@@ -419,6 +437,57 @@ class Runtime:
             fut.cancel()
             cli.remove_pending_request(fut)
         raise StepFailed(f"no answer from {name} within {self.timeout} s")
+
+    def call_many(self, srv_type: Any, requests: dict[str, Any], attempts: int = 3) -> dict[str, Any]:
+        """Read-only calls to many services at once: service name -> answer, or the StepFailed
+        that explains why there is none. Unanswered calls are repeated, like `call`."""
+        answers: dict[str, Any] = {}
+        pending = dict(requests)
+        for attempt in range(1, attempts + 1):
+            ready = {n: self.client(srv_type, n) for n in pending}
+            self.wait(lambda: all(c.service_is_ready() for c in ready.values()), min(self.timeout, self.left()))
+            futs = {}
+            for n, cli in ready.items():
+                if cli.service_is_ready():
+                    futs[n] = cli.call_async(pending[n])
+                else:
+                    answers[n] = StepFailed(f"service {n} is not available")
+            wait = min(self.timeout if attempt == attempts else min(RETRY_AFTER * attempt, self.timeout), self.left())
+            self.wait(lambda: all(f.done() for f in futs.values()), wait)
+            pending = {}
+            for n, fut in futs.items():
+                if not fut.done():
+                    fut.cancel()
+                    ready[n].remove_pending_request(fut)
+                    pending[n] = requests[n]
+                    answers[n] = StepFailed(f"no answer from {n} within {self.timeout} s")
+                elif fut.exception() is not None:
+                    answers[n] = StepFailed(f"{n} failed: {fut.exception()}")
+                else:
+                    answers[n] = fut.result()
+            if not pending:
+                break
+        return answers
+
+    def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
+        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer)."""
+        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns})
+        return {n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                for n, r in res.items()}
+
+    def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
+        """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
+        reqs = {}
+        for fqn, names in wanted.items():
+            req = self.GetParameters.Request()
+            req.names = list(names)
+            reqs[f"{fqn}/get_parameters"] = req
+        res = self.call_many(self.GetParameters, reqs)
+        out: dict[str, Any] = {}
+        for fqn, names in wanted.items():
+            r = res[f"{fqn}/get_parameters"]
+            out[fqn] = r if isinstance(r, StepFailed) else self.values(fqn, names, r)
+        return out
 
     def lifecycle(self, fqn: str) -> str:
         """The node's lifecycle state, by label (`active`, `inactive`, …)."""
@@ -436,6 +505,9 @@ class Runtime:
         req = self.GetParameters.Request()
         req.names = list(names)
         res = self.call(self.GetParameters, f"{fqn}/get_parameters", req, read_only=True)
+        return self.values(fqn, names, res)
+
+    def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
         values: dict[str, Any] = {}
         for n, v in zip(names, res.values):
             if v.type == self.ParameterType.PARAMETER_STRING:
@@ -476,8 +548,9 @@ class Executor:
     """Applies a plan document's steps to the running system (docs/executor.md)."""
 
     def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Any = sys.stdout,
-                 err: Any = sys.stderr) -> None:
+                 err: Any = sys.stderr, runtime: Any = None) -> None:
         self.doc, self.args, self.out, self.err = doc, args, out, err
+        self.own_runtime = runtime is None      # a manager lends its long-lived one
         self.plan, self.model = doc["plan"], Model(doc["model"])
         self.steps = self.plan["steps"]
         self.states = [State.from_doc(s) for s in self.plan.get("states", [])]
@@ -486,7 +559,7 @@ class Executor:
         self.started: dict[str, dict[str, Any]] = {}
         self.touched: set[str] = set()
         self.timings: list[dict[str, Any]] = []
-        self.rt: Any = None
+        self.rt: Any = runtime
         self.log_dir = args.log_dir or os.path.join(
             "reconf-logs", f"{doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
 
@@ -507,29 +580,38 @@ class Executor:
     def observe(self, comps: Iterable[str]) -> dict[str, Observed]:
         """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
         or finalized)."""
+        comps = sorted(comps)
         graph = set(self.rt.nodes())
         seen: dict[str, Observed] = {}
-        for c in sorted(comps):
-            fqn = self.fqn(c)
-            if fqn not in graph:
+        for c in comps:
+            if self.fqn(c) not in graph:
                 seen[c] = Observed(c, "absent", {}, {})
+        # every node at once: lifecycle states, then the active ones' modes and attachments
+        states = self.rt.lifecycles(self.fqn(c) for c in comps if c not in seen)
+        wanted: dict[str, list[str]] = {}
+        for c in comps:
+            lc = states.get(self.fqn(c))
+            if c in seen or lc is None:
                 continue
-            try:
-                lc = self.rt.lifecycle(fqn)
-            except StepFailed:    # in the graph, but not answering: say so, do not guess
+            if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
                 seen[c] = Observed(c, "unresponsive", {}, {})
-                continue
-            if lc != "active":
+            elif lc != "active":
                 seen[c] = Observed(c, "absent" if lc == "finalized" else lc, {}, {})
-                continue
-            info = self.model.comps[c]
-            names = [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
+            else:
+                info = self.model.comps[c]
+                wanted[self.fqn(c)] = [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
                     [f"reconf.port.{p['name']}" for p in info["ports"]]
-            values = self.rt.get(fqn, names)
+        params = self.rt.get_many(wanted)
+        for c in comps:
+            values = params.get(self.fqn(c))
+            if values is None:
+                continue
+            if isinstance(values, StepFailed):
+                raise values
             modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
             ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
-            seen[c] = Observed(c, lc, modes, ports)
-        return seen
+            seen[c] = Observed(c, "active", modes, ports)
+        return dict(sorted(seen.items()))
 
     def as_state(self, seen: dict[str, Observed]) -> State:
         back = {v: k for k, v in self.renames.items()}
@@ -554,15 +636,11 @@ class Executor:
         while. A node the plan expects absent but that runs must not be missed (a re-run would
         start a second one)."""
         want = {self.fqn(c) for c in expected}
-        start = time.monotonic()
-        seen, since = set(self.rt.nodes()), start
 
         def quiet() -> bool:
-            nonlocal seen, since
-            now, nodes = time.monotonic(), set(self.rt.nodes())
-            if nodes != seen:
-                seen, since = nodes, now
-            return want <= nodes and now - start >= DISCOVERY_ROUND and now - since >= GRAPH_QUIET
+            nodes, now = self.rt.graph(), time.monotonic()
+            return want <= nodes and now - self.rt.started_at >= DISCOVERY_ROUND and \
+                now - self.rt.graph_since >= GRAPH_QUIET
         self.rt.wait(quiet, seconds)
 
     # --- the wire ---
@@ -678,19 +756,24 @@ class Executor:
         self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc}
         self.say(f"      started {comp}: pid {proc.pid}, log {log}")
         self.rt.forget(fqn)
+        t0 = time.monotonic()
         cli = self.rt.client(self.rt.GetState, f"{fqn}/get_state")
         while not cli.wait_for_service(timeout_sec=min(0.2, self.rt.left())):
             if proc.poll() is not None:
                 raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                                  f"(see {log})")
+        t_up = time.monotonic()
         if self.rt.nodes().count(fqn) > 1:
             raise StepFailed(f"two nodes named {fqn} are running")
         lc = self.rt.lifecycle(fqn)
+        t_state = time.monotonic()
         if lc == "unconfigured":
             self.rt.transition(fqn, self.rt.Transition.TRANSITION_CONFIGURE, "configure")
         elif lc != "inactive":
             raise StepFailed(f"after start, {comp} is in lifecycle state {lc!r}")
         self.rt.transition(fqn, self.rt.Transition.TRANSITION_ACTIVATE, "activate")
+        self.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
+                 f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
 
     def do_remove(self, step: dict[str, Any]) -> None:
         comp = step["component"]
@@ -776,26 +859,16 @@ class Executor:
         return out
 
     def apply(self, first: int) -> int:
-        steps = self.steps
-        system = self.doc["system"]
-        last = self.args.to_step
-        self.say(f"applying steps {first}..{last} of the plan for {system} ({self.doc['fingerprint']})")
-        for i in range(first, last + 1):
-            self.say(label(i, steps[i - 1]))
-        if not self.args.yes:
-            try:
-                answer = input("Apply these steps to the running system? [y/N] ")
-            except EOFError:
-                answer = ""
-            if answer.strip().lower() not in ("y", "yes"):
-                self.say("nothing done")
-                return EXIT_FAILED
+        if not confirmed(self.doc, self.args, self.out):
+            return EXIT_FAILED
         t0 = time.monotonic()
-        self.rt = Runtime(system, self.args.namespace, self.args.timeout)
+        if self.own_runtime:
+            self.rt = Runtime(self.doc["system"], self.args.namespace, self.args.timeout)
         try:
             return self._apply(first, t0)
         finally:
-            self.rt.close()
+            if self.own_runtime:
+                self.rt.close()
 
     def _apply(self, first: int, t0: float) -> int:
         start = self.states[first - 1]
@@ -956,6 +1029,60 @@ class Executor:
         return path
 
 
+def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Any) -> bool:
+    """List the steps to apply; unless --yes, ask."""
+    first, last = args.from_step, args.to_step
+    if args.quiet_list and args.yes:      # a manager: its client has listed them
+        return True
+    print(f"applying steps {first}..{last} of the plan for {doc['system']} ({doc['fingerprint']})", file=out)
+    for i in range(first, last + 1):
+        print(label(i, doc["plan"]["steps"][i - 1]), file=out)
+    if args.yes:
+        return True
+    try:
+        answer = input("Apply these steps to the running system? [y/N] ")
+    except EOFError:
+        answer = ""
+    if answer.strip().lower() in ("y", "yes"):
+        return True
+    print("nothing done", file=out)
+    return False
+
+
+def manager_socket(namespace: str = "") -> str:
+    """Where the manager of this ROS domain (and namespace) listens by default."""
+    base = os.environ.get("XDG_RUNTIME_DIR") or os.path.join("/tmp", f"reconf-{os.getuid()}")
+    ns = namespace.strip("/").replace("/", "_")
+    return os.path.join(base, "reconf", f"manager-{os.environ.get('ROS_DOMAIN_ID', '0')}{'-' + ns if ns else ''}.sock")
+
+
+def via_manager(doc: dict[str, Any], argv: list[str], args: argparse.Namespace, path: str) -> int:
+    """Have a running manager (`python -m reconf_ros.manager`) apply the plan: it has discovered
+    the system already, so no discovery wait here (docs/executor.md#manager). Output streams back."""
+    import socket
+    if not confirmed(doc, args, sys.stdout):
+        return EXIT_FAILED
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        sock.connect(path)
+    except OSError as e:
+        print(f"no reconf manager at {path} ({e.strerror or e}): start one with `python -m reconf_ros.manager`, "
+              "or leave out --manager to apply the plan from this process", file=sys.stderr)
+        return EXIT_USAGE
+    request = {"doc": doc, "argv": argv + ["--yes", "--quiet-list", "--cwd", os.getcwd()]}
+    with sock, sock.makefile("rwb") as stream:
+        stream.write(json.dumps(request).encode() + b"\n")
+        stream.flush()
+        for line in stream:
+            msg = json.loads(line)
+            if "exit" in msg:
+                return int(msg["exit"])
+            print(msg.get("text", ""), end="", file=sys.stderr if msg.get("stream") == "err" else sys.stdout,
+                  flush=True)
+    print("the reconf manager closed the connection before the plan finished", file=sys.stderr)
+    return EXIT_FAILED
+
+
 def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=f"Reconfiguration plan for {doc['system']} ({doc['fingerprint']}).")
     ap.add_argument("--dry-run", action="store_true", help="replay the plan against the embedded model; no ROS")
@@ -975,18 +1102,18 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                     help="write the run's report (JSON) here; on failure one is always written")
     ap.add_argument("--stop-started", action="store_true",
                     help="on failure, stop the processes this run started (they are named either way)")
+    ap.add_argument("--manager", nargs="?", const="default", default="", metavar="SOCKET",
+                    help="let a running reconf manager apply the plan (default socket: this ROS domain's)")
+    ap.add_argument("--quiet-list", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--cwd", default="", help=argparse.SUPPRESS)
     return ap
 
 
-def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
-    try:
-        sys.stdout.reconfigure(errors="replace")  # type: ignore[union-attr]
-    except AttributeError:
-        pass
+def parse(doc: dict[str, Any], argv: Optional[list[str]]) -> argparse.Namespace:
+    """The script's arguments, checked (argparse exits with status 2 on bad ones)."""
     ap = arguments(doc)
     args = ap.parse_args(argv)
-    plan = doc["plan"]
-    steps = plan["steps"]
+    steps = doc["plan"]["steps"]
     if not 1 <= args.from_step <= max(1, len(steps)):
         ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
     args.to_step = args.to_step or len(steps)
@@ -994,6 +1121,17 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
         ap.error(f"--to-step must be between --from-step and {len(steps)}")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
+    return args
+
+
+def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
+    try:
+        sys.stdout.reconfigure(errors="replace")  # type: ignore[union-attr]
+    except AttributeError:
+        pass
+    args = parse(doc, argv)
+    plan = doc["plan"]
+    steps = plan["steps"]
     print(f"plan for {doc['system']} ({doc['fingerprint']}): {len(steps)} steps, strategy {plan.get('strategy')}, "
           f"disruption {plan.get('disruption')}")
     for key, value in sorted(doc.get("evidence", {}).items()):
@@ -1006,6 +1144,14 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     if not steps:
         print("nothing to do")
         return EXIT_OK
+    if args.manager:
+        forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
+            "from_step", "to_step", "timeout", "step_timeout", "wire_timeout", "discovery_timeout", "namespace")]
+        forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report")
+                      if getattr(args, k)]      # the manager writes them: absolute paths
+        forwarded += ["--stop-started"] if args.stop_started else []
+        return via_manager(doc, forwarded, args,
+                           manager_socket(args.namespace) if args.manager == "default" else args.manager)
     import importlib.util
     if importlib.util.find_spec("rclpy") is None:
         print("ROS 2 is not available (no module rclpy): install reconf with its `ros` extra "

@@ -102,6 +102,18 @@ class LiveSystem:
         self.watcher = self.start([sys.executable, "-m", "reconf_ros.watch", "--quiet", "--out",
                                    str(self.status_file)], "watch.log")
 
+    def manager(self, timeout: float = 20.0) -> str:
+        """Start a reconf manager for this system; its socket path (pass `--manager PATH` to a plan)."""
+        sock, ready = self.dir / "manager.sock", self.dir / "manager.ready"
+        self.start([sys.executable, "-m", "reconf_ros.manager", "--socket", str(sock), "--ready-file", str(ready)],
+                   "manager.log")
+        end = time.monotonic() + timeout
+        while not ready.exists():
+            if time.monotonic() > end:
+                raise TimeoutError(f"the manager did not start within {timeout} s: see {self.dir / 'manager.log'}")
+            time.sleep(0.05)
+        return str(sock)
+
     def statuses(self) -> dict[str, Any]:
         try:
             return dict(json.loads(self.status_file.read_text()))

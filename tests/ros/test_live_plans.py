@@ -76,3 +76,21 @@ def test_migration(live: LiveSystem) -> None:
     for comp in ("listener", "logger"):
         received, lost, head = source(statuses, comp, "in", "talker_fast")
         assert received > 0 and lost == 0 and head == 0, (comp, statuses[f"/{comp}"]["values"])
+
+
+def test_through_a_manager(live: LiveSystem) -> None:
+    """A manager started with the system applies the plan with the graph it has discovered: the
+    same observed outcome, the new node is its child, and a re-run is refused as finished (a
+    removed node's last status does not make it look alive)."""
+    sock = live.manager()
+    live.deploy(example("chatter.arch"))
+    live.wait_ready()
+    script = live.plan_script(["replace", "talker", "-f", example("chatter.arch")])
+    statuses = applied(live, live.run_plan(script, "--manager", sock))
+    received, lost, head = source(statuses, "listener", "in", "talker_v2")
+    assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
+    manager_pid = [p.pid for p in live.procs if p.args[2:3] == ["reconf_ros.manager"]][0]
+    with open(f"/proc/{live.pid_of('talker_v2')}/stat") as fh:
+        assert int(fh.read().rsplit(")", 1)[1].split()[1]) == manager_pid
+    again = live.run_plan(script, "--manager", sock, report="again.json")
+    assert again.returncode == 1 and "it was applied already" in again.stderr, again.stdout + again.stderr

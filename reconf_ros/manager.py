@@ -1,0 +1,145 @@
+"""The configuration manager of paper 001 §5.2: a long-lived node that applies plans.
+
+A plan script started on its own is a new DDS participant: before it may trust the graph it
+waits for discovery (`executor.DISCOVERY_ROUND`), and every service it calls is new to it. The
+manager runs beside the system, keeps one `Runtime` (graph, statuses, service clients) alive,
+and applies the plans its clients send (`plan.py --manager`) with that runtime, so a plan
+starts from a graph already discovered. Clients reach it through a Unix socket on this host;
+one plan runs at a time. Protocol and reasoning: docs/executor.md#manager.
+
+    python -m reconf_ros.manager [--socket PATH] [--namespace NS]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import socket
+import sys
+import time
+from typing import Any, BinaryIO, Optional
+
+from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse
+
+__all__ = ["main", "serve"]
+
+GRAPH_POLL = 0.25   # s between looks at the graph while idle (the settle rule needs its history)
+
+
+class Stream:
+    """A file-like object that sends each write to the client as one JSON line."""
+
+    def __init__(self, out: BinaryIO, name: str) -> None:
+        self.out, self.name = out, name
+
+    def write(self, text: str) -> int:
+        if text:
+            self.out.write(json.dumps({"stream": self.name, "text": text}).encode() + b"\n")
+        return len(text)
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
+def handle(rt: Runtime, conn: socket.socket) -> None:
+    """Read one request (a plan document and the script's arguments), apply it, send the exit."""
+    with conn, conn.makefile("rwb") as stream:
+        out, err = Stream(stream, "out"), Stream(stream, "err")
+        code = EXIT_FAILED
+        try:
+            request = json.loads(stream.readline() or b"{}")
+            doc, argv = request["doc"], [str(a) for a in request["argv"]]
+            try:
+                args = parse(doc, argv)
+            except SystemExit:
+                err.write(f"the manager cannot use these arguments: {' '.join(argv)}\n")
+                code = EXIT_USAGE
+            else:
+                here = os.getcwd()
+                os.chdir(args.cwd or here)
+                try:
+                    code = Executor(doc, args, out=out, err=err, runtime=rt).apply(args.from_step)
+                finally:
+                    os.chdir(here)
+        except (ValueError, KeyError, TypeError) as e:
+            err.write(f"the manager received a request it cannot read: {e}\n")
+            code = EXIT_USAGE
+        except BrokenPipeError:
+            return
+        try:
+            stream.write(json.dumps({"exit": code}).encode() + b"\n")
+            stream.flush()
+        except OSError:
+            pass
+
+
+def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[str] = None) -> int:
+    os.makedirs(os.path.dirname(path) or ".", mode=0o700, exist_ok=True)
+    if os.path.exists(path):
+        probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            probe.connect(path)
+        except OSError:
+            os.unlink(path)        # left by a manager that died
+        else:
+            probe.close()
+            print(f"a reconf manager is already listening at {path}", file=sys.stderr)
+            return EXIT_USAGE
+    server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    server.bind(path)
+    os.chmod(path, 0o600)
+    server.listen(4)
+    server.settimeout(0.0)
+    stop = {"now": False}
+
+    def on_signal(signum: int, frame: Any) -> None:
+        stop["now"] = True
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    rt = Runtime("manager", namespace, timeout, node_name="reconf_manager")
+    from rclpy.executors import ExternalShutdownException
+    print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
+          flush=True)
+    if ready:
+        with open(ready, "w", encoding="utf-8") as fh:
+            fh.write(path)
+    try:
+        looked = 0.0
+        while not stop["now"]:
+            try:
+                rt.spin(0.05)
+            except (KeyboardInterrupt, ExternalShutdownException):
+                break
+            if time.monotonic() - looked >= GRAPH_POLL:
+                rt.graph()
+                looked = time.monotonic()
+            try:
+                conn, _ = server.accept()
+            except (BlockingIOError, TimeoutError):
+                continue
+            conn.settimeout(None)
+            handle(rt, conn)
+    finally:
+        server.close()
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+        rt.close()
+    return 0
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m reconf_ros.manager", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--socket", default="", help="where to listen (default: one per ROS domain, under $XDG_RUNTIME_DIR/reconf or /tmp/reconf-UID/reconf)")
+    ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
+    ap.add_argument("--timeout", type=float, default=5.0, metavar="S", help="per service call, in seconds")
+    ap.add_argument("--ready-file", default="", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    return serve(args.socket or manager_socket(args.namespace), args.namespace, args.timeout, args.ready_file or None)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
