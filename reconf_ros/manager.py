@@ -18,7 +18,7 @@ import signal
 import socket
 import sys
 import time
-from typing import Any, BinaryIO, Optional
+from typing import Any, Optional
 
 from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse
 
@@ -30,7 +30,7 @@ GRAPH_POLL = 0.25   # s between looks at the graph while idle (the settle rule n
 class Stream:
     """A file-like object that sends each write to the client as one JSON line."""
 
-    def __init__(self, out: BinaryIO, name: str) -> None:
+    def __init__(self, out: Any, name: str) -> None:
         self.out, self.name = out, name
 
     def write(self, text: str) -> int:
