@@ -176,9 +176,10 @@ class LiveSystem:
         second), and by every other component seen."""
         since = time.time()
         wanted = {f"/{c}" for c in components}
+        alive = {n for n, s in self.statuses().items() if s["seen"] > since - 3}   # gone ones stay silent
 
         def fresh(st: dict[str, Any]) -> bool:
-            return all(n in st and st[n]["seen"] > since for n in wanted | set(st))
+            return all(n in st and st[n]["seen"] > since for n in wanted | alive)
         self.wait(fresh, timeout)
         return self.statuses()
 
