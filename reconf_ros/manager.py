@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
 import socket
 import sys
 import time
@@ -46,32 +45,34 @@ def handle(rt: Runtime, conn: socket.socket) -> None:
     """Read one request (a plan document and the script's arguments), apply it, send the exit."""
     with conn, conn.makefile("rwb") as stream:
         out, err = Stream(stream, "out"), Stream(stream, "err")
-        code = EXIT_FAILED
         try:
-            request = json.loads(stream.readline() or b"{}")
-            doc, argv = request["doc"], [str(a) for a in request["argv"]]
-            try:
-                args = parse(doc, argv)
-            except SystemExit:
-                err.write(f"the manager cannot use these arguments: {' '.join(argv)}\n")
-                code = EXIT_USAGE
-            else:
-                here = os.getcwd()
-                os.chdir(args.cwd or here)
-                try:
-                    code = Executor(doc, args, out=out, err=err, runtime=rt).apply(args.from_step)
-                finally:
-                    os.chdir(here)
-        except (ValueError, KeyError, TypeError) as e:
-            err.write(f"the manager received a request it cannot read: {e}\n")
-            code = EXIT_USAGE
-        except BrokenPipeError:
-            return
-        try:
+            code = run(rt, stream.readline(), out, err)
             stream.write(json.dumps({"exit": code}).encode() + b"\n")
             stream.flush()
-        except OSError:
+        except OSError:     # the client went away; the run itself has finished or failed
             pass
+
+
+def run(rt: Runtime, line: bytes, out: Stream, err: Stream) -> int:
+    try:
+        request = json.loads(line or b"{}")
+        doc, argv = request["doc"], [str(a) for a in request["argv"]]
+        args = parse(doc, argv)
+    except (ValueError, KeyError, TypeError) as e:
+        err.write(f"the manager received a request it cannot read: {e}\n")
+        return EXIT_USAGE
+    except SystemExit:
+        err.write(f"the manager cannot use these arguments: {' '.join(argv)}\n")
+        return EXIT_USAGE
+    here = os.getcwd()
+    os.chdir(args.cwd or here)
+    try:
+        return Executor(doc, args, out=out, err=err, runtime=rt).apply(args.from_step)
+    except Exception as e:      # keep serving; the client hears what went wrong
+        err.write(f"the manager failed while applying the plan: {e!r}\n")
+        return EXIT_FAILED
+    finally:
+        os.chdir(here)
 
 
 def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[str] = None) -> int:
@@ -91,13 +92,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
     os.chmod(path, 0o600)
     server.listen(4)
     server.settimeout(0.0)
-    stop = {"now": False}
-
-    def on_signal(signum: int, frame: Any) -> None:
-        stop["now"] = True
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
-    rt = Runtime("manager", namespace, timeout, node_name="reconf_manager")
+    rt = Runtime("manager", namespace, timeout, node_name="reconf_manager")   # rclpy ends it on SIGINT, SIGTERM
     from rclpy.executors import ExternalShutdownException
     print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
           flush=True)
@@ -106,7 +101,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
             fh.write(path)
     try:
         looked = 0.0
-        while not stop["now"]:
+        while True:
             try:
                 rt.spin(0.05)
             except (KeyboardInterrupt, ExternalShutdownException):

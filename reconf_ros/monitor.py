@@ -94,6 +94,8 @@ class Monitor:
             src = st.sources[gid] = SourceStats(node=node)
             if seq is not None and seq > 1:
                 src.missed_head = seq - 1
+        elif src.node == "?":
+            src.node = node     # data can come before discovery names its publisher's node
         elif seq is not None and seq > src.last_seq + 1:
             src.lost += seq - src.last_seq - 1
         if seq is not None:

@@ -129,3 +129,17 @@ def test_a_timer_ahead_of_a_message_on_time_is_withdrawn() -> None:
     m.on_message("in", 1.6, b"a", 3, "talker")
     m.check(1.6, normal, attached)
     assert m.violations == 1 and not m.violating and m.violation_seconds == pytest.approx(0.1)
+
+
+def test_a_publisher_named_after_its_first_message() -> None:
+    """Transient-local data can arrive before discovery names the publisher's node: the source
+    is named as soon as it is known, so the executor sees data from the node it attached."""
+    comp = Component("listener")
+    inp = comp.create_input("in", "std_msgs/msg/String", rate=10)
+    comp.create_functionality("listen", inputs=[inp]).set_normal_mode(lambda msg: None)
+    m = Monitor(comp)
+    m.on_message("in", 1.0, b"g", 1, "?")
+    m.on_message("in", 1.1, b"g", 2, "talker_v2")
+    st = m.status(1.1)
+    assert st["in.in.from.talker_v2"] == "2/0/0" and "in.in.from.?" not in st
+    assert m.fresh_sources("in", 1.1) == ["talker_v2"]
