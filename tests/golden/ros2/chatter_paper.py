@@ -325,6 +325,14 @@ class StepFailed(Exception):
     pass
 
 
+def one(answers: dict[str, Any], key: str) -> Any:
+    """The answer for `key` of a call to many; its StepFailed raised."""
+    answer = answers[key]
+    if isinstance(answer, StepFailed):
+        raise answer
+    return answer
+
+
 class Runtime:
     """The ROS side: lifecycle and parameter services of each component's node, the graph, and
     the nodes' statuses on /diagnostics."""
@@ -428,25 +436,12 @@ class Runtime:
              attempts: int = 3) -> Any:
         """One service call; a read-only one is repeated when its answer does not come (Fast DDS
         can lose the first answer of a new service)."""
-        cli = self.client(srv_type, name)
-        tries = attempts if read_only else 1
-        for attempt in range(1, tries + 1):
-            if not cli.wait_for_service(timeout_sec=min(self.timeout, self.left())):
-                raise StepFailed(f"service {name} is not available")
-            fut = cli.call_async(request)
-            wait = min(self.timeout if attempt == tries else min(RETRY_AFTER * attempt, self.timeout), self.left())
-            self.rclpy.spin_until_future_complete(self.node, fut, timeout_sec=wait)
-            if fut.done():
-                if fut.exception() is not None:
-                    raise StepFailed(f"{name} failed: {fut.exception()}")
-                return fut.result()
-            fut.cancel()
-            cli.remove_pending_request(fut)
-        raise StepFailed(f"no answer from {name} within {self.timeout} s")
+        return one(self.call_many(srv_type, {name: request}, attempts if read_only else 1), name)
 
     def call_many(self, srv_type: Any, requests: dict[str, Any], attempts: int = 3) -> dict[str, Any]:
-        """Read-only calls to many services at once: service name -> answer, or the StepFailed
-        that explains why there is none. Unanswered calls are repeated, like `call`."""
+        """Calls to many services at once: service name -> answer, or the StepFailed that explains
+        why there is none. Unanswered calls are repeated up to `attempts` times, after 0.3 s,
+        0.6 s, …; the last waits the full timeout (a call that changes something gets 1)."""
         answers: dict[str, Any] = {}
         pending = dict(requests)
         for attempt in range(1, attempts + 1):
@@ -497,8 +492,7 @@ class Runtime:
 
     def lifecycle(self, fqn: str) -> str:
         """The node's lifecycle state, by label (`active`, `inactive`, …)."""
-        res = self.call(self.GetState, f"{fqn}/get_state", self.GetState.Request(), read_only=True)
-        return str(res.current_state.label)
+        return str(one(self.lifecycles([fqn]), fqn))
 
     def transition(self, fqn: str, transition_id: int, name: str) -> None:
         req = self.ChangeState.Request()
@@ -508,10 +502,7 @@ class Runtime:
             raise StepFailed(f"{fqn} refused the lifecycle transition {name}")
 
     def get(self, fqn: str, names: list[str]) -> dict[str, Any]:
-        req = self.GetParameters.Request()
-        req.names = list(names)
-        res = self.call(self.GetParameters, f"{fqn}/get_parameters", req, read_only=True)
-        return self.values(fqn, names, res)
+        return dict(one(self.get_many({fqn: names}), fqn))
 
     def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
         values: dict[str, Any] = {}
