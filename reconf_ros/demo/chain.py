@@ -10,10 +10,11 @@ RATES = [20, 18, 16, 14, 12, 10]     # the sensor's, then each stage's output
 def _stage(i: int, name: str | None = None, replaces: str | None = None) -> Component:
     comp = Component(name or f"stage{i}", replaces=replaces)
     out = comp.create_output("out", DATA, alias="Data")
-    if i == 0:   # the sensor is the environment's
+    if i == 0:   # the sensor is the environment's, and its readings are a type of their own
+        comp.message("Reading", DATA)
         step = comp.create_functionality("step", outputs=[out])
         step.set_normal_mode(lambda: out.write(out.new(data=1.0)), rate=RATES[1], outputs=[out],
-                             assumes=[f"Data @ {RATES[0]} Hz"])
+                             assumes=[f"Reading @ {RATES[0]} Hz"])
     else:
         inp = comp.create_input("in", DATA, rate=RATES[i], alias="Data")
         comp.ports.reverse()   # the architecture lists the input first
