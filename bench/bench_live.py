@@ -82,7 +82,8 @@ def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, 
         secs_deg = max(secs_deg, sum(t["seconds"] for t in timings if t["step"] in {i + 1 for i in n}))
     return {"ok": res.returncode == 0, "violations": len(live.violations(statuses)), "wall": wall,
             "steps": [t["seconds"] for t in timings], "gap_ratio": gap_ratio, "lost": lost,
-            "steps_degraded": steps_deg, "seconds_degraded": secs_deg, "stderr": res.stderr[-400:]}
+            "steps_degraded": steps_deg, "seconds_degraded": secs_deg, "stderr": res.stderr[-400:],
+            "seen": live.watched_violations()[-5:]}
 
 
 def assumed_period(doc: dict[str, Any], comp: str, port: str) -> float:
@@ -138,7 +139,8 @@ def measure_big(work: Path, n: int, manager: bool) -> dict[str, Any]:
         after = counts(live.settle_status(["hub_v2"]))
         bad = {c: k - before.get(c, 0) for c, k in after.items() if k > before.get(c, 0)}
         return {"ok": res.returncode == 0, "wall": wall, "violations": len(bad),
-                "timings": live.report().get("timings", []), "stderr": res.stderr[-600:]}
+                "timings": live.report().get("timings", []), "stderr": res.stderr[-600:],
+                "seen": live.watched_violations()[-5:] if bad else []}
 
 
 def counts(statuses: dict[str, Any]) -> dict[str, int]:
@@ -169,7 +171,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name, arch, plan_args in SCENARIOS:
-            if args.only not in name:
+            if args.only not in name or args.runs < 1:
                 continue
             for strategy in args.strategies.split(","):
                 runs = []
@@ -177,6 +179,8 @@ def main() -> None:
                     r = measure(arch, plan_args, strategy, Path(tmp) / f"{len(name)}-{strategy}-{i}")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
+                        for line in r["seen"]:
+                            print(f"  (run {i}: {line})", flush=True)
                     runs.append(r)
                 print(row(f"{name} ({strategy})", runs), flush=True)
         if args.big_runs:
@@ -189,6 +193,8 @@ def main() -> None:
                     r = measure_big(Path(tmp) / f"big-{int(manager)}-{i}", args.big_n, manager)
                     if not r["ok"]:
                         print(f"  (big run {i}: {r['stderr']})", flush=True)
+                    for line in r["seen"]:
+                        print(f"  (big run {i}: {line})", flush=True)
                     runs.append(r)
                 walls = [r["wall"] for r in runs]
                 step = {a: [t["seconds"] for r in runs for t in r["timings"] if t.get("action") == a]

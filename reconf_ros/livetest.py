@@ -99,8 +99,15 @@ class LiveSystem:
         return [self.start(a + deployed, f"deployed-{i}.log") for i, a in enumerate(argvs)]
 
     def watch(self) -> None:
-        self.watcher = self.start([sys.executable, "-m", "reconf_ros.watch", "--quiet", "--out",
+        self.watcher = self.start([sys.executable, "-m", "reconf_ros.watch", "--out",
                                    str(self.status_file)], "watch.log")
+
+    def watched_violations(self) -> list[str]:
+        """The violations the watcher printed as they happened (watch.log), one per line."""
+        try:
+            return [ln for ln in (self.dir / "watch.log").read_text().splitlines() if ": " in ln]
+        except FileNotFoundError:
+            return []
 
     def manager(self, timeout: float = 20.0) -> str:
         """Start a reconf manager for this system; its socket path (pass `--manager PATH` to a plan)."""

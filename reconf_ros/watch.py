@@ -11,6 +11,7 @@ import os
 import signal
 import sys
 import time
+from datetime import datetime
 from typing import Any, Optional
 
 import click
@@ -47,7 +48,7 @@ def main(out: Optional[str], duration: float, quiet: bool) -> None:
             latest[name] = {"level": int.from_bytes(st.level, "little") if isinstance(st.level, bytes)
                             else int(st.level), "message": st.message, "values": values, "seen": time.time()}
             if not quiet and values.get("violations") != before.get("violations") and st.level == DiagnosticStatus.ERROR:
-                click.echo(f"{name}: {st.message}", err=True)
+                click.echo(f"{datetime.now().strftime('%H:%M:%S.%f')[:-3]} {name}: {st.message}", err=True)
 
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     node.create_subscription(DiagnosticArray, "/diagnostics", on_status, qos)

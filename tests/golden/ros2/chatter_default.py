@@ -889,16 +889,17 @@ class Executor:
         for i in range(first, last + 1):
             step, before, after = self.steps[i - 1], self.states[i - 1], self.states[i]
             self.say(f"{label(i, step)} ...")
-            s0 = time.monotonic()
+            s0, at = time.monotonic(), round(time.time(), 3)
             try:
                 self.perform(step, before, after)
                 self.rt.deadline = time.monotonic() + self.args.step_timeout
                 self.check_touched(after, f"after step {i}")
             except (StepFailed, OSError, KeyboardInterrupt) as e:
                 why = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
-                self.timings.append({"step": i, "seconds": time.monotonic() - s0, "ok": False})
+                self.timings.append({"step": i, "at": at, "seconds": time.monotonic() - s0, "ok": False})
                 return self.failed(i, step, why, t0)
-            self.timings.append({"step": i, "action": step["action"], "seconds": time.monotonic() - s0, "ok": True})
+            self.timings.append({"step": i, "action": step["action"], "at": at, "seconds": time.monotonic() - s0,
+                                 "ok": True})
             self.say(f"      done in {time.monotonic() - s0:.3f} s")
         end = self.states[last]
         normal = [(c, f["name"]) for c in sorted(self.touched & end.components)
