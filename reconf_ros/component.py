@@ -11,6 +11,7 @@ import functools
 import os
 import signal
 import time
+from collections import deque
 from typing import Any, Callable, Optional, Sequence
 
 import rclpy
@@ -34,6 +35,11 @@ __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
 # seconds) are delivered on matching, so a make-before-break attach loses nothing.
 DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# Requests on a service (`<connector>/request`) and data of a port that is not durable: reliable,
+# never replayed to a late subscriber (a protocol attached during a transition must not run old
+# requests again); what is sent before a match is lost, and the FTM proxy re-sends it.
+VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 MODES = ("normal", "degraded")
 TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silence a gap
@@ -55,6 +61,10 @@ class ComponentNode(LifecycleNode):
         self.pubs: dict[tuple[str, str], Any] = {}
         self.subs: dict[tuple[str, str], Any] = {}
         self.matched_out: dict[tuple[str, str], int] = {}
+        self.req_pubs: dict[tuple[str, str], Any] = {}    # a service client's requests
+        self.req_subs: dict[tuple[str, str], Any] = {}    # a service server's requests
+        self.app_timers: list[Any] = []
+        self.held_requests: deque[tuple[str, Any]] = deque(maxlen=1000)
         self.mode_timers: dict[str, Any] = {}
         self.last: dict[str, Any] = {}
         self.published: dict[str, int] = {p.name: 0 for p in component.outputs}
@@ -173,25 +183,35 @@ class ComponentNode(LifecycleNode):
             cls = p.message_class
         except (ImportError, AttributeError) as e:
             return f"message type {p.msg_type} is not installed ({e})"
+        qos = DATA_QOS if p.durable else VOLATILE_QOS
         for k in sorted(set(self.attached[port]) - set(wanted)):
             if isinstance(p, Output):
                 self.destroy_publisher(self.pubs.pop((port, k)))
                 self.matched_out.pop((port, k), None)
+                if (port, k) in self.req_subs:
+                    self.destroy_subscription(self.req_subs.pop((port, k)))
             else:
                 self.destroy_subscription(self.subs.pop((port, k)))
                 self.monitor.inputs[port].publishers.pop(k, None)
+                if (port, k) in self.req_pubs:
+                    self.destroy_publisher(self.req_pubs.pop((port, k)))
         for k in sorted(set(wanted) - set(self.attached[port])):
             if isinstance(p, Output):
+                if p.service:   # listen for requests before the replies' publisher is matched
+                    self.req_subs[(port, k)] = self.create_subscription(
+                        cls, f"{k}/request", functools.partial(self._on_request, port), VOLATILE_QOS)
                 self.matched_out[(port, k)] = 0
                 on_out = functools.partial(self._matched_out, (port, k))
                 self.pubs[(port, k)] = self.create_publisher(
-                    cls, k, DATA_QOS, event_callbacks=PublisherEventCallbacks(matched=on_out))
+                    cls, k, qos, event_callbacks=PublisherEventCallbacks(matched=on_out))
             else:
                 self.monitor.inputs[port].publishers[k] = 0
                 on_msg = functools.partial(self._on_message, (port, k))
                 on_in = functools.partial(self._matched_in, (port, k))
                 self.subs[(port, k)] = self.create_subscription(
-                    cls, k, on_msg, DATA_QOS, event_callbacks=SubscriptionEventCallbacks(matched=on_in))
+                    cls, k, on_msg, qos, event_callbacks=SubscriptionEventCallbacks(matched=on_in))
+                if p.service:
+                    self.req_pubs[(port, k)] = self.create_publisher(cls, f"{k}/request", VOLATILE_QOS)
         self.attached[port] = sorted(set(wanted))
         self.get_logger().info(f"{port} attached to {self.attached[port] or 'nothing'}")
         self._changed()
@@ -233,6 +253,12 @@ class ComponentNode(LifecycleNode):
         self.last[port] = msg
         if self.monitor.fresh_sources(port, now) != fresh_before:
             self._changed()
+        if self.active:
+            for listener in self.component.port(port).listeners:  # type: ignore[attr-defined]
+                try:
+                    listener(msg)
+                except Exception as e:
+                    self._fault(port, e)
         for f in self.component.functionalities:
             m = f.mode(self.modes[f.name])
             if m.rate is None and m.callback is not None and any(i.name == port for i in f.inputs):
@@ -240,6 +266,34 @@ class ComponentNode(LifecycleNode):
                     m.callback(msg)
                 except Exception as e:
                     self._fault(f.name, e)
+
+    def _on_request(self, port: str, msg: Any) -> None:
+        if not self.active:     # buffered, handed over on activation (docs/control-interface.md)
+            self.held_requests.append((port, msg))
+            return
+        for handler in self.component.port(port).handlers:  # type: ignore[attr-defined]
+            try:
+                handler(msg)
+            except Exception as e:
+                self._fault(port, e)
+
+    def send_request(self, port: str, msg: Any) -> bool:
+        """Send a request on every service `port` (an input) is attached to."""
+        if not self.active or not self.attached.get(port):
+            return False
+        p = self.component.port(port)
+        if not isinstance(msg, p.message_class):
+            msg = p.message_class(data=msg)
+        for k in self.attached[port]:
+            self.req_pubs[(port, k)].publish(msg)
+        return True
+
+    def expect(self, port: str) -> None:
+        self.monitor.expect(port, time.time())
+
+    def request_subscribers(self, port: str) -> int:
+        """How many servers the requests of service input `port` reach now (matched)."""
+        return sum(pub.get_subscription_count() for (q, _), pub in self.req_pubs.items() if q == port)
 
     def last_message(self, port: str) -> Any:
         return self.last.get(port)
@@ -345,9 +399,19 @@ class ComponentNode(LifecycleNode):
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self.active = True
         self._isolate()
+        self.app_timers = [self.create_timer(1.0 / float(r.hz), self._runner("timer", cb))
+                           for r, cb in self.component.timers]
+        while self.held_requests:
+            self._on_request(*self.held_requests.popleft())
         return TransitionCallbackReturn.SUCCESS
 
+    def _stop_timers(self) -> None:
+        for t in self.app_timers:
+            self.destroy_timer(t)
+        self.app_timers = []
+
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._stop_timers()
         self._isolate()
         self.active = False
         self._changed()
@@ -357,6 +421,7 @@ class ComponentNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._stop_timers()
         if self.active:
             self._isolate()
             self.active = False

@@ -119,6 +119,16 @@ class Port:
     name: str
     msg_type: str            # pkg/msg/Type
     alias: str               # its name in the architecture
+    # A port on a service: an output answers requests, an input sends them. Requests travel on
+    # `<connector>/request`, replies on the connector itself (docs/runtime.md#services).
+    service: bool = field(default=False, kw_only=True)
+    # Durable (transient-local) data is replayed to a subscriber that matches late; requests
+    # must not be: a protocol attached during a transition would run old requests again.
+    durable: bool = field(default=True, kw_only=True)
+    # An input whose messages answer what the node asked for (a service's replies, a pipeline's
+    # results): its rate is owed only while something is asked (`Input.expect`), see
+    # docs/runtime.md#services.
+    on_demand: bool = field(default=False, kw_only=True)
 
     @property
     def message_class(self) -> Any:
@@ -133,7 +143,30 @@ class Input(Port):
     """A subscriber; its assumption is what it needs of its topic (paper 001: `create_input`)."""
 
     assumption: Predicate = field(default=Predicate(""))
+    listeners: list[Callable[[Any], None]] = field(default_factory=list)
     kind = "input"
+
+    def on_message(self, callback: Callable[[Any], None]) -> "Input":
+        """Call `callback(msg)` on every message, whatever the mode (the monitor measures it too)."""
+        self.listeners.append(callback)
+        return self
+
+    def request(self, msg: Any) -> bool:
+        """On a service port: send a request to the server(s) and expect its answer; False when
+        nothing was sent."""
+        if not self.service:
+            raise ModelError(f"{self.component.name}.{self.name} is not on a service")
+        node = self.component.node
+        if node is None or not node.send_request(self.name, msg):
+            return False
+        self.expect()
+        return True
+
+    def expect(self) -> None:
+        """Note that one message is now owed on this on-demand input (the next arrival pays it)."""
+        node = self.component.node
+        if node is not None and self.on_demand:
+            node.expect(self.name)
 
     def read(self) -> Any:
         """The last message received (None before the first), whatever the mode."""
@@ -145,7 +178,16 @@ class Input(Port):
 class Output(Port):
     """A publisher (paper 001: `create_output`)."""
 
+    handlers: list[Callable[[Any], None]] = field(default_factory=list)
     kind = "output"
+
+    def on_request(self, callback: Callable[[Any], None]) -> "Output":
+        """On a service port: call `callback(request)` for every request, whatever the mode;
+        replies are written with `write()` (so a mode that guarantees nothing answers nothing)."""
+        if not self.service:
+            raise ModelError(f"{self.component.name}.{self.name} is not on a service")
+        self.handlers.append(callback)
+        return self
 
     def new(self, **fields: Any) -> Any:
         return self.message_class(**fields)
@@ -240,22 +282,36 @@ class Component:
         self.ports: list[Port] = []
         self.functionalities: list[Functionality] = []
         self.extra_messages: dict[str, str] = {}
+        self.timers: list[tuple[Rate, Callable[[], None]]] = []
         self.node: Any = None     # the running ComponentNode, once started
 
     # --- the API of paper 001 §5.2 ---
     def create_input(self, name: str, msg_type: MsgType, rate: RateLike = None, *,
-                     alias: Optional[str] = None) -> Input:
+                     alias: Optional[str] = None, service: bool = False, durable: bool = True,
+                     on_demand: Optional[bool] = None) -> Input:
+        """A subscriber (`service=True`: the client side of a service, see `Input.request`; its
+        replies are on demand unless `on_demand=False`)."""
         t = ros_type_name(msg_type)
         a = alias or t.rsplit("/", 1)[1]
-        port = Input(self, self._fresh(name), t, a, assumption=Predicate(a, to_rate(rate)))
+        port = Input(self, self._fresh(name), t, a, assumption=Predicate(a, to_rate(rate)), service=service,
+                     durable=durable, on_demand=service if on_demand is None else on_demand)
         self.ports.append(port)
         return port
 
-    def create_output(self, name: str, msg_type: MsgType, *, alias: Optional[str] = None) -> Output:
+    def create_output(self, name: str, msg_type: MsgType, *, alias: Optional[str] = None, service: bool = False,
+                      durable: bool = True) -> Output:
+        """A publisher (`service=True`: the server side of a service, see `Output.on_request`)."""
         t = ros_type_name(msg_type)
-        port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1])
+        port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1], service=service, durable=durable)
         self.ports.append(port)
         return port
+
+    def create_timer(self, rate: RateLike, callback: Callable[[], None]) -> None:
+        """Run `callback` at `rate` while the node is active, whatever the modes: the application's
+        own activity, such as a client sending requests (a mode's timer is `set_normal_mode`)."""
+        r = to_rate(rate)
+        assert r is not None
+        self.timers.append((r, callback))
 
     def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
                              criticality: int = 1) -> Functionality:

@@ -55,6 +55,7 @@ class InputStats:
     max_gap: float = 0.0             # largest wait while a normal functionality relied on it
     needed_since: Optional[float] = None
     publishers: dict[str, int] = field(default_factory=dict)   # connector -> matched publishers
+    owed: deque[float] = field(default_factory=deque)   # on-demand input: when each owed message was asked
 
     def waited(self, now: float) -> float:
         """How long a normal functionality relying on this input has waited for a message."""
@@ -80,9 +81,18 @@ class Monitor:
         self.provisional: set[str] = set()     # violations only a timer has seen so far
 
     # --- arrivals ---
+    def expect(self, port: str, now: float) -> None:
+        """An on-demand input is owed one more message, asked for at `now`."""
+        self.inputs[port].owed.append(now)
+
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
         st = self.inputs[port]
-        if st.needed_since is not None:
+        if st.port.on_demand:
+            if st.owed:
+                asked = st.owed.popleft()
+                if st.needed_since is not None:
+                    st.max_gap = max(st.max_gap, now - asked)
+        elif st.needed_since is not None:
             st.max_gap = max(st.max_gap, st.waited(now))
         now = max(now, st.last or now)     # reception order, in case timestamps disagree by a hair
         st.last, st.received = now, st.received + 1
@@ -136,6 +146,15 @@ class Monitor:
                     why.append(f"{name} has no publisher")
                     continue
                 limit = self.factor / float(a.hz)
+                if st.port.on_demand:   # owed its rate only while something is asked
+                    if not st.received and not any(st.publishers.get(k, 0) for k in attached[name]):
+                        why.append(f"{name} has no publisher")
+                        continue
+                    if not st.owed or now - st.owed[0] <= limit + grace:
+                        break
+                    why.append(f"{name}: asked {now - st.owed[0]:.3f} s ago, no answer (limit {limit:.3f} s "
+                               f"for {a})")
+                    continue
                 if st.last is not None and now - st.last <= limit + grace:
                     break
                 age = "nothing received" if st.last is None else f"last message {now - st.last:.3f} s ago"
@@ -181,7 +200,10 @@ class Monitor:
             if name in needed:
                 if st.needed_since is None:
                     st.needed_since = now
-                st.max_gap = max(st.max_gap, st.waited(now))
+                if not st.port.on_demand:
+                    st.max_gap = max(st.max_gap, st.waited(now))
+                elif st.owed:
+                    st.max_gap = max(st.max_gap, now - st.owed[0])
             else:
                 st.needed_since = None
         return changed

@@ -143,3 +143,29 @@ def test_a_publisher_named_after_its_first_message() -> None:
     st = m.status(1.1)
     assert st["in.in.from.talker_v2"] == "2/0/0" and "in.in.from.?" not in st
     assert m.fresh_sources("in", 1.1) == ["talker_v2"]
+
+
+def test_an_on_demand_input_owes_its_rate_only_while_asked() -> None:
+    """A service's replies (or a pipeline's results) come as fast as requests are made: silence
+    with nothing asked is no violation; a request unanswered beyond k/r is one."""
+    comp = Component("client")
+    reply = comp.create_input("reply", "std_msgs/msg/String", rate=10, service=True)
+    assert reply.on_demand and not comp.create_input("other", "std_msgs/msg/String", rate=10).on_demand
+    f = comp.create_functionality("use", inputs=[reply])
+    f.set_normal_mode()
+    m = Monitor(comp, gap_factor=1.5)
+    attached, normal = {"reply": ["/compute"]}, {"use": "normal"}
+    assert m.judge(f, 0.0, attached).startswith("not met: reply has no publisher")
+    m.inputs["reply"].publishers["/compute"] = 1
+    m.check(5.0, normal, attached)                     # matched, nothing asked: met, however long
+    assert m.violations == 0 and m.verdicts["use"] == "met"
+    m.expect("reply", 5.0)
+    m.check(5.1, normal, attached)
+    assert m.violations == 0
+    m.on_message("reply", 5.12, b"s", 1, "server")     # answered in 0.12 s < 0.15 s
+    m.expect("reply", 6.0)
+    m.check(6.2, normal, attached)                     # asked 0.2 s ago, no answer
+    assert m.violations == 1 and "asked 0.200 s ago" in m.verdicts["use"]
+    m.on_message("reply", 6.3, b"s", 2, "server")
+    m.check(6.3, normal, attached)
+    assert not m.violating and float(m.status(6.3)["in.reply.max_gap_s"]) == pytest.approx(0.3)
