@@ -232,6 +232,8 @@ class ComponentNode(LifecycleNode):
         node = self.gid_nodes.get(gid)
         if node is None:
             for e in self.get_publishers_info_by_topic(topic):
+                if e.node_name.startswith("_NODE_NAME_UNKNOWN"):
+                    continue    # the graph has the endpoint but not yet its node: ask again next time
                 g = bytes(e.endpoint_gid)
                 ns = e.node_namespace.rstrip("/")
                 self.gid_nodes[g[:len(gid)]] = f"{ns}/{e.node_name}".lstrip("/")

@@ -36,14 +36,15 @@ def from_architecture(system: System, name: str) -> Component:
         raise KeyError(f"{system.name} declares no component {name}")
     types = {m.name: m.ros_type for m in system.messages}
     comp = Component(ir.name, run=ir.run, host=ir.host, replaces=ir.replaces)
+    served = service_ports(system, ir.replaces or ir.name) | service_ports(system, ir.name)
     ports: dict[str, Any] = {}
     for p in ir.ports:
         if p.kind == "input":
             a = p.assumption
             ports[p.name] = comp.create_input(p.name, types[p.message], None if a is None else _rate(a),
-                                              alias=p.message)
+                                              alias=p.message, service=p.name in served)
         else:
-            ports[p.name] = comp.create_output(p.name, types[p.message], alias=p.message)
+            ports[p.name] = comp.create_output(p.name, types[p.message], alias=p.message, service=p.name in served)
     for f in ir.functionalities:
         fn = comp.create_functionality(f.name, inputs=[ports[n] for n in f.ports if ports[n].kind == "input"],
                                        outputs=[ports[n] for n in f.ports if ports[n].kind == "output"],
@@ -60,4 +61,11 @@ def from_architecture(system: System, name: str) -> Component:
                                    assumes=[str(a) for a in mode.assumptions])
             else:
                 fn.set_degraded_mode(callback, rate=hz if gs else None, outputs=gs)
+    from .ftm import install
+    install(comp, system)
     return comp
+
+
+def service_ports(system: System, component: str) -> set[str]:
+    """The ports of `component` that `system` attaches to a service."""
+    return {r.port for c in system.connectors if c.kind == "service" for r in c.roles if r.component == component}

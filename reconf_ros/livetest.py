@@ -62,14 +62,94 @@ class LiveSystem:
         self.watcher: Optional[subprocess.Popen[bytes]] = None
 
     # --- processes ---
-    def start(self, argv: Sequence[str], log: str) -> subprocess.Popen[bytes]:
+    def start(self, argv: Sequence[str], log: str, group: Optional[int] = None) -> subprocess.Popen[bytes]:
+        """Start a process in a session of its own, or in process group `group` (0: a new one)."""
         with open(self.dir / log, "ab") as fh:
             proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
-                                    stderr=subprocess.STDOUT, start_new_session=True, cwd=self.dir,
-                                    preexec_fn=_die_with_parent)
+                                    stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
+                                    **({"process_group": group} if group is not None else {"start_new_session": True}))
         self.procs.append(proc)
         self.pids.add(proc.pid)
         return proc
+
+    def expanded(self, arch: str, ftm: Optional[str] = "", name: str = "expanded.arch") -> str:
+        """`arch` with every FTM expanded (`reconf ftm expand`), its server's FTM replaced by `ftm`
+        first when one is given (None: no FTM), written to the system's directory."""
+        from checker.ftm.expand import expand, to_text
+        from checker.ftm.library import all_compositions
+        from reconf_dsl.ir import FtmDecl
+        from reconf_dsl.loader import load
+        system = load([arch])
+        overrides: dict[str, Optional[FtmDecl]] = {}
+        if ftm != "":
+            server = next(c for c in system.components if c.ftm is not None)
+            assert server.ftm is not None
+            comp = next((c for c in all_compositions() if str(c) == ftm), None)
+            if ftm is not None and comp is None:
+                raise ValueError(f"{ftm!r} is not a composition of the FTM library")
+            overrides[server.name] = None if comp is None else FtmDecl(comp.expr(), server.ftm.hosts, server.ftm.span)
+        out, _ = expand(system, overrides)
+        path = self.dir / name
+        path.write_text(to_text(out))
+        return str(path)
+
+    def serve_ftm(self, arch: str, ftm: Optional[str], hz: float, client: str = "client"
+                  ) -> tuple[dict[str, int], Path]:
+        """`arch`'s expansion with `ftm` (see `expanded`) deployed one process per host, and once
+        every node is up, its demo client in a process of its own at `hz` requests/s (a client
+        started earlier would wait on a service that is not there yet); the client's log."""
+        path = self.expanded(arch, ftm)
+        from .ftm.hosts import by_host
+        others = [n for names in by_host(path).values() for n in names if n != client]
+        procs = self.deploy_by_host(path, others)
+        self.wait_ready(others, timeout=90)
+        log = self.dir / f"{client}.jsonl"
+        self.env.update(RECONF_CLIENT_HZ=str(hz), RECONF_CLIENT_LOG=str(log))
+        procs[client] = self.start(["reconf-node", "--arch", path, client, "--deployed", path], f"{client}.log").pid
+        self.deployed.append(client)
+        return procs, log
+
+    def publish_once(self, topic: str, doc: dict[str, Any], timeout: float = 20.0) -> None:
+        """Publish one JSON document (std_msgs/String, volatile) on `topic` from a node of this
+        system's domain, once something subscribes: a fault's injection, a test hook's call."""
+        code = (
+            "import sys, time, rclpy\n"
+            "from std_msgs.msg import String\n"
+            "from reconf_ros.component import VOLATILE_QOS\n"
+            "rclpy.init(); node = rclpy.create_node('reconf_inject')\n"
+            "pub = node.create_publisher(String, sys.argv[1], VOLATILE_QOS)\n"
+            "end = time.monotonic() + float(sys.argv[3])\n"
+            "while pub.get_subscription_count() == 0 and time.monotonic() < end:\n"
+            "    rclpy.spin_once(node, timeout_sec=0.05)\n"
+            "pub.publish(String(data=sys.argv[2]))\n"
+            "end = time.monotonic() + 0.5\n"
+            "while time.monotonic() < end:\n"
+            "    rclpy.spin_once(node, timeout_sec=0.05)\n"
+            "sys.exit(0 if pub.get_subscription_count() else 1)\n")
+        res = subprocess.run([sys.executable, "-c", code, topic, json.dumps(doc), str(timeout)], env=self.env,
+                             timeout=timeout + 20, capture_output=True, text=True)
+        if res.returncode != 0:
+            raise RuntimeError(f"nothing subscribes to {topic} (domain {self.domain}): {res.stderr[-500:]}")
+
+    def deploy_by_host(self, arch: str, components: Optional[Sequence[str]] = None,
+                       per_node: bool = False) -> dict[str, int]:
+        """Start the deployed components of `arch` as it deploys them, each host's in one process
+        group (a host's crash is its group's: `os.killpg`): one process per host, or per
+        component with `per_node` (more processes cost more than they save on two cores), by
+        `reconf-node --arch`, which runs a component's own code when its run line is a
+        reconf-node factory, and a model-driven node otherwise. Host -> process group id."""
+        from .ftm.hosts import by_host
+        hosts = {h: [n for n in names if components is None or n in components] for h, names in by_host(arch).items()}
+        hosts = {h: names for h, names in hosts.items() if names}
+        self.deployed += [n for names in hosts.values() for n in names]
+        path = os.path.abspath(arch)
+        groups: dict[str, int] = {}
+        for host, names in hosts.items():
+            for chunk in ([[n] for n in names] if per_node else [names]):
+                proc = self.start(["reconf-node", "--arch", path, *chunk, "--deployed", path],
+                                  f"host-{host}-{chunk[0]}.log", group=groups.get(host, 0))
+                groups.setdefault(host, proc.pid)
+        return groups
 
     def deploy(self, arch: str, components: Optional[Sequence[str]] = None, *, group: bool = True,
                generic: bool = False, per_process: int = 0) -> list[subprocess.Popen[bytes]]:
@@ -198,10 +278,11 @@ class LiveSystem:
     # --- the end ---
     def stop(self) -> None:
         for pid in sorted(self.pids):
-            try:
-                os.killpg(pid, signal.SIGTERM)
-            except (ProcessLookupError, PermissionError):
-                pass
+            for kill in (os.killpg, os.kill):     # its group (a plan's children too), and itself
+                try:
+                    kill(pid, signal.SIGTERM)
+                except (ProcessLookupError, PermissionError):
+                    pass
         end = time.monotonic() + 5
         for proc in self.procs:
             try:
@@ -209,10 +290,11 @@ class LiveSystem:
             except subprocess.TimeoutExpired:
                 pass
         for pid in sorted(self.pids):
-            try:
-                os.killpg(pid, signal.SIGKILL)
-            except (ProcessLookupError, PermissionError):
-                pass
+            for kill in (os.killpg, os.kill):     # its group (a plan's children too), and itself
+                try:
+                    kill(pid, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError):
+                    pass
         for proc in self.procs:
             if proc.poll() is None:
                 proc.wait(timeout=5)

@@ -287,22 +287,25 @@ class Component:
 
     # --- the API of paper 001 §5.2 ---
     def create_input(self, name: str, msg_type: MsgType, rate: RateLike = None, *,
-                     alias: Optional[str] = None, service: bool = False, durable: bool = True,
+                     alias: Optional[str] = None, service: bool = False, durable: Optional[bool] = None,
                      on_demand: Optional[bool] = None) -> Input:
         """A subscriber (`service=True`: the client side of a service, see `Input.request`; its
         replies are on demand unless `on_demand=False`)."""
         t = ros_type_name(msg_type)
         a = alias or t.rsplit("/", 1)[1]
         port = Input(self, self._fresh(name), t, a, assumption=Predicate(a, to_rate(rate)), service=service,
-                     durable=durable, on_demand=service if on_demand is None else on_demand)
+                     durable=not service if durable is None else durable,
+                     on_demand=service if on_demand is None else on_demand)
         self.ports.append(port)
         return port
 
     def create_output(self, name: str, msg_type: MsgType, *, alias: Optional[str] = None, service: bool = False,
-                      durable: bool = True) -> Output:
-        """A publisher (`service=True`: the server side of a service, see `Output.on_request`)."""
+                      durable: Optional[bool] = None) -> Output:
+        """A publisher (`service=True`: the server side of a service, see `Output.on_request`).
+        Data is durable (transient-local) unless `durable=False`; a service's replies are not."""
         t = ros_type_name(msg_type)
-        port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1], service=service, durable=durable)
+        port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1], service=service,
+                      durable=not service if durable is None else durable)
         self.ports.append(port)
         return port
 

@@ -40,6 +40,27 @@ def _factory(target: str) -> Component:
     return comp
 
 
+def _node_remap(ros_args: list[str]) -> Optional[str]:
+    for i, arg in enumerate(ros_args[:-1]):
+        if arg in ("-r", "--remap") and ros_args[i + 1].startswith("__node:="):
+            return ros_args[i + 1].split(":=", 1)[1]
+    return None
+
+
+def _from_architecture(system: "System", name: str) -> Component:
+    """A component of the architecture: its own code when its run line is a `reconf-node`
+    factory (named as the architecture names it, e.g. a replica's copy), else model-driven."""
+    import shlex
+    ir = system.component(name)
+    argv = shlex.split(ir.run) if ir is not None and ir.run else []
+    if len(argv) >= 2 and argv[0] == "reconf-node" and ":" in argv[1]:
+        comp = _factory(argv[1])
+        comp.name, comp.host = name, ir.host if ir is not None else None
+        return comp
+    from .generic import from_architecture
+    return from_architecture(system, name)
+
+
 def _load(path: str) -> "System":
     # Imported here, not at the top: a node a plan starts (MODULE:FACTORY) needs none of it, and
     # its start-up competes for the CPU with the nodes already running.
@@ -75,11 +96,13 @@ def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str],
         argv, ros_args = argv[:i], argv[i:]
     try:
         if arch:
-            from .generic import from_architecture
             system = _load(arch)
-            comps = [from_architecture(system, name) for name in argv]
+            comps = [_from_architecture(system, name) for name in argv]
         else:
             comps = [_factory(t) for t in argv]
+            renamed = _node_remap(ros_args)
+            if renamed and len(comps) == 1:      # `--ros-args -r __node:=NAME`: the component is NAME
+                comps[0].name = renamed
     except (ModelError, KeyError) as e:
         raise click.UsageError(str(e)) from None
     if describe:

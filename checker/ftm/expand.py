@@ -41,9 +41,11 @@ from .library import Composition, compose, roles
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
            "protocols", "node_prefix", "ExpansionInfo"]
 
-FTM_MESSAGES = (("FtmRequest", "reconf_ftm/msg/Request"), ("FtmState", "reconf_ftm/msg/State"),
-                ("FtmHeartbeat", "reconf_ftm/msg/Heartbeat"), ("FtmAlarm", "reconf_ftm/msg/Alarm"),
-                ("FtmCert", "reconf_ftm/msg/Certificate"))
+# The FTM nodes exchange JSON documents in std_msgs/msg/String (reconf_ros/ftm/wire.py); the
+# model tells the kinds apart by these names.
+FTM_MESSAGES = (("FtmRequest", "std_msgs/msg/String"), ("FtmState", "std_msgs/msg/String"),
+                ("FtmHeartbeat", "std_msgs/msg/String"), ("FtmAlarm", "std_msgs/msg/String"),
+                ("FtmCert", "std_msgs/msg/String"))
 HEARTBEAT_HZ = 10
 
 REQ = ir.Predicate("FtmRequest")
@@ -259,7 +261,9 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
         b.wire(outer_req, REQ, None, (prd, "from_before"), single=True)
         b.wire(outer_rep, g, (prd, "result"), None, single=True)
         b.wire(_topic(s, f"r{i}", "srv"), g, (app, ref.port), (prd, "from_server"), kind="service")
-        copy = dc_replace(server, name=app, host=host, ftm=None, faults=(), application=(), resources=())
+        # a replica's copy runs the application's command under its own node name
+        run = server.run if i == 0 or not server.run else f"{server.run} --ros-args -r __node:={app}"
+        copy = dc_replace(server, name=app, host=host, run=run, ftm=None, faults=(), application=(), resources=())
         b.components.append(copy)
     if comp.duplex is not None:
         cd0 = b.add(p + "r0_cd", b.host(0), [], [("beat", "FtmHeartbeat")], "heartbeat", [], [("beat", BEAT)],

@@ -1,0 +1,109 @@
+"""Adaptive fault tolerance on live ROS 2: the FTM nodes of reconf_ros.ftm under a client's load.
+
+For each FTM of the table, N runs (default 10) of: expand examples/ftm/client_server_pbr_tr.arch
+with that FTM, deploy it one process per host, run the demo client at --hz requests/s, then
+(steady) measure, or (crash) kill -9 the primary's host process, or (transient) make one
+computation of the primary's application wrong. Prints per row the median / p95 / max of: reply
+latency, requests lost, duplicated and answered wrongly, and for faults the longest time the
+client went without a reply (from the fault) and the affected request's latency.
+
+    python -m bench.bench_aft [--runs 10] [--hz 50] [--only PBR]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Optional
+
+from reconf_ros.demo.ftm import judge_log, read_log
+from reconf_ros.livetest import LiveSystem
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE = ROOT / "examples" / "ftm" / "client_server_pbr_tr.arch"
+
+# name, FTM (None: the bare server), fault
+ROWS: list[tuple[str, Optional[str], str]] = [
+    ("bare server", None, "none"),
+    ("PBR", "PBR", "none"), ("LFR", "LFR", "none"), ("TR", "TR", "none"), ("AD", "AD", "none"),
+    ("SEC", "SEC", "none"), ("PBR(TR)", "PBR(TR)", "none"), ("SEC(PBR(TR))", "SEC(PBR(TR))", "none"),
+    ("PBR, primary host killed", "PBR", "crash"), ("LFR, primary host killed", "LFR", "crash"),
+    ("TR, one computation wrong", "TR", "transient"), ("AD, one computation wrong", "AD", "transient"),
+]
+
+
+def wait_replies(log: Path, n: int, timeout: float, after: float = 0.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if sum(1 for r in read_log(str(log))["replies"].values() if r[0]["t"] > after) >= n:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float) -> dict[str, Any]:
+    with LiveSystem(work) as live:
+        procs, log = live.serve_ftm(str(EXAMPLE), ftm, hz)
+        if not wait_replies(log, 25, timeout=60):
+            return {"ok": False, "why": "no replies"}
+        t0 = time.time()
+        if fault == "crash":
+            os.killpg(procs["master"], signal.SIGKILL)
+        elif fault == "transient":
+            live.publish_once("/server/ftm/r0/srv/request", {"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
+            t0 = time.time()
+        wait_replies(log, int(seconds * hz), timeout=seconds * 3, after=t0)
+        time.sleep(1.0)
+        entries = read_log(str(log))
+    verdict = judge_log(entries, until=time.time() - 1.5)
+    replies = sorted(r[0]["t"] for r in entries["replies"].values())
+    after = [t for t in replies if t > t0 - 1.0]
+    silence = max((b - a for a, b in zip(after, after[1:]) if b > t0), default=0.0) if fault != "none" else 0.0
+    lat = [r[0]["latency_s"] for r in entries["replies"].values() if r[0]["t"] > t0 - 1.0]
+    return {"ok": True, "lost": len(verdict["lost"]), "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
+            "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat)}
+
+
+def pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))] if xs else float("nan")
+
+
+def three(xs: list[float], fmt: str = "{:.1f}", scale: float = 1.0) -> str:
+    if not xs:
+        return "-"
+    return "/".join(fmt.format(x * scale) for x in (statistics.median(xs), pct(xs, 0.95), max(xs)))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=10)
+    ap.add_argument("--hz", type=float, default=50)
+    ap.add_argument("--seconds", type=float, default=4.0, help="measured after the fault (or the start)")
+    ap.add_argument("--only", default="", help="rows whose name contains this")
+    args = ap.parse_args()
+    print(f"client at {args.hz:g} requests/s; median/p95/max over runs (latency: over every reply of every run)")
+    print("| FTM | fault | runs | failed | lost | duplicated | wrong | reply latency ms | longest wait for a reply ms "
+          "| worst latency ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, ftm, fault in ROWS:
+            if args.only not in name:
+                continue
+            runs = [measure(ftm, fault, args.hz, Path(tmp) / f"{len(name)}-{fault}-{i}", args.seconds)
+                    for i in range(args.runs)]
+            ok = [r for r in runs if r["ok"]]
+            lat = [x for r in ok for x in r["lat"]]
+            print(f"| {ftm or 'none'} | {fault} | {len(runs)} | {len(runs) - len(ok)} | "
+                  f"{three([r['lost'] for r in ok], '{:.0f}')} | {three([r['dup'] for r in ok], '{:.0f}')} | "
+                  f"{three([r['wrong'] for r in ok], '{:.0f}')} | {three(lat, scale=1000)} | "
+                  f"{three([r['silence'] for r in ok], scale=1000) if fault != 'none' else '-'} | "
+                  f"{three([r['worst'] for r in ok], scale=1000)} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

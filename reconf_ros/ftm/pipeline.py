@@ -1,0 +1,356 @@
+"""The request path of paper 000 (Fig. 2–6): Proxy, Protocol, Before, Proceed, After.
+
+Client → Proxy (adds a request id) → Protocol (duplicates, order, suspension) → Before →
+Proceed (calls the application) → After → Protocol → Proxy → client. Nesting puts an inner
+Protocol where a Proceed was: the documents pass through unchanged but for each layer's keys.
+docs/ftm.md#running gives the documents and the reasons.
+"""
+from __future__ import annotations
+
+import importlib
+import itertools
+import os
+import signal
+import time
+from collections import OrderedDict, deque
+from typing import Any, Callable, Optional
+
+from reconf_dsl.ir import System
+
+from ..model import Component
+from .wire import Ports, now, pack, unpack
+
+__all__ = ["Proxy", "Protocol", "Before", "Proceed", "After", "RESEND_AFTER", "MAX_TR_RUNS"]
+
+RESEND_AFTER = 0.15     # s without a reply before the proxy sends a request again
+RESEND_WINDOW = 20      # requests the proxy sends again at most per tick (20 ticks a second)
+APP_RETRY_AFTER = 1.0   # s without the application's answer before a Proceed asks again
+WINDOW = 16            # requests a protocol has inside its layer at once (TR: one)
+GIVE_UP_AFTER = 2.0     # s a protocol waits for a result before it drops the request (a layer
+                        # refused it, e.g. SEC on a bad signature): the proxy sends it again
+KEEP = 10_000           # replies a proxy or protocol remembers
+MAX_TR_RUNS = 5         # computations TR tries before it gives up on a majority
+
+
+def _assertion() -> Callable[[dict[str, Any]], bool]:
+    """The user assertion of AD: RECONF_FTM_ASSERT=MODULE:FUNCTION (the demo's by default)."""
+    target = os.environ.get("RECONF_FTM_ASSERT", "reconf_ros.demo.ftm:assertion")
+    module, _, name = target.partition(":")
+    fn: Callable[[dict[str, Any]], bool] = getattr(importlib.import_module(module), name)
+    return fn
+
+
+def _quiet(ports: Ports) -> None:
+    """No generic publishing: the behaviour writes; the modes keep their guarantees (the model)."""
+    for mode in (ports.fn.normal, ports.fn.degraded):
+        mode.callback, mode.rate = None, None
+
+
+def _seq(rid: str) -> tuple[str, int]:
+    boot, _, n = rid.rpartition("-")
+    return boot, int(n) if n.isdigit() else 0
+
+
+def _remember(store: "OrderedDict[str, Any]", key: str, value: Any) -> None:
+    store[key] = value
+    while len(store) > KEEP:
+        store.popitem(last=False)
+
+
+class Proxy:
+    """Takes the server's place for its clients: one request id per client request, forwarded
+    to the current protocol, sent again while unanswered, exactly one reply per request."""
+
+    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
+        _quiet(ports)
+        self.p = ports
+        self.boot = f"{int(time.time() * 1000):x}{os.getpid() % 4096:03x}"
+        self.count = itertools.count(1)
+        self.rids: dict[tuple[Any, Any], str] = {}
+        self.pending: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
+        self.answered: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
+        self.resent = 0
+        ports.output("reply").on_request(self.on_request)
+        ports.input("from_pro").on_message(self.on_reply)
+        comp.create_timer(50, self.resend)
+
+    def on_request(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None:
+            return
+        key = (doc.get("client"), doc.get("id"))
+        rid = self.rids.get(key)
+        if rid is not None and rid in self.answered:
+            self.deliver(rid)          # asked again: the same reply
+            return
+        if rid is None:
+            rid = self.rids[key] = f"{self.boot}-{next(self.count)}"
+        body = {k: v for k, v in doc.items() if k not in ("client", "id")}
+        self.pending[rid] = {"key": key, "req": {"rid": rid, "body": body}, "at": 0.0, "tries": 0}
+        self.forward(rid)
+
+    def forward(self, rid: str) -> None:
+        entry = self.pending[rid]
+        entry["at"], entry["tries"] = now(), entry["tries"] + 1
+        # every request below the oldest pending one has been answered: a protocol need not
+        # wait for them (one that joins late starts there)
+        floor = _seq(next(iter(self.pending)))[1]
+        self.p.send("to_pro", {**entry["req"], "floor": floor})
+
+    def resend(self) -> None:
+        """Send again, oldest first, what has waited too long: at most RESEND_WINDOW a tick, each
+        after RESEND_AFTER doubled at every try (up to 16 times), so a slow mechanism is not
+        buried under its own re-sends."""
+        t, sent = now(), 0
+        for rid, e in self.pending.items():
+            if sent >= RESEND_WINDOW:
+                break
+            if t - e["at"] > RESEND_AFTER * 2 ** min(e["tries"] - 1, 4):
+                self.resent += 1
+                sent += 1
+                self.forward(rid)
+
+    def on_reply(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None or "rid" not in doc:
+            return
+        entry = self.pending.pop(doc["rid"], None)
+        if entry is None:
+            return                  # a duplicate, or already answered
+        _remember(self.answered, doc["rid"], {"key": entry["key"], "reply": doc.get("reply") or {}})
+        self.deliver(doc["rid"])
+
+    def deliver(self, rid: str) -> None:
+        a = self.answered[rid]
+        client, ident = a["key"]
+        self.p.send("reply", {**a["reply"], "client": client, "id": ident})
+
+
+class Protocol:
+    """One layer's protocol: answers a duplicate from its stored replies, passes requests
+    inwards one at a time in the proxy's order, and queues them while suspended (degraded)."""
+
+    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
+        _quiet(ports)
+        self.p = ports
+        self.replies: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
+        self.mine: "OrderedDict[str, None]" = OrderedDict()   # asked through this protocol: answer them
+        self.queue: deque[dict[str, Any]] = deque()
+        self.held: dict[tuple[str, int], dict[str, Any]] = {}
+        self.accepted: dict[str, int] = {}        # proxy boot -> highest request number taken
+        self.floor: dict[str, int] = {}           # proxy boot -> every request below was answered
+        # requests inside the layer, in order; TR runs one at a time (its runs save and restore the
+        # state), the others pipeline: every hop is one reliable topic and one callback, in order
+        self.inflight: "OrderedDict[str, float]" = OrderedDict()
+        self.window = 1 if comp.name.endswith("_tr_protocol") else WINDOW
+        self.dropped: set[str] = set()            # given up on: taken again if re-sent
+        self.primary_since: Optional[float] = None
+        ports.input("from_client").on_message(self.on_request)
+        ports.input("from_after").on_message(self.on_result)
+        ports.input("from_recovery").on_message(self.on_switch)
+        comp.create_timer(20, self.pump)
+
+    def on_request(self, msg: Any) -> None:
+        req = unpack(msg)
+        if req is None or "rid" not in req:
+            return
+        rid = req["rid"]
+        _remember(self.mine, rid, None)
+        if rid in self.replies:
+            self.answer(rid)
+            return
+        boot, n = _seq(rid)
+        self.floor[boot] = max(self.floor.get(boot, 0), int(req.get("floor", 0)))
+        last = max(self.accepted.get(boot, 0), self.floor[boot] - 1)
+        self.held = {k: v for k, v in self.held.items() if k[0] != boot or k[1] > last}
+        if n <= last and rid not in self.dropped:
+            return                      # taken already: its reply is on its way
+        if rid in self.dropped:
+            self.dropped.discard(rid)
+            self.queue.append(req)
+            return self.pump()
+        self.held[(boot, n)] = req
+        while (boot, last + 1) in self.held:     # the proxy's order, whatever the arrival order
+            last += 1
+            self.queue.append(self.held.pop((boot, last)))
+        self.accepted[boot] = last
+        self.pump()
+
+    def on_result(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None:
+            return
+        if "again" in doc:              # TR: the same request once more (it stays in flight)
+            self.inward(doc["again"])
+            return
+        if "run" in doc:                # a backup applies a checkpoint through its pipeline
+            self.queue.append(doc["run"])
+        rid = str(doc.get("rid", ""))
+        result = {k: doc[k] for k in ("reply", "state") if k in doc}
+        if "reply" in doc and not rid.startswith("~"):      # "~": a backup's own run, not a request
+            _remember(self.replies, rid, result)
+            boot, n = _seq(rid)
+            if n > self.accepted.get(boot, 0):
+                self.accepted[boot] = n
+        self.inflight.pop(rid, None)
+        if rid in self.mine and "reply" in doc:
+            self.p.send("reply", {"rid": rid, **result})
+        self.pump()
+
+    def on_switch(self, msg: Any) -> None:
+        self.primary_since = now()
+
+    def pump(self) -> None:
+        t = now()
+        for rid, at in list(self.inflight.items()):
+            if t - at > GIVE_UP_AFTER:
+                self.p.comp.node.get_logger().warning(f"{rid}: no result in {GIVE_UP_AFTER} s, dropped")
+                self.dropped.add(rid)
+                del self.inflight[rid]
+        while len(self.inflight) < self.window and self.queue and self.p.normal:
+            self.next()
+
+    def next(self) -> None:
+        req = self.queue.popleft()
+        rid = str(req.get("rid", ""))
+        if rid in self.replies:                          # answered while it waited
+            return self.answer(rid)
+        boot, n = _seq(rid)
+        if not rid.startswith("~") and n < self.floor.get(boot, 0):
+            return                                       # answered by another replica meanwhile
+        self.inflight[rid] = now()
+        self.inward(req)
+
+    def inward(self, req: dict[str, Any]) -> None:
+        if self.p.send("to_before", req):
+            self.p.input("from_after").expect()
+
+    def answer(self, rid: str) -> None:
+        self.p.send("reply", {"rid": rid, **self.replies[rid]})
+
+
+class Before:
+    """Table II's Before: pass the request on (PBR), forward it to the follower too (LFR, AD
+    leader), take it from the leader (follower), save or restore the state (TR)."""
+
+    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
+        _quiet(ports)
+        self.p, self.role = ports, ports.fn.name
+        ports.input("from_protocol").on_message(self.on_request)
+        if ports.has("from_peer"):
+            ports.input("from_peer").on_message(self.on_request)
+
+    def on_request(self, msg: Any) -> None:
+        req = unpack(msg)
+        if req is None or "rid" not in req:
+            return
+        if self.role == "pass_request":
+            req["want_state"] = True            # the primary's After checkpoints it
+        elif self.role == "forward_request":
+            self.p.send("to_peer", req)
+        elif self.role == "save_restore_state":
+            tr = req.get("tr") or {"run": 1}
+            req["pre"] = [{"op": "get_state"}] if tr["run"] == 1 else [{"op": "set_state", "state": tr["saved"]}]
+        self.p.send("to_proceed", req)
+
+
+class Proceed:
+    """Calls the replica's copy of the application: the layers' operations before the request's
+    own (`pre`), the request, then the state when a layer wants it."""
+
+    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
+        _quiet(ports)
+        self.p = ports
+        self.count = itertools.count(1)
+        self.boot = f"{comp.name}-{os.getpid()}"
+        self.pending: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
+        ports.input("from_before").on_message(self.on_request)
+        ports.input("from_server").on_message(self.on_answer)
+        comp.create_timer(20, self.retry)
+
+    def on_request(self, msg: Any) -> None:
+        req = unpack(msg)
+        if req is None or "rid" not in req:
+            return
+        ops = list(req.get("pre", [])) + [req["body"]] + ([{"op": "get_state"}] if req.get("want_state") else [])
+        tag = f"{self.boot}-{next(self.count)}"
+        self.pending[tag] = {"req": req, "ops": ops, "at": None}
+        self.retry()
+
+    def retry(self) -> None:
+        node = self.p.comp.node
+        if node is None or not self.pending or node.request_subscribers("from_server") == 0:
+            return
+        t = now()
+        for tag, e in self.pending.items():
+            if e["at"] is None or t - e["at"] > APP_RETRY_AFTER:   # the application keeps answers by tag
+                if self.p.input("from_server").request(pack({"tag": tag, "ops": e["ops"]})):
+                    e["at"] = t
+
+    def on_answer(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None or doc.get("tag") not in self.pending:
+            return
+        e = self.pending.pop(doc["tag"])
+        req, results = e["req"], doc.get("results", [])
+        npre = len(req.get("pre", []))
+        out: dict[str, Any] = {"rid": req["rid"], "req": req, "pre": results[:npre], "reply": results[npre]}
+        if req.get("want_state") and len(results) > npre + 1:
+            out["state"] = results[npre + 1].get("state")
+        self.p.send("result", out)
+
+
+class After:
+    """Table II's After: checkpoint to the backup (PBR), apply a checkpoint (backup), notify the
+    follower (LFR), take the leader's notification (follower), compare runs (TR), assert the
+    result (AD: a replica whose result fails the user assertion stops, as a self-checking
+    replica does, and its crash detector's silence hands over to the other)."""
+
+    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
+        _quiet(ports)
+        self.p, self.role = ports, ports.fn.name
+        self.mismatches = 0
+        self.assertion = _assertion() if self.role == "assert_result" else None
+        ports.input("from_proceed").on_message(self.on_result)
+        if ports.has("from_peer"):
+            ports.input("from_peer").on_message(self.on_peer)
+
+    def on_result(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None or "rid" not in doc:
+            return
+        if self.role == "compare":
+            return self.compare(doc)
+        result: dict[str, Any] = {k: doc[k] for k in ("rid", "reply", "state") if k in doc}
+        if self.assertion is not None and not self.assertion(doc.get("reply") or {}):
+            self.p.comp.node.get_logger().error(f"{doc['rid']}: the result fails the assertion; this replica stops")
+            os.kill(os.getpid(), signal.SIGKILL)    # fail-silent: the whole replica, its heartbeat too
+        if self.role in ("checkpoint", "notify") and not str(doc["rid"]).startswith("~"):
+            self.p.send("to_peer", result)       # the backup has it before the client does
+        self.p.send("to_protocol", result)
+
+    def on_peer(self, msg: Any) -> None:
+        doc = unpack(msg)
+        if doc is None or "rid" not in doc:
+            return
+        out: dict[str, Any] = {k: doc[k] for k in ("rid", "reply", "state") if k in doc}
+        if self.role == "update_state" and "state" in doc:
+            out["run"] = {"rid": f"~{doc['rid']}", "body": {"op": "set_state", "state": doc["state"]}}
+        self.p.send("to_protocol", out)
+
+    def compare(self, doc: dict[str, Any]) -> None:
+        req = doc["req"]
+        tr = req.get("tr") or {"run": 1, "seen": []}
+        seen = list(tr.get("seen", [])) + [doc["reply"]]
+        saved = doc["pre"][0].get("state") if tr["run"] == 1 and doc.get("pre") else tr.get("saved")
+        agreed = [r for r in seen if seen.count(r) >= 2]
+        if agreed and agreed[0] == doc["reply"]:
+            if len(seen) > 2 or seen[0] != seen[-1]:
+                self.mismatches += 1
+            self.p.send("to_protocol", {k: doc[k] for k in ("rid", "reply", "state") if k in doc})
+            return
+        if tr["run"] >= MAX_TR_RUNS:
+            self.p.comp.node._fault(self.p.fn.name, RuntimeError(f"{doc['rid']}: no two of {len(seen)} runs agree"))
+            return
+        again = dict(req, tr={"run": tr["run"] + 1, "saved": saved, "seen": seen})
+        self.p.send("to_protocol", {"rid": doc["rid"], "again": again})

@@ -1,0 +1,92 @@
+"""FTMs of paper 000 running live: an example's expansion deployed one process per host, the
+demo client sending requests, faults injected for real. Every request gets exactly one right
+reply, and no monitor sees a normal mode's assumption violated but where the fault is."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+from typing import Any, Optional
+
+import pytest
+
+from reconf_ros.demo.ftm import judge_log, read_log
+from reconf_ros.livetest import LiveSystem
+
+from .conftest import example
+
+HZ = 50
+CLEAN = {"lost": [], "duplicated": [], "wrong": []}
+
+
+def serve(live: LiveSystem, ftm: Optional[str]) -> tuple[dict[str, Any], Path]:
+    """Deploy the PBR(TR) example's expansion with `ftm` instead, one process per host; once it
+    is up, a client at HZ; its first replies."""
+    procs, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ)
+    assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
+    return procs, log
+
+
+def wait_replies(log: Path, n: int, timeout: float, after: float = 0.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if sum(1 for r in read_log(str(log))["replies"].values() if r[0]["t"] > after) >= n:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def judged(log: Path) -> dict[str, list[int]]:
+    return judge_log(read_log(str(log)), until=time.time() - 1.0)
+
+
+def violations(live: LiveSystem) -> dict[str, str]:
+    return live.violations(live.settle_status())
+
+
+@pytest.mark.parametrize("ftm", ["SEC(PBR(TR))", "LFR", "AD"])
+def test_every_request_answered_once_and_right(live: LiveSystem, ftm: str) -> None:
+    _, log = serve(live, ftm)
+    assert wait_replies(log, 100, timeout=30)
+    assert judged(log) == CLEAN
+    assert violations(live) == {}
+
+
+@pytest.mark.parametrize("ftm", ["PBR", "LFR"])
+def test_primary_host_killed(live: LiveSystem, ftm: str) -> None:
+    procs, log = serve(live, ftm)
+    assert wait_replies(log, 30, timeout=30)
+    killed = time.time()
+    os.killpg(procs["master"], signal.SIGKILL)
+    assert wait_replies(log, 60, timeout=30, after=killed), live.statuses()
+    assert judged(log) == CLEAN
+    replies = sorted(r[0]["t"] for r in read_log(str(log))["replies"].values())
+    wait = max(b - a for a, b in zip(replies, replies[1:]) if b > killed)
+    assert wait < 2.0, f"the client waited {wait:.3f} s for a reply"
+    # the fault is seen where it is: the backup's detector loses the beats, and the client's
+    # replies are late while the backup takes over; nowhere else
+    assert set(violations(live)) <= {"/server__r1_cd", "/client"}
+
+
+@pytest.mark.parametrize("ftm", ["TR", "AD"])
+def test_one_wrong_computation(live: LiveSystem, ftm: str) -> None:
+    _, log = serve(live, ftm)
+    assert wait_replies(log, 30, timeout=30)
+    live.publish_once("/server/ftm/r0/srv/request", {"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
+    flipped = time.time()
+    assert wait_replies(log, 60, timeout=30, after=flipped)
+    assert judged(log) == CLEAN
+    allowed = {"/server__r1_cd", "/client"} if ftm == "AD" else set()   # AD's leader stops itself
+    assert set(violations(live)) <= allowed
+
+
+def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
+    _, log = serve(live, "SEC(PBR)")
+    assert wait_replies(log, 30, timeout=30)
+    forged = {"rid": "0-999999", "sealed": {"nonce": "AAAAAAAAAAAAAAAA", "ct": "AAAA", "sig": "AAAA", "cert": {}}}
+    live.publish_once("/server/ftm/pxy2pro", forged)
+    assert wait_replies(log, 30, timeout=30, after=time.time())
+    assert judged(log) == CLEAN
+    assert "failed its checks" in (live.dir / "host-master.log").read_text()
+    assert violations(live) == {}
