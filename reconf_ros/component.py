@@ -49,8 +49,14 @@ class ComponentNode(LifecycleNode):
     """One component, one lifecycle node named after it."""
 
     def __init__(self, component: Component, *, namespace: str = "", gap_factor: float = GAP_FACTOR,
-                 status_period: float = 1.0, deployed: Optional[dict[str, list[str]]] = None) -> None:
-        super().__init__(component.name, namespace=namespace or None)
+                 status_period: float = 1.0, deployed: Optional[dict[str, list[str]]] = None,
+                 lean: bool = False) -> None:
+        # lean: only the four services the control interface uses (docs/runtime.md#cost); rclpy's
+        # executor rebuilds its wait set from every entity at every wake-up
+        super().__init__(component.name, namespace=namespace or None, enable_communication_interface=not lean,
+                         start_parameter_services=not lean)
+        if lean:
+            self._serve_control_interface()
         self.component = component
         component.node = self
         self.monitor = Monitor(component, gap_factor)
@@ -96,6 +102,31 @@ class ComponentNode(LifecycleNode):
         self._dirty = False
         self._flush = self.create_guard_condition(self._tick)
         self._changed()
+
+    def _serve_control_interface(self) -> None:
+        from lifecycle_msgs.srv import ChangeState, GetState
+        from rcl_interfaces.srv import GetParameters, SetParameters
+
+        def get_state(req: Any, resp: Any) -> Any:
+            resp.current_state.id, resp.current_state.label = self._state_machine.current_state
+            return resp
+
+        def change_state(req: Any, resp: Any) -> Any:
+            # rclpy's own handler (rclpy is pinned, see pyproject.toml): transitions by id or label
+            return self._LifecycleNodeMixin__on_change_state(req, resp)  # type: ignore[attr-defined]
+
+        def get_parameters(req: Any, resp: Any) -> Any:
+            resp.values = [self.get_parameter(n).get_parameter_value() for n in req.names if self.has_parameter(n)]
+            return resp
+
+        def set_parameters(req: Any, resp: Any) -> Any:
+            resp.results = [self.set_parameters_atomically([Parameter.from_parameter_msg(p)]) for p in req.parameters]
+            return resp
+
+        for srv, name, cb in ((GetState, "get_state", get_state), (ChangeState, "change_state", change_state),
+                              (GetParameters, "get_parameters", get_parameters),
+                              (SetParameters, "set_parameters", set_parameters)):
+            self.create_service(srv, f"~/{name}", cb)
 
     # --- parameters: the control interface ---
     def _store_params(self) -> None:
@@ -442,7 +473,7 @@ class ComponentNode(LifecycleNode):
 
 def run_components(components: Sequence[Component], *, args: Optional[list[str]] = None, namespace: str = "",
                    deployed: Optional[dict[str, dict[str, list[str]]]] = None, gap_factor: float = GAP_FACTOR,
-                   linger: float = 0.5) -> int:
+                   linger: float = 0.5, lean: bool = False) -> int:
     """Run `components` in this process until every one is finalized (or SIGINT/SIGTERM).
 
     With `deployed` (component -> port -> connectors), each node configures and activates
@@ -459,7 +490,8 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
     nodes = []
     for c in components:
         node = ComponentNode(c, namespace=namespace, gap_factor=gap_factor,
-                             deployed=None if deployed is None else dict(deployed.get(c.name, {})))
+                             deployed=None if deployed is None else dict(deployed.get(c.name, {})),
+                             lean=lean or c.lean)
         executor.add_node(node)
         nodes.append(node)
         if deployed is not None:

@@ -65,9 +65,14 @@ class LiveSystem:
     def start(self, argv: Sequence[str], log: str, group: Optional[int] = None) -> subprocess.Popen[bytes]:
         """Start a process in a session of its own, or in process group `group` (0: a new one)."""
         with open(self.dir / log, "ab") as fh:
-            proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
-                                    stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
-                                    **({"process_group": group} if group is not None else {"start_new_session": True}))
+            if group is None:
+                proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
+                                        stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
+                                        start_new_session=True)
+            else:
+                proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
+                                        stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
+                                        process_group=group)
         self.procs.append(proc)
         self.pids.add(proc.pid)
         return proc

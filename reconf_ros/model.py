@@ -283,6 +283,7 @@ class Component:
         self.functionalities: list[Functionality] = []
         self.extra_messages: dict[str, str] = {}
         self.timers: list[tuple[Rate, Callable[[], None]]] = []
+        self.lean = False         # serve only the control interface's four services (docs/runtime.md#cost)
         self.node: Any = None     # the running ComponentNode, once started
 
     # --- the API of paper 001 §5.2 ---

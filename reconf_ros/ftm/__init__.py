@@ -65,6 +65,7 @@ def install(comp: Component, system: System) -> bool:
         port.durable = port.alias == "FtmCert"      # a late reader needs the certificate, never old requests
         if isinstance(port, Input) and fn.name != "detect":
             port.on_demand = True                   # results come as fast as requests are made
+    comp.lean = True    # many nodes, a message per hop per request: the executor's cost matters
     ports = Ports(comp, fn)
     make(comp, ports, system)
     return True

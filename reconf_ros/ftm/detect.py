@@ -37,7 +37,7 @@ class Detector:
         self.last: Optional[float] = None
         self.alarmed_at: Optional[float] = None
         ports.input("beat").on_message(self.on_beat)
-        comp.create_timer(100, self.check)
+        comp.create_timer(20, self.check)
 
     def on_beat(self, msg: Any) -> None:
         self.last = now()
@@ -76,7 +76,7 @@ class Recovery:
         self.clients: dict[str, Any] = {}
         self.calls: list[Any] = []
         ports.input("alarm").on_message(self.on_alarm)
-        comp.create_timer(20, self.tick)
+        comp.create_timer(10, self.tick)
 
     def prepare(self) -> None:
         """Clients made ahead of time: a request sent before its service is matched is lost."""

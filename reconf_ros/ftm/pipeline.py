@@ -23,7 +23,7 @@ from .wire import Ports, now, pack, unpack
 __all__ = ["Proxy", "Protocol", "Before", "Proceed", "After", "RESEND_AFTER", "MAX_TR_RUNS"]
 
 RESEND_AFTER = 0.15     # s without a reply before the proxy sends a request again
-RESEND_WINDOW = 20      # requests the proxy sends again at most per tick (20 ticks a second)
+RESEND_WINDOW = 20      # requests the proxy sends again at most per tick (10 ticks a second)
 APP_RETRY_AFTER = 1.0   # s without the application's answer before a Proceed asks again
 WINDOW = 16            # requests a protocol has inside its layer at once (TR: one)
 GIVE_UP_AFTER = 2.0     # s a protocol waits for a result before it drops the request (a layer
@@ -72,7 +72,7 @@ class Proxy:
         self.resent = 0
         ports.output("reply").on_request(self.on_request)
         ports.input("from_pro").on_message(self.on_reply)
-        comp.create_timer(50, self.resend)
+        comp.create_timer(10, self.resend)
 
     def on_request(self, msg: Any) -> None:
         doc = unpack(msg)
@@ -148,13 +148,16 @@ class Protocol:
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         ports.input("from_recovery").on_message(self.on_switch)
-        comp.create_timer(20, self.pump)
+        comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
 
     def on_request(self, msg: Any) -> None:
         req = unpack(msg)
         if req is None or "rid" not in req:
             return
         rid = req["rid"]
+        if "rejected" in req:           # an outer layer refused it: say so outwards, run nothing
+            self.p.send("reply", {"rid": rid, "rejected": req["rejected"]})
+            return
         _remember(self.mine, rid, None)
         if rid in self.replies:
             self.answer(rid)
@@ -186,7 +189,11 @@ class Protocol:
         if "run" in doc:                # a backup applies a checkpoint through its pipeline
             self.queue.append(doc["run"])
         rid = str(doc.get("rid", ""))
-        result = {k: doc[k] for k in ("reply", "state") if k in doc}
+        if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
+            if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
+                self.dropped.add(rid)
+            return self.pump()
+        result: dict[str, Any] = {k: doc[k] for k in ("reply", "state") if k in doc}
         if "reply" in doc and not rid.startswith("~"):      # "~": a backup's own run, not a request
             _remember(self.replies, rid, result)
             boot, n = _seq(rid)
@@ -244,6 +251,9 @@ class Before:
         req = unpack(msg)
         if req is None or "rid" not in req:
             return
+        if "rejected" in req:
+            self.p.send("to_proceed", req)
+            return
         if self.role == "pass_request":
             req["want_state"] = True            # the primary's After checkpoints it
         elif self.role == "forward_request":
@@ -266,11 +276,14 @@ class Proceed:
         self.pending: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
         ports.input("from_before").on_message(self.on_request)
         ports.input("from_server").on_message(self.on_answer)
-        comp.create_timer(20, self.retry)
+        comp.create_timer(4, self.retry)
 
     def on_request(self, msg: Any) -> None:
         req = unpack(msg)
         if req is None or "rid" not in req:
+            return
+        if "rejected" in req:
+            self.p.send("result", {"rid": req["rid"], "rejected": req["rejected"]})
             return
         ops = list(req.get("pre", [])) + [req["body"]] + ([{"op": "get_state"}] if req.get("want_state") else [])
         tag = f"{self.boot}-{next(self.count)}"
@@ -318,6 +331,9 @@ class After:
     def on_result(self, msg: Any) -> None:
         doc = unpack(msg)
         if doc is None or "rid" not in doc:
+            return
+        if "rejected" in doc:
+            self.p.send("to_protocol", {"rid": doc["rid"], "rejected": doc["rejected"]})
             return
         if self.role == "compare":
             return self.compare(doc)

@@ -218,7 +218,11 @@ class ServerDecipher(_Sec):
             return
         req, cert = self.keys.open(doc["rid"], doc.get("sealed"), self.peer)
         if req is None or req.get("rid") != doc["rid"]:
-            return self.log_rejected(doc["rid"])
+            self.log_rejected(doc["rid"])
+            # the refusal goes down the layer and back to its protocol, which then forgets the
+            # request (the proxy sends a genuine one again); nothing inside runs it
+            self.p.send("to_proceed", {"rid": doc["rid"], "rejected": "failed the checks of SEC"})
+            return
         self.p.send("to_proceed", req)
 
 
@@ -233,6 +237,9 @@ class ServerCipher(_Sec):
     def on_result(self, msg: Any) -> None:
         doc = unpack(msg)
         if doc is None or "rid" not in doc or not self.keys.load():
+            return
+        if "rejected" in doc:
+            self.p.send("to_protocol", {"rid": doc["rid"], "rejected": doc["rejected"]})
             return
         peer = self.keys.certificates.get(self.peer)
         if peer is None or not self.keys.trusted(peer, self.peer):

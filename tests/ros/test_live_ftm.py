@@ -16,7 +16,7 @@ from reconf_ros.livetest import LiveSystem
 
 from .conftest import example
 
-HZ = 50
+HZ = 20         # requests/s: the deepest composition saturates two cores at 50 (bench_aft)
 CLEAN = {"lost": [], "duplicated": [], "wrong": []}
 
 
@@ -78,15 +78,19 @@ def test_one_wrong_computation(live: LiveSystem, ftm: str) -> None:
     assert wait_replies(log, 60, timeout=30, after=flipped)
     assert judged(log) == CLEAN
     allowed = {"/server__r1_cd", "/client"} if ftm == "AD" else set()   # AD's leader stops itself
-    assert set(violations(live)) <= allowed
+    seen = violations(live)
+    assert set(seen) <= allowed, (seen, live.watched_violations())
 
 
 def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
     _, log = serve(live, "SEC(PBR)")
     assert wait_replies(log, 30, timeout=30)
-    forged = {"rid": "0-999999", "sealed": {"nonce": "AAAAAAAAAAAAAAAA", "ct": "AAAA", "sig": "AAAA", "cert": {}}}
+    forged = {"rid": "0-1", "floor": 1, "sealed": {"nonce": "AAAAAAAAAAAAAAAA", "ct": "AAAA", "sig": "AAAA",
+                                                     "cert": {"party": "client", "sign": "AAAA", "box": "AAAA",
+                                                              "ca_sig": "AAAA"}}}
     live.publish_once("/server/ftm/pxy2pro", forged)
     assert wait_replies(log, 30, timeout=30, after=time.time())
     assert judged(log) == CLEAN
-    assert "failed its checks" in (live.dir / "host-master.log").read_text()
+    logs = "".join(p.read_text() for p in live.dir.glob("host-master*.log"))
+    assert "0-1: a message failed its checks" in logs
     assert violations(live) == {}
