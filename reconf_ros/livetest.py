@@ -104,6 +104,8 @@ class LiveSystem:
         every node is up, its demo client in a process of its own at `hz` requests/s (a client
         started earlier would wait on a service that is not there yet); the client's log."""
         path = self.expanded(arch, ftm)
+        if self.watcher is None:
+            self.watch()            # readiness is read from the statuses
         from .ftm.hosts import by_host
         others = [n for names in by_host(path).values() for n in names if n != client]
         procs = self.deploy_by_host(path, others)
