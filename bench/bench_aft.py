@@ -91,10 +91,10 @@ def main() -> None:
           "| worst latency ms |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for name, ftm, fault in ROWS:
+        for row, (name, ftm, fault) in enumerate(ROWS):
             if args.only not in name:
                 continue
-            runs = [measure(ftm, fault, args.hz, Path(tmp) / f"{len(name)}-{fault}-{i}", args.seconds)
+            runs = [measure(ftm, fault, args.hz, Path(tmp) / f"row{row}-run{i}", args.seconds)
                     for i in range(args.runs)]
             ok = [r for r in runs if r["ok"]]
             lat = [x for r in ok for x in r["lat"]]

@@ -170,13 +170,13 @@ def main() -> None:
           "lost | steps degraded | s degraded |")
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for name, arch, plan_args in SCENARIOS:
+        for row, (name, arch, plan_args) in enumerate(SCENARIOS):
             if args.only not in name or args.runs < 1:
                 continue
             for strategy in args.strategies.split(","):
                 runs = []
                 for i in range(args.runs):
-                    r = measure(arch, plan_args, strategy, Path(tmp) / f"{len(name)}-{strategy}-{i}")
+                    r = measure(arch, plan_args, strategy, Path(tmp) / f"row{row}-{strategy}-{i}")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
                         for line in r["seen"]:
