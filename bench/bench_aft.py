@@ -47,7 +47,10 @@ def wait_replies(log: Path, n: int, timeout: float, after: float = 0.0) -> bool:
 
 def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float) -> dict[str, Any]:
     with LiveSystem(work) as live:
-        procs, log = live.serve_ftm(str(EXAMPLE), ftm, hz)
+        try:
+            procs, log = live.serve_ftm(str(EXAMPLE), ftm, hz)
+        except TimeoutError as e:
+            return {"ok": False, "why": str(e)[:300]}
         if not wait_replies(log, 25, timeout=60):
             return {"ok": False, "why": "no replies"}
         t0 = time.time()

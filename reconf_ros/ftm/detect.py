@@ -15,6 +15,7 @@ from .wire import Ports, now, unpack
 __all__ = ["Heartbeat", "Detector", "Recovery", "MISSED_BEATS"]
 
 MISSED_BEATS = 2.5      # heartbeat periods of silence before the backup's detector raises the alarm
+ARM_AFTER = 1.0         # s of regular beats before it does: a start-up hiccup is not a crash
 
 
 class Heartbeat:
@@ -26,7 +27,8 @@ class Heartbeat:
 
 
 class Detector:
-    """Raises one alarm when the primary's beats stop for MISSED_BEATS periods."""
+    """Raises one alarm when the primary's beats stop for MISSED_BEATS periods, once they have
+    come regularly for ARM_AFTER seconds."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
         for mode in (ports.fn.normal, ports.fn.degraded):
@@ -35,15 +37,21 @@ class Detector:
         hz = ports.input("beat").assumption.hz
         self.limit = MISSED_BEATS / float(hz) if hz else 0.25
         self.last: Optional[float] = None
+        self.steady_since: Optional[float] = None    # regular beats since then
         self.alarmed_at: Optional[float] = None
         ports.input("beat").on_message(self.on_beat)
         comp.create_timer(20, self.check)
 
     def on_beat(self, msg: Any) -> None:
-        self.last = now()
+        t = now()
+        if self.last is None or t - self.last > self.limit:
+            self.steady_since = t
+        self.last = t
 
     def check(self) -> None:
-        if self.alarmed_at is not None or self.last is None or not self.p.normal:
+        if self.alarmed_at is not None or self.last is None or self.steady_since is None or not self.p.normal:
+            return
+        if self.last - self.steady_since < ARM_AFTER:
             return
         silent = now() - self.last
         if silent > self.limit and self.p.send("alarm", {"failed": "r0", "silent_s": round(silent, 3)}):

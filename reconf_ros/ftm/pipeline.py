@@ -342,7 +342,7 @@ class After:
             self.p.comp.node.get_logger().error(f"{doc['rid']}: the result fails the assertion; this replica stops")
             os.kill(os.getpid(), signal.SIGKILL)    # fail-silent: the whole replica, its heartbeat too
         if self.role in ("checkpoint", "notify") and not str(doc["rid"]).startswith("~"):
-            self.p.send("to_peer", result)       # the backup has it before the client does
+            self.p.send("to_peer", result)       # sent before the reply (not yet acknowledged)
         self.p.send("to_protocol", result)
 
     def on_peer(self, msg: Any) -> None:
