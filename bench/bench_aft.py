@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any, Optional
 
-from reconf_ros.demo.ftm import judge_log, read_log
+from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
 from reconf_ros.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,15 +34,6 @@ ROWS: list[tuple[str, Optional[str], str]] = [
     ("PBR, primary host killed", "PBR", "crash"), ("LFR, primary host killed", "LFR", "crash"),
     ("TR, one computation wrong", "TR", "transient"), ("AD, one computation wrong", "AD", "transient"),
 ]
-
-
-def wait_replies(log: Path, n: int, timeout: float, after: float = 0.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if sum(1 for r in read_log(str(log))["replies"].values() if r[0]["t"] > after) >= n:
-            return True
-        time.sleep(0.1)
-    return False
 
 
 def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float) -> dict[str, Any]:

@@ -16,7 +16,9 @@ from typing import Any, Callable, Optional, Sequence
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
@@ -104,9 +106,6 @@ class ComponentNode(LifecycleNode):
         self._changed()
 
     def _serve_control_interface(self) -> None:
-        from lifecycle_msgs.srv import ChangeState, GetState
-        from rcl_interfaces.srv import GetParameters, SetParameters
-
         def get_state(req: Any, resp: Any) -> Any:
             resp.current_state.id, resp.current_state.label = self._state_machine.current_state
             return resp
@@ -314,11 +313,7 @@ class ComponentNode(LifecycleNode):
         """Send a request on every service `port` (an input) is attached to."""
         if not self.active or not self.attached.get(port):
             return False
-        p = self.component.port(port)
-        if not isinstance(msg, p.message_class):
-            msg = p.message_class(data=msg)
-        for k in self.attached[port]:
-            self.req_pubs[(port, k)].publish(msg)
+        self._publish(port, msg, self.req_pubs)
         return True
 
     def expect(self, port: str) -> None:
@@ -339,13 +334,17 @@ class ComponentNode(LifecycleNode):
         if not any(port in self.functionality(f).mode(m).guarantees for f, m in self.modes.items()
                    if any(o.name == port for o in self.functionality(f).outputs)):
             return False
+        self._publish(port, msg, self.pubs)
+        self.published[port] += 1
+        return True
+
+    def _publish(self, port: str, msg: Any, pubs: dict[tuple[str, str], Any]) -> None:
+        """`msg` (or a message of the port's type with it as `data`) on each connector of `port`."""
         p = self.component.port(port)
         if not isinstance(msg, p.message_class):
             msg = p.message_class(data=msg)
         for k in self.attached[port]:
-            self.pubs[(port, k)].publish(msg)
-        self.published[port] += 1
-        return True
+            pubs[(port, k)].publish(msg)
 
     # --- monitor and status ---
     def _tick(self) -> None:

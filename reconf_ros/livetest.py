@@ -65,14 +65,9 @@ class LiveSystem:
     def start(self, argv: Sequence[str], log: str, group: Optional[int] = None) -> subprocess.Popen[bytes]:
         """Start a process in a session of its own, or in process group `group` (0: a new one)."""
         with open(self.dir / log, "ab") as fh:
-            if group is None:
-                proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
-                                        stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
-                                        start_new_session=True)
-            else:
-                proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
-                                        stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
-                                        process_group=group)
+            proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
+                                    stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
+                                    start_new_session=group is None, process_group=group)
         self.procs.append(proc)
         self.pids.add(proc.pid)
         return proc
@@ -138,25 +133,18 @@ class LiveSystem:
         if res.returncode != 0:
             raise RuntimeError(f"nothing subscribes to {topic} (domain {self.domain}): {res.stderr[-500:]}")
 
-    def deploy_by_host(self, arch: str, components: Optional[Sequence[str]] = None,
-                       per_node: bool = False) -> dict[str, int]:
-        """Start the deployed components of `arch` as it deploys them, each host's in one process
-        group (a host's crash is its group's: `os.killpg`): one process per host, or per
-        component with `per_node` (more processes cost more than they save on two cores), by
-        `reconf-node --arch`, which runs a component's own code when its run line is a
-        reconf-node factory, and a model-driven node otherwise. Host -> process group id."""
+    def deploy_by_host(self, arch: str, components: Optional[Sequence[str]] = None) -> dict[str, int]:
+        """Start the deployed components of `arch` as it deploys them, one process per host in a
+        process group of its own (a host's crash is its group's: `os.killpg`), by `reconf-node
+        --arch`, which runs a component's own code when its run line is a reconf-node factory,
+        and a model-driven node otherwise. Host -> process group id."""
         from .ftm.hosts import by_host
         hosts = {h: [n for n in names if components is None or n in components] for h, names in by_host(arch).items()}
         hosts = {h: names for h, names in hosts.items() if names}
         self.deployed += [n for names in hosts.values() for n in names]
         path = os.path.abspath(arch)
-        groups: dict[str, int] = {}
-        for host, names in hosts.items():
-            for chunk in ([[n] for n in names] if per_node else [names]):
-                proc = self.start(["reconf-node", "--arch", path, *chunk, "--deployed", path],
-                                  f"host-{host}-{chunk[0]}.log", group=groups.get(host, 0))
-                groups.setdefault(host, proc.pid)
-        return groups
+        return {host: self.start(["reconf-node", "--arch", path, *names, "--deployed", path], f"host-{host}.log",
+                                 group=0).pid for host, names in hosts.items()}
 
     def deploy(self, arch: str, components: Optional[Sequence[str]] = None, *, group: bool = True,
                generic: bool = False, per_process: int = 0) -> list[subprocess.Popen[bytes]]:
@@ -283,25 +271,23 @@ class LiveSystem:
         return {n: s["message"] for n, s in st.items() if s["values"].get("violations", "0") != "0"}
 
     # --- the end ---
-    def stop(self) -> None:
+    def _signal(self, sig: int) -> None:
         for pid in sorted(self.pids):
             for kill in (os.killpg, os.kill):     # its group (a plan's children too), and itself
                 try:
-                    kill(pid, signal.SIGTERM)
+                    kill(pid, sig)
                 except (ProcessLookupError, PermissionError):
                     pass
+
+    def stop(self) -> None:
+        self._signal(signal.SIGTERM)
         end = time.monotonic() + 5
         for proc in self.procs:
             try:
                 proc.wait(timeout=max(0.1, end - time.monotonic()))
             except subprocess.TimeoutExpired:
                 pass
-        for pid in sorted(self.pids):
-            for kill in (os.killpg, os.kill):     # its group (a plan's children too), and itself
-                try:
-                    kill(pid, signal.SIGKILL)
-                except (ProcessLookupError, PermissionError):
-                    pass
+        self._signal(signal.SIGKILL)
         for proc in self.procs:
             if proc.poll() is None:
                 proc.wait(timeout=5)

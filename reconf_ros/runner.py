@@ -11,6 +11,7 @@ after `--ros-args` goes to ROS (`-r __ns:=/robot`). See docs/runtime.md.
 from __future__ import annotations
 
 import importlib
+import shlex
 import sys
 from typing import Optional
 
@@ -50,7 +51,6 @@ def _node_remap(ros_args: list[str]) -> Optional[str]:
 def _from_architecture(system: "System", name: str) -> Component:
     """A component of the architecture: its own code when its run line is a `reconf-node`
     factory (named as the architecture names it, e.g. a replica's copy), else model-driven."""
-    import shlex
     ir = system.component(name)
     argv = shlex.split(ir.run) if ir is not None and ir.run else []
     if len(argv) >= 2 and argv[0] == "reconf-node" and ":" in argv[1]:

@@ -14,11 +14,13 @@ import json
 import os
 import time
 from collections import OrderedDict
-from typing import Any, Optional
+from pathlib import Path
+from typing import Any, Optional, Union
 
 from reconf_ros import Component
 
-__all__ = ["server", "client", "step", "expected", "check", "assertion", "read_log", "judge_log", "MODULUS"]
+__all__ = ["server", "client", "step", "expected", "check", "assertion", "read_log", "wait_replies", "judge_log",
+           "MODULUS"]
 
 REPLY = "std_msgs/msg/String"
 MODULUS = 1_000_003
@@ -149,7 +151,7 @@ def client(name: str = "client") -> Component:
     return comp
 
 
-def read_log(path: str) -> dict[str, Any]:
+def read_log(path: Union[str, Path]) -> dict[str, Any]:
     """A client's log: `sent` id → time, `replies` id → every reply it got (in order)."""
     sent: dict[int, float] = {}
     replies: dict[int, list[dict[str, Any]]] = {}
@@ -167,6 +169,16 @@ def read_log(path: str) -> dict[str, Any]:
     except FileNotFoundError:
         pass
     return {"sent": sent, "replies": replies}
+
+
+def wait_replies(path: Union[str, Path], n: int, timeout: float, after: float = 0.0) -> bool:
+    """Until the client's log has `n` requests first answered after time `after` (False at `timeout` s)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if sum(1 for r in read_log(path)["replies"].values() if r[0]["t"] > after) >= n:
+            return True
+        time.sleep(0.1)
+    return False
 
 
 def judge_log(log: dict[str, Any], until: float) -> dict[str, list[int]]:

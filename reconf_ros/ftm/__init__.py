@@ -9,7 +9,7 @@ test holds this table to them).
 """
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Optional
 
 from reconf_dsl.ir import System
 
@@ -20,6 +20,7 @@ from .wire import Ports
 __all__ = ["BEHAVIOURS", "install"]
 
 Installer = Callable[[Component, Ports, System], object]
+# None: the model-driven node's own publisher is the behaviour (a heartbeat at the model's rate)
 
 
 def _sec(comp: Component, ports: Ports, system: System) -> object:
@@ -30,7 +31,7 @@ def _sec(comp: Component, ports: Ports, system: System) -> object:
     return (sec.ClientDecipher if client else sec.ServerDecipher)(comp, ports, system)
 
 
-BEHAVIOURS: dict[str, Installer] = {
+BEHAVIOURS: dict[str, Optional[Installer]] = {
     "relay": pipeline.Proxy,
     "handle": pipeline.Protocol,
     "pass_request": pipeline.Before,
@@ -47,7 +48,7 @@ BEHAVIOURS: dict[str, Installer] = {
     "cipher_sign": _sec,
     "decipher_check": _sec,
     "certify": sec.CertificationAuthority,
-    "heartbeat": detect.Heartbeat,
+    "heartbeat": None,
     "detect": detect.Detector,
     "recover": detect.Recovery,
 }
@@ -58,14 +59,16 @@ def install(comp: Component, system: System) -> bool:
     if len(comp.functionalities) != 1 or "__" not in comp.name:
         return False
     fn = comp.functionalities[0]
-    make = BEHAVIOURS.get(fn.name)
-    if make is None:
+    if fn.name not in BEHAVIOURS:
         return False
+    make = BEHAVIOURS[fn.name]
     for port in comp.ports:
         port.durable = port.alias == "FtmCert"      # a late reader needs the certificate, never old requests
         if isinstance(port, Input) and fn.name != "detect":
             port.on_demand = True                   # results come as fast as requests are made
     comp.lean = True    # many nodes, a message per hop per request: the executor's cost matters
-    ports = Ports(comp, fn)
-    make(comp, ports, system)
+    if make is not None:
+        ports = Ports(comp, fn)
+        ports.quiet()
+        make(comp, ports, system)
     return True

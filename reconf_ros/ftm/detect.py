@@ -1,7 +1,8 @@
 """Crash detection and recovery of a duplex (paper 000 §5.2.2): the primary's crash detector
 beats, the backup's raises an alarm when the beats stop, and Recovery makes the failed replica
 fail-silent and binds the backup's outermost protocol to the proxy, through the control
-interface (docs/control-interface.md), as a plan's attach does."""
+interface (docs/control-interface.md), as a plan's attach does. The primary's detector is the
+model-driven publisher of its beats (reconf_ros.ftm.BEHAVIOURS)."""
 from __future__ import annotations
 
 import re
@@ -12,18 +13,10 @@ from reconf_dsl.ir import System
 from ..model import Component
 from .wire import Ports, now, unpack
 
-__all__ = ["Heartbeat", "Detector", "Recovery", "MISSED_BEATS"]
+__all__ = ["Detector", "Recovery", "MISSED_BEATS"]
 
 MISSED_BEATS = 2.5      # heartbeat periods of silence before the backup's detector raises the alarm
 ARM_AFTER = 1.0         # s of regular beats before it does: a start-up hiccup is not a crash
-
-
-class Heartbeat:
-    """The model-driven publisher already beats at the guaranteed rate: nothing to add."""
-
-    def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        rate = ports.fn.normal.guarantees.get("beat")
-        self.period = 1.0 / float(rate.hz) if rate is not None else 0.1
 
 
 class Detector:
@@ -31,8 +24,6 @@ class Detector:
     come regularly for ARM_AFTER seconds."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        for mode in (ports.fn.normal, ports.fn.degraded):
-            mode.callback, mode.rate = None, None
         self.p = ports
         hz = ports.input("beat").assumption.hz
         self.limit = MISSED_BEATS / float(hz) if hz else 0.25
@@ -64,8 +55,6 @@ class Recovery:
     protocol where replica 0's was (the proxy's requests and replies), and tell it."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        for mode in (ports.fn.normal, ports.fn.degraded):
-            mode.callback, mode.rate = None, None
         self.p, self.comp = ports, comp
         server = comp.name.split("__", 1)[0]
         prefix = f"{server}__"

@@ -13,12 +13,12 @@ import os
 import signal
 import time
 from collections import OrderedDict, deque
-from typing import Any, Callable, Optional
+from typing import Any, Callable
 
 from reconf_dsl.ir import System
 
 from ..model import Component
-from .wire import Ports, now, pack, unpack
+from .wire import Ports, now, pack, result_of, unpack
 
 __all__ = ["Proxy", "Protocol", "Before", "Proceed", "After", "RESEND_AFTER", "MAX_TR_RUNS"]
 
@@ -40,12 +40,6 @@ def _assertion() -> Callable[[dict[str, Any]], bool]:
     return fn
 
 
-def _quiet(ports: Ports) -> None:
-    """No generic publishing: the behaviour writes; the modes keep their guarantees (the model)."""
-    for mode in (ports.fn.normal, ports.fn.degraded):
-        mode.callback, mode.rate = None, None
-
-
 def _seq(rid: str) -> tuple[str, int]:
     boot, _, n = rid.rpartition("-")
     return boot, int(n) if n.isdigit() else 0
@@ -62,14 +56,12 @@ class Proxy:
     to the current protocol, sent again while unanswered, exactly one reply per request."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        _quiet(ports)
         self.p = ports
         self.boot = f"{int(time.time() * 1000):x}{os.getpid() % 4096:03x}"
         self.count = itertools.count(1)
         self.rids: dict[tuple[Any, Any], str] = {}
         self.pending: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
         self.answered: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
-        self.resent = 0
         ports.output("reply").on_request(self.on_request)
         ports.input("from_pro").on_message(self.on_reply)
         comp.create_timer(10, self.resend)
@@ -106,13 +98,12 @@ class Proxy:
             if sent >= RESEND_WINDOW:
                 break
             if t - e["at"] > RESEND_AFTER * 2 ** min(e["tries"] - 1, 4):
-                self.resent += 1
                 sent += 1
                 self.forward(rid)
 
     def on_reply(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc:
+        doc = unpack(msg, need="rid")
+        if doc is None:
             return
         entry = self.pending.pop(doc["rid"], None)
         if entry is None:
@@ -131,7 +122,6 @@ class Protocol:
     inwards one at a time in the proxy's order, and queues them while suspended (degraded)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        _quiet(ports)
         self.p = ports
         self.replies: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
         self.mine: "OrderedDict[str, None]" = OrderedDict()   # asked through this protocol: answer them
@@ -144,15 +134,13 @@ class Protocol:
         self.inflight: "OrderedDict[str, float]" = OrderedDict()
         self.window = 1 if comp.name.endswith("_tr_protocol") else WINDOW
         self.dropped: set[str] = set()            # given up on: taken again if re-sent
-        self.primary_since: Optional[float] = None
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
-        ports.input("from_recovery").on_message(self.on_switch)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
 
     def on_request(self, msg: Any) -> None:
-        req = unpack(msg)
-        if req is None or "rid" not in req:
+        req = unpack(msg, need="rid")
+        if req is None:
             return
         rid = req["rid"]
         if "rejected" in req:           # an outer layer refused it: say so outwards, run nothing
@@ -193,7 +181,7 @@ class Protocol:
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
                 self.dropped.add(rid)
             return self.pump()
-        result: dict[str, Any] = {k: doc[k] for k in ("reply", "state") if k in doc}
+        result = result_of(doc, ("reply", "state"))
         if "reply" in doc and not rid.startswith("~"):      # "~": a backup's own run, not a request
             _remember(self.replies, rid, result)
             boot, n = _seq(rid)
@@ -203,9 +191,6 @@ class Protocol:
         if rid in self.mine and "reply" in doc:
             self.p.send("reply", {"rid": rid, **result})
         self.pump()
-
-    def on_switch(self, msg: Any) -> None:
-        self.primary_since = now()
 
     def pump(self) -> None:
         t = now()
@@ -241,15 +226,14 @@ class Before:
     leader), take it from the leader (follower), save or restore the state (TR)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        _quiet(ports)
         self.p, self.role = ports, ports.fn.name
         ports.input("from_protocol").on_message(self.on_request)
         if ports.has("from_peer"):
             ports.input("from_peer").on_message(self.on_request)
 
     def on_request(self, msg: Any) -> None:
-        req = unpack(msg)
-        if req is None or "rid" not in req:
+        req = unpack(msg, need="rid")
+        if req is None:
             return
         if "rejected" in req:
             self.p.send("to_proceed", req)
@@ -269,7 +253,6 @@ class Proceed:
     own (`pre`), the request, then the state when a layer wants it."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        _quiet(ports)
         self.p = ports
         self.count = itertools.count(1)
         self.boot = f"{comp.name}-{os.getpid()}"
@@ -279,8 +262,8 @@ class Proceed:
         comp.create_timer(4, self.retry)
 
     def on_request(self, msg: Any) -> None:
-        req = unpack(msg)
-        if req is None or "rid" not in req:
+        req = unpack(msg, need="rid")
+        if req is None:
             return
         if "rejected" in req:
             self.p.send("result", {"rid": req["rid"], "rejected": req["rejected"]})
@@ -320,24 +303,22 @@ class After:
     replica does, and its crash detector's silence hands over to the other)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        _quiet(ports)
         self.p, self.role = ports, ports.fn.name
-        self.mismatches = 0
         self.assertion = _assertion() if self.role == "assert_result" else None
         ports.input("from_proceed").on_message(self.on_result)
         if ports.has("from_peer"):
             ports.input("from_peer").on_message(self.on_peer)
 
     def on_result(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc:
+        doc = unpack(msg, need="rid")
+        if doc is None:
             return
         if "rejected" in doc:
             self.p.send("to_protocol", {"rid": doc["rid"], "rejected": doc["rejected"]})
             return
         if self.role == "compare":
             return self.compare(doc)
-        result: dict[str, Any] = {k: doc[k] for k in ("rid", "reply", "state") if k in doc}
+        result = result_of(doc)
         if self.assertion is not None and not self.assertion(doc.get("reply") or {}):
             self.p.comp.node.get_logger().error(f"{doc['rid']}: the result fails the assertion; this replica stops")
             os.kill(os.getpid(), signal.SIGKILL)    # fail-silent: the whole replica, its heartbeat too
@@ -346,10 +327,10 @@ class After:
         self.p.send("to_protocol", result)
 
     def on_peer(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc:
+        doc = unpack(msg, need="rid")
+        if doc is None:
             return
-        out: dict[str, Any] = {k: doc[k] for k in ("rid", "reply", "state") if k in doc}
+        out = result_of(doc)
         if self.role == "update_state" and "state" in doc:
             out["run"] = {"rid": f"~{doc['rid']}", "body": {"op": "set_state", "state": doc["state"]}}
         self.p.send("to_protocol", out)
@@ -361,9 +342,7 @@ class After:
         saved = doc["pre"][0].get("state") if tr["run"] == 1 and doc.get("pre") else tr.get("saved")
         agreed = [r for r in seen if seen.count(r) >= 2]
         if agreed and agreed[0] == doc["reply"]:
-            if len(seen) > 2 or seen[0] != seen[-1]:
-                self.mismatches += 1
-            self.p.send("to_protocol", {k: doc[k] for k in ("rid", "reply", "state") if k in doc})
+            self.p.send("to_protocol", result_of(doc))
             return
         if tr["run"] >= MAX_TR_RUNS:
             self.p.comp.node._fault(self.p.fn.name, RuntimeError(f"{doc['rid']}: no two of {len(seen)} runs agree"))

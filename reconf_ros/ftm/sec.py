@@ -145,16 +145,17 @@ class Keys:
 
 
 class CertificationAuthority:
-    """Provisions the key directory and publishes the certificates (once a second, durable)."""
+    """Provisions the key directory once it runs (describing or building the node writes nothing)
+    and publishes the certificates (once a second, durable)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        for mode in (ports.fn.normal, ports.fn.degraded):
-            mode.callback, mode.rate = None, None
         self.p = ports
-        self.bundle = provision(key_dir())
+        self.bundle: Optional[dict[str, Any]] = None
         comp.create_timer(1, self.publish)
 
     def publish(self) -> None:
+        if self.bundle is None:
+            self.bundle = provision(key_dir())
         self.p.send("cert", self.bundle)
 
 
@@ -163,8 +164,6 @@ class _Sec:
     peer = "server"
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
-        for mode in (ports.fn.normal, ports.fn.degraded):
-            mode.callback, mode.rate = None, None
         self.p = ports
         self.keys = Keys(self.party)
         self.bundle: Optional[dict[str, Any]] = None
@@ -172,8 +171,8 @@ class _Sec:
             ports.input("cert").on_message(self.on_cert)
 
     def on_cert(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is not None and "certificates" in doc:
+        doc = unpack(msg, need="certificates")
+        if doc is not None:
             self.bundle = doc
 
     def peer_cert(self) -> Optional[dict[str, Any]]:
@@ -195,8 +194,8 @@ class ClientCipher(_Sec):
         ports.input("from_proxy").on_message(self.on_request)
 
     def on_request(self, msg: Any) -> None:
-        req, peer = unpack(msg), self.peer_cert()
-        if req is None or "rid" not in req or peer is None:
+        req, peer = unpack(msg, need="rid"), self.peer_cert()
+        if req is None or peer is None:
             return          # no certificate yet: the proxy sends the request again
         # the id and the proxy's floor stay in clear for the server's protocol; the request is
         # sealed, and bound to its id
@@ -213,8 +212,8 @@ class ServerDecipher(_Sec):
         ports.input("from_protocol").on_message(self.on_request)
 
     def on_request(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc or not self.keys.load():
+        doc = unpack(msg, need="rid")
+        if doc is None or not self.keys.load():
             return
         req, cert = self.keys.open(doc["rid"], doc.get("sealed"), self.peer)
         if req is None or req.get("rid") != doc["rid"]:
@@ -235,8 +234,8 @@ class ServerCipher(_Sec):
         ports.input("from_proceed").on_message(self.on_result)
 
     def on_result(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc or not self.keys.load():
+        doc = unpack(msg, need="rid")
+        if doc is None or not self.keys.load():
             return
         if "rejected" in doc:
             self.p.send("to_protocol", {"rid": doc["rid"], "rejected": doc["rejected"]})
@@ -255,8 +254,8 @@ class ClientDecipher(_Sec):
         ports.input("from_server").on_message(self.on_reply)
 
     def on_reply(self, msg: Any) -> None:
-        doc = unpack(msg)
-        if doc is None or "rid" not in doc or not self.keys.load():
+        doc = unpack(msg, need="rid")
+        if doc is None or not self.keys.load():
             return
         reply, _ = self.keys.open(doc["rid"], doc.get("reply"), self.peer)
         if reply is None:

@@ -13,20 +13,26 @@ from typing import Any, Optional
 
 from ..model import Component, Functionality, Input, Output, Port
 
-__all__ = ["pack", "unpack", "Ports", "now"]
+__all__ = ["pack", "unpack", "result_of", "Ports", "now"]
 
 
 def pack(doc: dict[str, Any]) -> str:
     return json.dumps(doc, separators=(",", ":"), sort_keys=True)
 
 
-def unpack(msg: Any) -> Optional[dict[str, Any]]:
-    """The document a message carries, or None when it is not one (a model-driven default)."""
+def unpack(msg: Any, need: str = "") -> Optional[dict[str, Any]]:
+    """The document a message carries, or None when it is not one (a model-driven default) or
+    lacks the key `need`."""
     try:
         doc = json.loads(msg.data)
     except (ValueError, AttributeError, TypeError):
         return None
-    return doc if isinstance(doc, dict) else None
+    return doc if isinstance(doc, dict) and (not need or need in doc) else None
+
+
+def result_of(doc: dict[str, Any], keys: tuple[str, ...] = ("rid", "reply", "state")) -> dict[str, Any]:
+    """A result's own keys of a document that carries more (the request, a layer's context)."""
+    return {k: doc[k] for k in keys if k in doc}
 
 
 def now() -> float:
@@ -56,6 +62,11 @@ class Ports:
     def send(self, name: str, doc: dict[str, Any]) -> bool:
         out = self.output(name)
         return out.write(out.new(data=pack(doc)))
+
+    def quiet(self) -> None:
+        """No generic publishing: the behaviour writes; the modes keep their guarantees (the model)."""
+        for mode in (self.fn.normal, self.fn.degraded):
+            mode.callback, mode.rate = None, None
 
     @property
     def normal(self) -> bool:

@@ -12,7 +12,7 @@ from typing import Any, Optional
 
 import pytest
 
-from reconf_ros.demo.ftm import judge_log, read_log
+from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
 from reconf_ros.livetest import LiveSystem
 
 from .conftest import example
@@ -27,15 +27,6 @@ def serve(live: LiveSystem, ftm: Optional[str]) -> tuple[dict[str, Any], Path]:
     procs, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ)
     assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
     return procs, log
-
-
-def wait_replies(log: Path, n: int, timeout: float, after: float = 0.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if sum(1 for r in read_log(str(log))["replies"].values() if r[0]["t"] > after) >= n:
-            return True
-        time.sleep(0.1)
-    return False
 
 
 def judged(log: Path) -> dict[str, list[int]]:
