@@ -44,12 +44,16 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             return {"ok": False, "why": str(e)[:300]}
         if not wait_replies(log, 25, timeout=60):
             return {"ok": False, "why": "no replies"}
+        inject = live.injector("/server/ftm/r0/srv/request") if fault == "transient" else None
+        if inject is not None:
+            inject.wait_ready()
+        if fault != "none" and not live.wait_detectors_armed(timeout=30):
+            return {"ok": False, "why": "the crash detector never armed"}
         t0 = time.time()
         if fault == "crash":
             os.killpg(procs["master"], signal.SIGKILL)
-        elif fault == "transient":
-            live.publish_once("/server/ftm/r0/srv/request", {"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
-            t0 = time.time()
+        elif inject is not None:
+            inject.send({"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
         wait_replies(log, int(seconds * hz), timeout=seconds * 3, after=t0)
         time.sleep(1.0)
         entries = read_log(str(log))

@@ -379,6 +379,7 @@ class ComponentNode(LifecycleNode):
             out[f"out.{port}@{k}.subscribers"] = str(n)
         for port, n in self.published.items():
             out[f"out.{port}.published"] = str(n)
+        out.update({k: f() for k, f in self.component.reports.items()})
         return out
 
     def publish_status(self) -> None:

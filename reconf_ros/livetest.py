@@ -15,6 +15,7 @@ import importlib.util
 import itertools
 import json
 import os
+import select
 import shlex
 import signal
 import subprocess
@@ -55,7 +56,7 @@ class LiveSystem:
         self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                         PATH=bindir + os.pathsep + os.environ.get("PATH", ""), PYTHONUNBUFFERED="1")
         self.env.pop("ROS_LOCALHOST_ONLY", None)
-        self.procs: list[subprocess.Popen[bytes]] = []
+        self.procs: list[subprocess.Popen[Any]] = []
         self.pids: set[int] = set()
         self.status_file = self.dir / "statuses.json"
         self.deployed: list[str] = []
@@ -93,11 +94,12 @@ class LiveSystem:
         path.write_text(to_text(out))
         return str(path)
 
-    def serve_ftm(self, arch: str, ftm: Optional[str], hz: float, client: str = "client"
+    def serve_ftm(self, arch: str, ftm: Optional[str], hz: float, client: str = "client", count: int = 0
                   ) -> tuple[dict[str, int], Path]:
         """`arch`'s expansion with `ftm` (see `expanded`) deployed one process per host, and once
-        every node is up, its demo client in a process of its own at `hz` requests/s (a client
-        started earlier would wait on a service that is not there yet); the client's log."""
+        every node is up, its demo client in a process of its own sending `count` requests (0: no
+        end) at `hz` requests/s (a client started earlier would wait on a service that is not there
+        yet); the client's log."""
         path = self.expanded(arch, ftm)
         if self.watcher is None:
             self.watch()            # readiness is read from the statuses
@@ -106,32 +108,21 @@ class LiveSystem:
         procs = self.deploy_by_host(path, others)
         self.wait_ready(others, timeout=90)
         log = self.dir / f"{client}.jsonl"
-        self.env.update(RECONF_CLIENT_HZ=str(hz), RECONF_CLIENT_LOG=str(log))
+        self.env.update(RECONF_CLIENT_HZ=str(hz), RECONF_CLIENT_LOG=str(log), RECONF_CLIENT_COUNT=str(count))
         procs[client] = self.start(["reconf-node", "--arch", path, client, "--deployed", path], f"{client}.log").pid
         self.deployed.append(client)
         return procs, log
 
-    def publish_once(self, topic: str, doc: dict[str, Any], timeout: float = 20.0) -> None:
-        """Publish one JSON document (std_msgs/String, volatile) on `topic` from a node of this
-        system's domain, once something subscribes: a fault's injection, a test hook's call."""
-        code = (
-            "import sys, time, rclpy\n"
-            "from std_msgs.msg import String\n"
-            "from reconf_ros.component import VOLATILE_QOS\n"
-            "rclpy.init(); node = rclpy.create_node('reconf_inject')\n"
-            "pub = node.create_publisher(String, sys.argv[1], VOLATILE_QOS)\n"
-            "end = time.monotonic() + float(sys.argv[3])\n"
-            "while pub.get_subscription_count() == 0 and time.monotonic() < end:\n"
-            "    rclpy.spin_once(node, timeout_sec=0.05)\n"
-            "pub.publish(String(data=sys.argv[2]))\n"
-            "end = time.monotonic() + 0.5\n"
-            "while time.monotonic() < end:\n"
-            "    rclpy.spin_once(node, timeout_sec=0.05)\n"
-            "sys.exit(0 if pub.get_subscription_count() else 1)\n")
-        res = subprocess.run([sys.executable, "-c", code, topic, json.dumps(doc), str(timeout)], env=self.env,
-                             timeout=timeout + 20, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise RuntimeError(f"nothing subscribes to {topic} (domain {self.domain}): {res.stderr[-500:]}")
+    def injector(self, topic: str, timeout: float = 20.0) -> "Injector":
+        """A node of this system's domain (reconf_ros.inject) that publishes JSON documents on
+        `topic`, std_msgs/String, volatile, once something subscribes: a fault's injection, a test
+        hook's call. Started ahead, so a document is published when it is sent."""
+        proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.inject", topic, str(timeout)], env=self.env,
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                cwd=self.dir, text=True, preexec_fn=_die_with_parent, start_new_session=True)
+        self.procs.append(proc)
+        self.pids.add(proc.pid)
+        return Injector(proc, topic, timeout)
 
     def deploy_by_host(self, arch: str, components: Optional[Sequence[str]] = None) -> dict[str, int]:
         """Start the deployed components of `arch` as it deploys them, one process per host in a
@@ -209,6 +200,15 @@ class LiveSystem:
                 return True
             time.sleep(0.1)
         return False
+
+    def wait_detectors_armed(self, timeout: float = 30.0) -> bool:
+        """Until every crash detector has seen the beats long enough to know their jitter
+        (reconf_ros.ftm.detect): a crash from then on is detected at the learned silence. A system
+        without one is armed at once."""
+        def armed(st: dict[str, Any]) -> bool:
+            states = [s["values"]["app.detector"] for s in st.values() if "app.detector" in s["values"]]
+            return all(x == "armed" for x in states)
+        return self.wait(armed, timeout)
 
     def wait_ready(self, components: Optional[Sequence[str]] = None, timeout: float = 20.0) -> None:
         """Until each component (by default, each deployed) reports every functionality normal and
@@ -297,3 +297,34 @@ class LiveSystem:
 
     def __exit__(self, *exc: Any) -> None:
         self.stop()
+
+
+class Injector:
+    """The handle of a reconf_ros.inject process (LiveSystem.injector)."""
+
+    def __init__(self, proc: "subprocess.Popen[str]", topic: str, timeout: float) -> None:
+        self.proc, self.topic = proc, topic
+        assert proc.stdout is not None and proc.stdin is not None
+        self.stdin, self.stdout = proc.stdin, proc.stdout
+        self.timeout = timeout
+        self.ready = False
+
+    def _line(self, timeout: float) -> str:
+        ready, _, _ = select.select([self.stdout], [], [], timeout)
+        return self.stdout.readline().strip() if ready else ""
+
+    def wait_ready(self) -> None:
+        if not self.ready:
+            line = self._line(self.timeout + 20)
+            if line != "ready":
+                raise RuntimeError(f"nothing subscribes to {self.topic}: {line or 'no answer'}")
+            self.ready = True
+
+    def send(self, doc: dict[str, Any]) -> None:
+        """Publish `doc` now (waits for the subscriber first if not done yet)."""
+        self.wait_ready()
+        self.stdin.write(json.dumps(doc) + "\n")
+        self.stdin.flush()
+        line = self._line(10.0)
+        if not line.startswith("sent ") or line == "sent 0":
+            raise RuntimeError(f"{self.topic}: {line or 'no answer'} (nothing subscribes any more?)")

@@ -283,6 +283,7 @@ class Component:
         self.functionalities: list[Functionality] = []
         self.extra_messages: dict[str, str] = {}
         self.timers: list[tuple[Rate, Callable[[], None]]] = []
+        self.reports: dict[str, Callable[[], str]] = {}
         self.lean = False         # serve only the control interface's four services (docs/runtime.md#cost)
         self.node: Any = None     # the running ComponentNode, once started
 
@@ -316,6 +317,11 @@ class Component:
         r = to_rate(rate)
         assert r is not None
         self.timers.append((r, callback))
+
+    def report(self, key: str, value: Callable[[], str]) -> None:
+        """Publish `value()` under `app.<key>` in the node's status: what the application observes
+        of itself, such as a detector's current silence limit."""
+        self.reports[f"app.{key}"] = value
 
     def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
                              criticality: int = 1) -> Functionality:

@@ -6,6 +6,7 @@ model-driven publisher of its beats (reconf_ros.ftm.BEHAVIOURS)."""
 from __future__ import annotations
 
 import re
+from collections import deque
 from typing import Any, Optional
 
 from reconf_dsl.ir import System
@@ -15,36 +16,69 @@ from .wire import Ports, now, unpack
 
 __all__ = ["Detector", "Recovery", "MISSED_BEATS"]
 
-MISSED_BEATS = 2.5      # heartbeat periods of silence before the backup's detector raises the alarm
+MISSED_BEATS = 2.5      # intervals of silence before the backup's detector raises the alarm
+MAX_PERIODS = 10.0      # the silence it waits for grows with the beats' jitter, up to this many periods
+JITTER_WINDOW = 10.0    # s of beat intervals the jitter is read from
 ARM_AFTER = 1.0         # s of regular beats before it does: a start-up hiccup is not a crash
+CHECK_PERIOD = 0.05     # s between two looks at the silence
 
 
 class Detector:
-    """Raises one alarm when the primary's beats stop for MISSED_BEATS periods, once they have
-    come regularly for ARM_AFTER seconds."""
+    """Raises one alarm when the primary's beats stop for MISSED_BEATS of the longest intervals
+    between beats of the last JITTER_WINDOW seconds (at least MISSED_BEATS periods, at most
+    MAX_PERIODS; the most until the beats have come for JITTER_WINDOW seconds), once they have come
+    regularly for ARM_AFTER seconds; silence is counted only while its own process runs. A loaded host beats late
+    now and then: the silence that means a crash there is longer than on an idle one
+    (docs/ftm.md, crash detection)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
         self.p = ports
         hz = ports.input("beat").assumption.hz
-        self.limit = MISSED_BEATS / float(hz) if hz else 0.25
+        self.period = 1.0 / float(hz) if hz else 0.1
+        self.limit = MAX_PERIODS * self.period
         self.last: Optional[float] = None
+        self.gaps: deque[tuple[float, float]] = deque()     # (when, interval) of recent beats
         self.steady_since: Optional[float] = None    # regular beats since then
         self.alarmed_at: Optional[float] = None
+        self.checked = now()
         ports.input("beat").on_message(self.on_beat)
-        comp.create_timer(20, self.check)
+        comp.create_timer(1.0 / CHECK_PERIOD, self.check)
+        comp.report("silence_limit_s", lambda: f"{self.limit:.3f}")
+        comp.report("detector", self.state)
 
     def on_beat(self, msg: Any) -> None:
         t = now()
         if self.last is None or t - self.last > self.limit:
             self.steady_since = t
+        if self.last is not None:
+            self.gaps.append((t, t - self.last))
+            while self.gaps and self.gaps[0][0] < t - JITTER_WINDOW:
+                self.gaps.popleft()
+            if self.steady_since is not None and t - self.steady_since >= JITTER_WINDOW:
+                longest = max(g for _, g in self.gaps)
+                self.limit = min(MAX_PERIODS * self.period, MISSED_BEATS * max(self.period, longest))
+            else:       # too few beats yet to know the jitter: the longest wait
+                self.limit = MAX_PERIODS * self.period
         self.last = t
 
+    def state(self) -> str:
+        """waiting (no beat yet), learning (beats for less than JITTER_WINDOW s), armed, alarmed."""
+        if self.alarmed_at is not None:
+            return "alarmed"
+        if self.last is None or self.steady_since is None:
+            return "waiting"
+        return "armed" if self.last - self.steady_since >= JITTER_WINDOW else "learning"
+
     def check(self) -> None:
+        t, woke = now(), self.checked
+        self.checked = t
+        if t - woke > 2 * CHECK_PERIOD:
+            return      # this process was stalled itself: beats queued meanwhile are read first
         if self.alarmed_at is not None or self.last is None or self.steady_since is None or not self.p.normal:
             return
         if self.last - self.steady_since < ARM_AFTER:
             return
-        silent = now() - self.last
+        silent = t - self.last
         if silent > self.limit and self.p.send("alarm", {"failed": "r0", "silent_s": round(silent, 3)}):
             self.alarmed_at = now()
             self.p.comp.node.get_logger().warning(f"no heartbeat for {silent:.3f} s: alarm raised")

@@ -347,5 +347,7 @@ class After:
         if tr["run"] >= MAX_TR_RUNS:
             self.p.comp.node._fault(self.p.fn.name, RuntimeError(f"{doc['rid']}: no two of {len(seen)} runs agree"))
             return
+        if len(seen) >= 2:
+            self.p.comp.node.get_logger().warning(f"{doc['rid']}: no two of {len(seen)} runs agree: one more")
         again = dict(req, tr={"run": tr["run"] + 1, "saved": saved, "seen": seen})
         self.p.send("to_protocol", {"rid": doc["rid"], "again": again})

@@ -17,45 +17,52 @@ from reconf_ros.livetest import LiveSystem
 
 from .conftest import example
 
-HZ = 20         # requests/s: the deepest composition saturates two cores at 50 (bench_aft)
-CLEAN = {"lost": [], "duplicated": [], "wrong": []}
+HZ = 10         # requests/s: the deepest composition saturates two cores at 50 (bench_aft), and
+                # one at 20 if another process keeps the other busy
+COUNT = 80      # requests the client sends (8 s); every one must be answered, once and right
+CLEAN: dict[str, list[int]] = {"lost": [], "duplicated": [], "wrong": []}
+TOLERATED_S = 0.5   # s a loaded two-core machine may keep a 10 Hz stream late, in all, per node
 
 
-def serve(live: LiveSystem, ftm: Optional[str]) -> tuple[dict[str, Any], Path]:
+def serve(live: LiveSystem, ftm: Optional[str], count: int = COUNT) -> tuple[dict[str, Any], Path]:
     """Deploy the PBR(TR) example's expansion with `ftm` instead, one process per host; once it
-    is up, a client at HZ; its first replies."""
-    procs, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ)
+    is up, a client sending `count` requests at HZ; its first replies."""
+    procs, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ, count=count)
     assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
     return procs, log
 
 
-def judged(log: Path) -> dict[str, list[int]]:
-    return judge_log(read_log(str(log)), until=time.time() - 1.0)
+def judged(log: Path, count: int = COUNT) -> dict[str, list[int]]:
+    """Once the client has sent its last request and had every reply, or 60 s: what is wrong."""
+    wait_replies(log, count, timeout=60)
+    return judge_log(read_log(str(log)), until=time.time())
 
 
 def violations(live: LiveSystem) -> dict[str, str]:
-    """Violations the mechanism's own nodes saw. The client's monitor is left out: its
-    assumption is the reply latency (1.5 periods of 10 Hz), which a loaded two-core machine
-    exceeds now and then whatever the mechanism does; bench_aft reports the latencies."""
-    return {n: v for n, v in live.violations(live.settle_status()).items() if n != "/client"}
+    """The mechanism's nodes whose monitor saw a normal mode's assumption violated for more than
+    TOLERATED_S in all. A loaded machine delays a 10 Hz stream beyond 1.5 periods now and then
+    whatever the mechanism does: bench_aft reports those. The client's monitor is left out: its
+    assumption is the reply latency (1.5 periods of 10 Hz), which bench_aft reports too."""
+    st = live.settle_status()
+    return {n: f"{s['message']} ({s['values'].get('violation_s')} s in all)" for n, s in st.items()
+            if n != "/client" and float(s["values"].get("violation_s") or 0) > TOLERATED_S}
 
 
 @pytest.mark.parametrize("ftm", ["SEC(PBR(TR))", "LFR", "AD"])
 def test_every_request_answered_once_and_right(live: LiveSystem, ftm: str) -> None:
     _, log = serve(live, ftm)
-    assert wait_replies(log, 100, timeout=30)
     assert judged(log) == CLEAN
     assert violations(live) == {}
 
 
 @pytest.mark.parametrize("ftm", ["PBR", "LFR"])
 def test_primary_host_killed(live: LiveSystem, ftm: str) -> None:
-    procs, log = serve(live, ftm)
-    assert wait_replies(log, 30, timeout=30)
+    procs, log = serve(live, ftm, count=2 * COUNT)
+    assert live.wait_detectors_armed(timeout=30), live.statuses()
     killed = time.time()
     os.killpg(procs["master"], signal.SIGKILL)
-    assert wait_replies(log, 60, timeout=30, after=killed), live.statuses()
-    assert judged(log) == CLEAN
+    assert wait_replies(log, 20, timeout=30, after=killed), live.statuses()
+    assert judged(log, 2 * COUNT) == CLEAN
     replies = sorted(r[0]["t"] for r in read_log(str(log))["replies"].values())
     wait = max(b - a for a, b in zip(replies, replies[1:]) if b > killed)
     assert wait < 2.0, f"the client waited {wait:.3f} s for a reply"
@@ -66,12 +73,14 @@ def test_primary_host_killed(live: LiveSystem, ftm: str) -> None:
 
 @pytest.mark.parametrize("ftm", ["TR", "AD"])
 def test_one_wrong_computation(live: LiveSystem, ftm: str) -> None:
-    _, log = serve(live, ftm)
-    assert wait_replies(log, 30, timeout=30)
-    live.publish_once("/server/ftm/r0/srv/request", {"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
-    flipped = time.time()
-    assert wait_replies(log, 60, timeout=30, after=flipped)
-    assert judged(log) == CLEAN
+    _, log = serve(live, ftm, count=2 * COUNT)
+    fault = live.injector("/server/ftm/r0/srv/request")
+    fault.wait_ready()
+    assert live.wait_detectors_armed(timeout=30), live.statuses()
+    fault.send({"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
+    assert judged(log, 2 * COUNT) == CLEAN
+    seen_by = {"TR": "runs agree: one more", "AD": "the result fails the assertion"}[ftm]
+    assert seen_by in "".join(p.read_text() for p in live.dir.glob("host-master*.log")), "the fault never struck"
     allowed = {"/server__r1_cd"} if ftm == "AD" else set()   # AD's leader stops itself
     seen = violations(live)
     assert set(seen) <= allowed, (seen, live.watched_violations())
@@ -79,12 +88,11 @@ def test_one_wrong_computation(live: LiveSystem, ftm: str) -> None:
 
 def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
     _, log = serve(live, "SEC(PBR)")
-    assert wait_replies(log, 30, timeout=30)
+    forger = live.injector("/server/ftm/pxy2pro")
     forged = {"rid": "0-1", "floor": 1, "sealed": {"nonce": "AAAAAAAAAAAAAAAA", "ct": "AAAA", "sig": "AAAA",
                                                      "cert": {"party": "client", "sign": "AAAA", "box": "AAAA",
                                                               "ca_sig": "AAAA"}}}
-    live.publish_once("/server/ftm/pxy2pro", forged)
-    assert wait_replies(log, 30, timeout=30, after=time.time())
+    forger.send(forged)
     assert judged(log) == CLEAN
     logs = "".join(p.read_text() for p in live.dir.glob("host-master*.log"))
     assert "0-1: a message failed its checks" in logs
