@@ -842,6 +842,10 @@ class Executor:
 
     # --- the run ---
     def check_touched(self, expected: State, when: str) -> None:
+        # a node that answered its services may not be in this node's graph yet, nor heard on
+        # /diagnostics: under load, discovery lags behind the services by seconds
+        want = {self.fqn(c) for c in self.touched & expected.components}
+        self.rt.wait(lambda: want <= set(self.rt.nodes()), self.args.discovery_timeout)
         seen = self.observe(self.touched)
         diffs = self.model.differences(expected, self.as_state(seen), self.touched)
         if diffs:
