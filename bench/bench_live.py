@@ -96,12 +96,13 @@ def assumed_period(doc: dict[str, Any], comp: str, port: str) -> float:
     return 0.0
 
 
-def big_system(path: Path, n: int = 50) -> None:
-    """A hub at 10 Hz, relays reading it, sinks reading the relays: n components in all."""
+def big_system(path: Path, n: int = 50, lean: bool = True) -> None:
+    """A hub at 10 Hz, relays reading it, sinks reading the relays: n components in all, lean
+    nodes (docs/runtime.md#cost) unless `lean` is false."""
     relays = (n - 1) // 2
     sinks = n - 1 - relays
     lines = ["system big", "message String = std_msgs/msg/String", ""]
-    run = f'  run "reconf-node --arch {path} {{}}"'
+    run = f'  run "reconf-node{" --lean" if lean else ""} --arch {path} {{}}"'
     for name, extra in (("hub", ""), ("hub_v2", " replaces hub")):
         lines += [f"component {name}{extra} {{", run.format(name), "  output out: String",
                   "  functionality pub (out) { normal { out: String @ 10 Hz } degraded { out: nothing } }", "}"]
@@ -119,13 +120,13 @@ def big_system(path: Path, n: int = 50) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
-def measure_big(work: Path, n: int, manager: bool) -> dict[str, Any]:
+def measure_big(work: Path, n: int, manager: bool, lean: bool) -> dict[str, Any]:
     """Replace the hub of an n-component system: the plan script on its own, or through a
     manager started with the system (docs/executor.md#manager). Violations are counted over
     the plan's run only (the monitors' counters before and after)."""
     work.mkdir(parents=True, exist_ok=True)
     arch = work / "big.arch"
-    big_system(arch, n)
+    big_system(arch, n, lean)
     with LiveSystem(work) as live:
         live.watch()
         sock = live.manager() if manager else ""
@@ -165,18 +166,21 @@ def main() -> None:
     ap.add_argument("--strategies", default="default,paper")
     ap.add_argument("--big-runs", type=int, default=5)
     ap.add_argument("--big-n", type=int, default=50)
+    ap.add_argument("--big-how", default="script,manager,manager-full",
+                    help="big-system rows: script (the plan script on its own), manager (through a running "
+                         "manager); -full: nodes with every standard service, not lean")
     args = ap.parse_args()
     print("| scenario | runs | failed or violated | plan wall s | step s | largest gap / period | "
           "lost | steps degraded | s degraded |")
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for row, (name, arch, plan_args) in enumerate(SCENARIOS):
+        for k, (name, arch, plan_args) in enumerate(SCENARIOS):
             if args.only not in name or args.runs < 1:
                 continue
             for strategy in args.strategies.split(","):
                 runs = []
                 for i in range(args.runs):
-                    r = measure(arch, plan_args, strategy, Path(tmp) / f"row{row}-{strategy}-{i}")
+                    r = measure(arch, plan_args, strategy, Path(tmp) / f"row{k}-{strategy}-{i}")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
                         for line in r["seen"]:
@@ -187,10 +191,13 @@ def main() -> None:
             print(f"\n| {args.big_n}-component live system, replace the hub (default strategy) | runs | failed | "
                   "runs with a violation during the plan | plan wall s (median/p95/max) | create s | attach s |")
             print("|---|---|---|---|---|---|---|")
-            for how, manager in (("plan script on its own", False), ("through a running manager", True)):
+            for key in args.big_how.split(","):
+                manager, lean = key.startswith("manager"), not key.endswith("-full")
+                how = ("through a running manager" if manager else "plan script on its own") + \
+                    ("" if lean else ", nodes not lean")
                 runs = []
                 for i in range(args.big_runs):
-                    r = measure_big(Path(tmp) / f"big-{int(manager)}-{i}", args.big_n, manager)
+                    r = measure_big(Path(tmp) / f"big-{key}-{i}", args.big_n, manager, lean)
                     if not r["ok"]:
                         print(f"  (big run {i}: {r['stderr']})", flush=True)
                     for line in r["seen"]:

@@ -4,6 +4,7 @@
     reconf-node --arch robot.arch motor_controller        a model-driven node (reconf_ros.generic)
     reconf-node ... --deployed robot.arch                 start as that architecture deploys it
     reconf-node ... --describe                            print the model, run nothing
+    reconf-node --lean ...                                only the control interface's services
 
 Several components in one command share one process (and one DDS participant). Everything
 after `--ros-args` goes to ROS (`-r __ns:=/robot`). See docs/runtime.md.
@@ -86,8 +87,11 @@ def _load(path: str) -> "System":
 @click.option("--system", "system_name", help="with --describe: start the text with `system NAME`")
 @click.option("--gap-factor", type=float, default=1.5, show_default=True,
               help="the monitor's tolerance: an input assuming r Hz is met while messages arrive within k/r s")
+@click.option("--lean", is_flag=True,
+              help="serve only the control interface's four services (docs/runtime.md#cost): less CPU per node, "
+                   "nothing for tools that list transitions or parameters")
 def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str], describe: bool,
-         system_name: Optional[str], gap_factor: float) -> None:
+         system_name: Optional[str], gap_factor: float, lean: bool) -> None:
     """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
     argv = list(targets)
     ros_args: list[str] = []
@@ -117,7 +121,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str],
                 if r.component in plan:
                     plan[r.component].setdefault(r.port, []).append(conn.name)
     from .component import run_components
-    sys.exit(run_components(comps, args=[sys.argv[0]] + ros_args, deployed=plan, gap_factor=gap_factor))
+    sys.exit(run_components(comps, args=[sys.argv[0]] + ros_args, deployed=plan, gap_factor=gap_factor, lean=lean))
 
 
 if __name__ == "__main__":
