@@ -45,7 +45,7 @@ STATUS_PREFIX = "reconf:"
 DISCOVERY_ROUND = 3.5
 GRAPH_QUIET = 1.0
 STATUS_FRESH = 2.5    # s a status counts as a sign of life (nodes repeat theirs every second)
-RETRY_AFTER = 0.3     # s before a read-only call is repeated (then 0.6 s, then the full timeout)
+RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 
@@ -432,42 +432,49 @@ class Runtime:
         for name in [n for n in self.clients if n.startswith(fqn + "/")]:
             self.node.destroy_client(self.clients.pop(name))
 
-    def call(self, srv_type: Any, name: str, request: Any, *, read_only: bool = False,
-             attempts: int = 3) -> Any:
-        """One service call; a read-only one is repeated when its answer does not come (Fast DDS
-        can lose the first answer of a new service)."""
-        return one(self.call_many(srv_type, {name: request}, attempts if read_only else 1), name)
+    def call(self, srv_type: Any, name: str, request: Any, *, read_only: bool = False) -> Any:
+        """One service call (see `call_many`)."""
+        return one(self.call_many(srv_type, {name: request}, repeat=read_only), name)
 
-    def call_many(self, srv_type: Any, requests: dict[str, Any], attempts: int = 3) -> dict[str, Any]:
+    def call_many(self, srv_type: Any, requests: dict[str, Any], repeat: bool = True) -> dict[str, Any]:
         """Calls to many services at once: service name -> answer, or the StepFailed that explains
-        why there is none. Unanswered calls are repeated up to `attempts` times, after 0.3 s,
-        0.6 s, …; the last waits the full timeout (a call that changes something gets 1)."""
+        why there is none within the timeout. A read-only call (`repeat`) is sent again every
+        RETRY_AFTER s while unanswered, and the first answer to any of its copies is taken: a
+        request that reaches a new service before the service has matched the caller is only
+        delivered at the next DDS heartbeat, seconds later, and its answer can be lost the same
+        way. A call that changes something is sent once."""
         answers: dict[str, Any] = {}
-        pending = dict(requests)
-        for attempt in range(1, attempts + 1):
-            ready = {n: self.client(srv_type, n) for n in pending}
-            self.wait(lambda: all(c.service_is_ready() for c in ready.values()), min(self.timeout, self.left()))
-            futs = {}
-            for n, cli in ready.items():
-                if cli.service_is_ready():
-                    futs[n] = cli.call_async(pending[n])
-                else:
-                    answers[n] = StepFailed(f"service {n} is not available")
-            wait = min(self.timeout if attempt == attempts else min(RETRY_AFTER * attempt, self.timeout), self.left())
-            self.wait(lambda: all(f.done() for f in futs.values()), wait)
-            pending = {}
-            for n, fut in futs.items():
-                if not fut.done():
-                    fut.cancel()
-                    ready[n].remove_pending_request(fut)
-                    pending[n] = requests[n]
-                    answers[n] = StepFailed(f"no answer from {n} within {self.timeout} s")
-                elif fut.exception() is not None:
-                    answers[n] = StepFailed(f"{n} failed: {fut.exception()}")
-                else:
-                    answers[n] = fut.result()
-            if not pending:
-                break
+        clients = {n: self.client(srv_type, n) for n in requests}
+        end = time.monotonic() + min(self.timeout, self.left())
+        self.wait(lambda: all(c.service_is_ready() for c in clients.values()), end - time.monotonic())
+        futs: dict[str, list[Any]] = {}
+        for n, cli in clients.items():
+            if cli.service_is_ready():
+                futs[n] = [cli.call_async(requests[n])]
+            else:
+                answers[n] = StepFailed(f"service {n} is not available")
+        sent = time.monotonic()
+
+        def unanswered() -> list[str]:
+            return [n for n, fs in futs.items() if not any(f.done() for f in fs)]
+        while (pending := unanswered()) and time.monotonic() < end:
+            if repeat and time.monotonic() - sent >= RETRY_AFTER:
+                for n in pending:
+                    futs[n].append(clients[n].call_async(requests[n]))
+                sent = time.monotonic()
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+        for n, fs in futs.items():
+            first = next((f for f in fs if f.done()), None)
+            for f in fs:
+                if not f.done():
+                    f.cancel()
+                    clients[n].remove_pending_request(f)
+            if first is None:
+                answers[n] = StepFailed(f"no answer from {n} within {self.timeout} s")
+            elif first.exception() is not None:
+                answers[n] = StepFailed(f"{n} failed: {first.exception()}")
+            else:
+                answers[n] = first.result()
         return answers
 
     def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
