@@ -319,6 +319,13 @@ class ComponentNode(LifecycleNode):
     def expect(self, port: str) -> None:
         self.monitor.expect(port, time.time())
 
+    def matched(self, port: str) -> int:
+        """How many remote endpoints `port` is matched with now: subscribers of an output's
+        topics, publishers of an input's."""
+        if port in self.monitor.inputs:
+            return sum(self.monitor.inputs[port].publishers.values())
+        return sum(n for (q, _), n in self.matched_out.items() if q == port)
+
     def request_subscribers(self, port: str) -> int:
         """How many servers the requests of service input `port` reach now (matched)."""
         return sum(pub.get_subscription_count() for (q, _), pub in self.req_pubs.items() if q == port)

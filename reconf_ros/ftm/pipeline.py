@@ -105,6 +105,11 @@ class Proxy:
         doc = unpack(msg, need="rid")
         if doc is None:
             return
+        if "takeover" in doc:       # a backup's protocol took over: what is unanswered goes to it now
+            for rid, e in self.pending.items():
+                e["tries"] = 0
+                self.forward(rid)
+            return
         entry = self.pending.pop(doc["rid"], None)
         if entry is None:
             return                  # a duplicate, or already answered
@@ -137,6 +142,11 @@ class Protocol:
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
+        self.announce: list[float] = []          # when to tell the proxy it took over
+        self.announcer: Any = None
+        self.announce_by = 0.0
+        if ports.has("from_recovery"):
+            ports.input("from_recovery").on_message(self.on_switch)
 
     def on_request(self, msg: Any) -> None:
         req = unpack(msg, need="rid")
@@ -191,6 +201,33 @@ class Protocol:
         if rid in self.mine and "reply" in doc:
             self.p.send("reply", {"rid": rid, **result})
         self.pump()
+
+    def on_switch(self, msg: Any) -> None:
+        """Recovery made this protocol the server's: once the proxy's requests and this
+        protocol's replies are matched, tell the proxy, three times 0.1 s apart (a volatile
+        message can go before the proxy's side has matched), so it sends what is unanswered
+        now instead of at its next back-off."""
+        node = self.p.comp.node
+        if unpack(msg) is not None and self.announcer is None and node is not None:
+            self.announce, self.announce_by = [0.0, 0.1, 0.2], now() + 5.0   # matched within 5 s, or never mind
+            self.announcer = node.create_timer(0.02, self.announce_takeover)
+
+    def announce_takeover(self) -> None:
+        node = self.p.comp.node
+        if not self.announce or (self.announce[0] == 0.0 and now() > self.announce_by):
+            node.destroy_timer(self.announcer)
+            self.announce = []
+            return
+        if not self.p.normal:
+            return
+        if node.matched("reply") == 0 or node.matched("from_client") == 0:
+            return
+        t = now()
+        if self.announce[0] == 0.0:
+            self.announce = [t + d for d in self.announce]
+        if t >= self.announce[0]:
+            self.announce.pop(0)
+            self.p.send("reply", {"rid": "", "takeover": self.p.comp.name})
 
     def pump(self) -> None:
         t = now()

@@ -257,6 +257,9 @@ class ClientDecipher(_Sec):
         doc = unpack(msg, need="rid")
         if doc is None or not self.keys.load():
             return
+        if "takeover" in doc:       # a backup's notice: it carries nothing but a prompt to re-send
+            self.p.send("to_proxy", {"rid": "", "takeover": str(doc["takeover"])})
+            return
         reply, _ = self.keys.open(doc["rid"], doc.get("reply"), self.peer)
         if reply is None:
             return self.log_rejected(doc["rid"])
