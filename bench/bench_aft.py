@@ -56,8 +56,9 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             inject.send({"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
         wait_replies(log, int(seconds * hz), timeout=seconds * 3, after=t0)
         time.sleep(1.0)
+        read_at = time.time()
         entries = read_log(str(log))
-    verdict = judge_log(entries, until=time.time() - 1.5)
+    verdict = judge_log(entries, until=read_at - 1.5)   # not after the system's stop: that takes seconds
     replies = sorted(r[0]["t"] for r in entries["replies"].values())
     after = [t for t in replies if t > t0 - 1.0]
     silence = max((b - a for a, b in zip(after, after[1:]) if b > t0), default=0.0) if fault != "none" else 0.0
