@@ -26,10 +26,10 @@ CHECK_PERIOD = 0.05     # s between two looks at the silence
 class Detector:
     """Raises one alarm when the primary's beats stop for MISSED_BEATS of the longest intervals
     between beats of the last JITTER_WINDOW seconds (at least MISSED_BEATS periods, at most
-    MAX_PERIODS; the most until the beats have come for JITTER_WINDOW seconds), once they have come
-    regularly for ARM_AFTER seconds; silence is counted only while its own process runs. A loaded host beats late
-    now and then: the silence that means a crash there is longer than on an idle one
-    (docs/ftm.md, crash detection)."""
+    MAX_PERIODS; the most until the beats have come for JITTER_WINDOW seconds), once they have
+    come regularly for ARM_AFTER seconds. Silence counts only while its own process runs. A
+    loaded host beats late now and then: the silence that means a crash there is longer than on
+    an idle one (docs/ftm.md, crash detection)."""
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
         self.p = ports
