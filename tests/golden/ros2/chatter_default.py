@@ -432,9 +432,9 @@ class Runtime:
         for name in [n for n in self.clients if n.startswith(fqn + "/")]:
             self.node.destroy_client(self.clients.pop(name))
 
-    def call(self, srv_type: Any, name: str, request: Any, *, read_only: bool = False) -> Any:
-        """One service call (see `call_many`)."""
-        return one(self.call_many(srv_type, {name: request}, repeat=read_only), name)
+    def call(self, srv_type: Any, name: str, request: Any) -> Any:
+        """One call that changes something, sent once (reads go through `call_many`)."""
+        return one(self.call_many(srv_type, {name: request}, repeat=False), name)
 
     def call_many(self, srv_type: Any, requests: dict[str, Any], repeat: bool = True) -> dict[str, Any]:
         """Calls to many services at once: service name -> answer, or the StepFailed that explains
