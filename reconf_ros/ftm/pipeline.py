@@ -13,7 +13,7 @@ import os
 import signal
 import time
 from collections import OrderedDict, deque
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 from reconf_dsl.ir import System
 
@@ -142,9 +142,10 @@ class Protocol:
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
-        self.announce: list[float] = []          # when to tell the proxy it took over
+        self.notices = 0                # takeover notices still to send the proxy (on_switch)
+        self.next_notice: Optional[float] = None    # when the next goes; None: not matched yet
+        self.match_by = 0.0
         self.announcer: Any = None
-        self.announce_by = 0.0
         if ports.has("from_recovery"):
             ports.input("from_recovery").on_message(self.on_switch)
 
@@ -209,25 +210,26 @@ class Protocol:
         now instead of at its next back-off."""
         node = self.p.comp.node
         if unpack(msg) is not None and self.announcer is None and node is not None:
-            self.announce, self.announce_by = [0.0, 0.1, 0.2], now() + 5.0   # matched within 5 s, or never mind
+            self.notices, self.match_by = 3, now() + 5.0      # matched within 5 s, or never mind
             self.announcer = node.create_timer(0.02, self.announce_takeover)
 
     def announce_takeover(self) -> None:
-        node = self.p.comp.node
-        if not self.announce or (self.announce[0] == 0.0 and now() > self.announce_by):
-            node.destroy_timer(self.announcer)
-            self.announce = []
+        t = now()
+        if self.notices == 0 or (self.next_notice is None and t > self.match_by):
+            self.p.comp.node.destroy_timer(self.announcer)
+            self.notices = 0
             return
         if not self.p.normal:
             return
-        if node.matched("reply") == 0 or node.matched("from_client") == 0:
-            return
-        t = now()
-        if self.announce[0] == 0.0:
-            self.announce = [t + d for d in self.announce]
-        if t >= self.announce[0]:
-            self.announce.pop(0)
+        if self.next_notice is None:
+            node = self.p.comp.node
+            if node.matched("reply") == 0 or node.matched("from_client") == 0:
+                return
+            self.next_notice = t
+        if t >= self.next_notice:
             self.p.send("reply", {"rid": "", "takeover": self.p.comp.name})
+            self.notices -= 1
+            self.next_notice = t + 0.1
 
     def pump(self) -> None:
         t = now()
