@@ -547,8 +547,9 @@ class Executor:
     """Applies a plan document's steps to the running system (docs/executor.md)."""
 
     def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Any = sys.stdout,
-                 err: Any = sys.stderr, runtime: Any = None) -> None:
+                 err: Any = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
         self.doc, self.args, self.out, self.err = doc, args, out, err
+        self.launcher = launcher                # a manager's fork server (docs/executor.md#launcher)
         self.own_runtime = runtime is None      # a manager lends its long-lived one
         self.plan, self.model = doc["plan"], Model(doc["model"])
         self.steps = self.plan["steps"]
@@ -741,6 +742,31 @@ class Executor:
             argv += ["-r", f"__ns:={self.rt.namespace}"]
         return argv
 
+    def start(self, argv: list[str], log: str) -> tuple[Any, str]:
+        """Start a node's process, in a session of its own with its own log: forked by the
+        launcher when there is one and it can, else the ordinary way."""
+        if self.launcher is not None and self.launcher.can_start(argv):
+            try:
+                return self.launcher.start(argv, log), " (forked by the launcher)"
+            except OSError as e:
+                self.say(f"      the launcher could not start it ({e}); starting it the ordinary way")
+        with open(log, "ab") as fh:
+            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
+        return proc, ""
+
+    def warm(self, first: int, last: int) -> None:
+        """Let the launcher parse what the steps' new nodes will read, while the live system is
+        checked."""
+        for step in self.steps[first - 1:last]:
+            if step["action"] == "create" and self.launcher is not None:
+                try:
+                    argv = self.command(step["component"])
+                except StepFailed:
+                    continue                    # the step itself will say so
+                if self.launcher.can_start(argv):
+                    self.launcher.warm(argv)
+
     def do_create(self, step: dict[str, Any]) -> None:
         comp = step["component"]
         fqn = self.fqn(comp)
@@ -749,18 +775,17 @@ class Executor:
         argv = self.command(comp)
         os.makedirs(self.log_dir, exist_ok=True)
         log = os.path.join(self.log_dir, f"{self.node_name(comp)}.log")
-        with open(log, "ab") as fh:
-            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
-                                    start_new_session=True)
+        proc, how = self.start(argv, log)
         self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc}
-        self.say(f"      started {comp}: pid {proc.pid}, log {log}")
+        self.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
         self.rt.forget(fqn)
         t0 = time.monotonic()
         cli = self.rt.client(self.rt.GetState, f"{fqn}/get_state")
-        while not cli.wait_for_service(timeout_sec=min(0.2, self.rt.left())):
+        while not cli.service_is_ready():
             if proc.poll() is not None:
                 raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                                  f"(see {log})")
+            self.rt.wait(cli.service_is_ready, min(0.2, self.rt.left()))
         t_up = time.monotonic()
         if self.rt.nodes().count(fqn) > 1:
             raise StepFailed(f"two nodes named {fqn} are running")
@@ -875,6 +900,7 @@ class Executor:
 
     def _apply(self, first: int, t0: float) -> int:
         start = self.states[first - 1]
+        self.warm(first, self.args.to_step)
         hood = self.neighbourhood()
         self.rt.deadline = time.monotonic() + self.args.step_timeout
         self.settle(start.components & hood, self.args.discovery_timeout)

@@ -4,7 +4,8 @@ A plan script started on its own is a new DDS participant: before it may trust t
 waits for discovery (`executor.DISCOVERY_ROUND`), and every service it calls is new to it. The
 manager runs beside the system, keeps one `Runtime` (graph, statuses, service clients) alive,
 and applies the plans its clients send (`plan.py --manager`) with that runtime, so a plan
-starts from a graph already discovered. Clients reach it through a Unix socket on this host;
+starts from a graph already discovered; it forks new `reconf-node`s from a launcher
+(`launcher.py`) that has ROS and reconf imported. Clients reach it through a Unix socket on this host;
 one plan runs at a time. Protocol and reasoning: docs/executor.md#manager.
 
     python -m reconf_ros.manager [--socket PATH] [--namespace NS]
@@ -20,6 +21,7 @@ import time
 from typing import Any, Optional
 
 from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse
+from .launcher import Launcher
 
 __all__ = ["main", "serve"]
 
@@ -41,19 +43,19 @@ class Stream:
         self.out.flush()
 
 
-def handle(rt: Runtime, conn: socket.socket) -> None:
+def handle(rt: Runtime, conn: socket.socket, launcher: Optional[Launcher] = None) -> None:
     """Read one request (a plan document and the script's arguments), apply it, send the exit."""
     with conn, conn.makefile("rwb") as stream:
         out, err = Stream(stream, "out"), Stream(stream, "err")
         try:
-            code = run(rt, stream.readline(), out, err)
+            code = run(rt, stream.readline(), out, err, launcher)
             stream.write(json.dumps({"exit": code}).encode() + b"\n")
             stream.flush()
         except OSError:     # the client went away; the run itself has finished or failed
             pass
 
 
-def run(rt: Runtime, line: bytes, out: Stream, err: Stream) -> int:
+def run(rt: Runtime, line: bytes, out: Stream, err: Stream, launcher: Optional[Launcher] = None) -> int:
     try:
         request = json.loads(line or b"{}")
         doc, argv = request["doc"], [str(a) for a in request["argv"]]
@@ -67,7 +69,7 @@ def run(rt: Runtime, line: bytes, out: Stream, err: Stream) -> int:
     here = os.getcwd()
     os.chdir(args.cwd or here)
     try:
-        return Executor(doc, args, out=out, err=err, runtime=rt).apply(args.from_step)
+        return Executor(doc, args, out=out, err=err, runtime=rt, launcher=launcher).apply(args.from_step)
     except Exception as e:      # keep serving; the client hears what went wrong
         err.write(f"the manager failed while applying the plan: {e!r}\n")
         return EXIT_FAILED
@@ -75,7 +77,8 @@ def run(rt: Runtime, line: bytes, out: Stream, err: Stream) -> int:
         os.chdir(here)
 
 
-def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[str] = None) -> int:
+def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[str] = None,
+          launch: bool = True) -> int:
     os.makedirs(os.path.dirname(path) or ".", mode=0o700, exist_ok=True)
     if os.path.exists(path):
         probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -92,6 +95,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
     os.chmod(path, 0o600)
     server.listen(4)
     server.settimeout(0.0)
+    launcher = Launcher() if launch else None
     rt = Runtime("manager", namespace, timeout, node_name="reconf_manager")   # rclpy ends it on SIGINT, SIGTERM
     from rclpy.executors import ExternalShutdownException
     print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
@@ -114,8 +118,10 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
             except (BlockingIOError, TimeoutError):
                 continue
             conn.settimeout(None)
-            handle(rt, conn)
+            handle(rt, conn, launcher)
     finally:
+        if launcher is not None:
+            launcher.close()
         server.close()
         try:
             os.unlink(path)
@@ -131,9 +137,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--socket", default="", help="where to listen (default: one per ROS domain, under $XDG_RUNTIME_DIR/reconf or /tmp/reconf-UID/reconf)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--timeout", type=float, default=5.0, metavar="S", help="per service call, in seconds")
+    ap.add_argument("--no-launcher", action="store_true",
+                    help="start each new reconf-node as a new Python process instead of forking it from a "
+                         "launcher that has ROS and reconf imported (docs/executor.md#launcher)")
     ap.add_argument("--ready-file", default="", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    return serve(args.socket or manager_socket(args.namespace), args.namespace, args.timeout, args.ready_file or None)
+    return serve(args.socket or manager_socket(args.namespace), args.namespace, args.timeout, args.ready_file or None,
+                 launch=not args.no_launcher)
 
 
 if __name__ == "__main__":

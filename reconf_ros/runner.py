@@ -12,6 +12,7 @@ after `--ros-args` goes to ROS (`-r __ns:=/robot`). See docs/runtime.md.
 from __future__ import annotations
 
 import importlib
+import os
 import shlex
 import sys
 from typing import Optional
@@ -24,6 +25,7 @@ from .model import Component, ModelError, components_to_arch
 
 if TYPE_CHECKING:
     from reconf_dsl.ir import System
+    from reconf_dsl.loader import Sources
 
 
 def _factory(target: str) -> Component:
@@ -62,15 +64,39 @@ def _from_architecture(system: "System", name: str) -> Component:
     return from_architecture(system, name)
 
 
-def _load(path: str) -> "System":
+_LOADED: dict[str, tuple["System", dict[str, str]]] = {}     # path -> system, and the text of each file read
+
+
+def load_cached(path: str, sources: "Optional[Sources]" = None) -> "System":
+    """The architecture at `path`, parsed again only when a file it was read from has changed
+    (a launcher parses it before it forks, docs/executor.md#launcher). Raises DiagnosticError."""
     # Imported here, not at the top: a node a plan starts (MODULE:FACTORY) needs none of it, and
     # its start-up competes for the CPU with the nodes already running.
+    from reconf_dsl.loader import Sources, load
+    key = os.path.realpath(path)
+    if key in _LOADED and all(_text(f) == t for f, t in _LOADED[key][1].items()):
+        return _LOADED[key][0]
+    sources = sources if sources is not None else Sources()
+    system = load([path], sources)
+    _LOADED[key] = system, {os.path.abspath(f): t for f, t in sources.texts.items()}
+    return system
+
+
+def _text(path: str) -> Optional[str]:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def _load(path: str) -> "System":
     from checker.report import render_text
     from reconf_dsl.diagnostics import DiagnosticError
-    from reconf_dsl.loader import Sources, load
+    from reconf_dsl.loader import Sources
     sources = Sources()
     try:
-        return load([path], sources)
+        return load_cached(path, sources)
     except DiagnosticError as e:
         render_text(e.diagnostics, sources, sys.stderr)
         sys.exit(2)

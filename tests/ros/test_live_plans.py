@@ -78,9 +78,14 @@ def test_migration(live: LiveSystem) -> None:
         assert received > 0 and lost == 0 and head == 0, (comp, statuses[f"/{comp}"]["values"])
 
 
+def parent(pid: int) -> int:
+    with open(f"/proc/{pid}/stat") as fh:
+        return int(fh.read().rsplit(")", 1)[1].split()[1])
+
+
 def test_through_a_manager(live: LiveSystem) -> None:
     """A manager started with the system applies the plan with the graph it has discovered: the
-    same observed outcome, the new node is its child, and a re-run is refused as finished (a
+    same observed outcome, the new node is forked by its launcher, and a re-run is refused as finished (a
     removed node's last status does not make it look alive)."""
     sock = live.manager()
     live.deploy(example("chatter.arch"))
@@ -90,7 +95,9 @@ def test_through_a_manager(live: LiveSystem) -> None:
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
     manager_pid = [p.pid for p in live.procs if p.args[2:3] == ["reconf_ros.manager"]][0]
-    with open(f"/proc/{live.pid_of('talker_v2')}/stat") as fh:
-        assert int(fh.read().rsplit(")", 1)[1].split()[1]) == manager_pid
+    launcher_pid = parent(live.pid_of("talker_v2"))      # forked by the manager's launcher
+    assert parent(launcher_pid) == manager_pid
+    with open(f"/proc/{launcher_pid}/cmdline", "rb") as fh:
+        assert b"reconf_ros.launcher" in fh.read()
     again = live.run_plan(script, "--manager", sock, report="again.json")
     assert again.returncode == 1 and "it was applied already" in again.stderr, again.stdout + again.stderr

@@ -1,0 +1,293 @@
+"""A fork server for `reconf-node`: a process with ROS and reconf already imported, and the
+architectures it was told about already parsed, that forks each new node instead of starting
+a Python from nothing (docs/executor.md#launcher).
+
+Most of a model-driven node's start-up is Python's: imports, then parsing the architecture
+(about 0.55 s of 0.85 s on the project's 2-core machine, measured beside a 50-component system).
+On a loaded machine that CPU is taken from the running nodes, whose streams then stall. The
+manager starts one launcher before it needs it; a `create` step forks from it, and the child
+starts at `rclpy.init()`. The child is a process of its own (own PID, own session, its own log),
+so a plan, a fault injector or a user can stop it like any other; only its exit status is read
+through the launcher, which is its parent.
+
+Nothing here initialises ROS: a process that has called `rclpy.init()` has DDS threads and must
+not fork.
+
+Protocol: one JSON object per line on the socket given by `--fd`; each request gets one answer.
+    {"warm": ARGV, "cwd": DIR}          parse the architectures ARGV names -> {"ok": true}
+    {"start": ARGV, "log": PATH, "cwd": DIR}  -> {"pid": N} or {"error": TEXT}
+    {"poll": PID}                       -> {"status": null (running) or the exit status}
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from typing import Any, Optional
+
+__all__ = ["Launcher", "Launched", "launchable"]
+
+PROGRAM = "reconf-node"
+
+
+def launchable(argv: list[str]) -> bool:
+    """Whether the launcher can start `argv`: this environment's own `reconf-node`."""
+    return bool(argv) and os.path.basename(argv[0]) == PROGRAM and \
+        os.path.dirname(os.path.abspath(argv[0])) == os.path.dirname(os.path.abspath(sys.executable))
+
+
+def _arch_paths(argv: list[str]) -> list[str]:
+    return [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in ("--arch", "--deployed")]
+
+
+# --- the server (its own process) ---
+
+def _warm(argv: list[str], cwd: str) -> None:
+    """Parse the architectures `argv` names, so a forked child finds them parsed (one with
+    errors is left for the child, which reports them in its log)."""
+    from reconf_dsl.diagnostics import DiagnosticError
+    from .runner import load_cached
+    for path in _arch_paths(argv):
+        try:
+            load_cached(os.path.join(cwd, path))
+        except (DiagnosticError, OSError):
+            pass
+
+
+def _child(argv: list[str], log: str, cwd: str, conn: socket.socket) -> None:
+    """In the forked child: become a process of its own, then run `reconf-node`."""
+    code = 1
+    try:
+        os.close(conn.detach())     # the server's socket is not the node's (and a later close must not hit a reused fd)
+        os.setsid()
+        for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT, signal.SIGPIPE):
+            signal.signal(sig, signal.SIG_DFL if sig != signal.SIGINT else signal.default_int_handler)
+        fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+        null = os.open(os.devnull, os.O_RDONLY)
+        os.dup2(null, 0)
+        os.dup2(fd, 1)
+        os.dup2(fd, 2)
+        os.close(fd)
+        os.close(null)
+        os.chdir(cwd)
+        from .runner import main
+        sys.argv = list(argv)
+        try:
+            main.main(args=argv[1:], prog_name=PROGRAM, standalone_mode=True)
+            code = 0
+        except SystemExit as e:
+            code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+    except BaseException as e:     # the child must never return into the server's loop
+        try:
+            print(f"reconf launcher: {argv!r} failed: {e!r}", file=sys.stderr)
+        except Exception:
+            pass
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except Exception:
+            pass
+        os._exit(code)
+
+
+def serve(fd: int) -> int:
+    """Answer requests on socket `fd` until it closes."""
+    import rclpy  # noqa: F401  (imported, never initialised: see the module's docstring)
+    import rclpy.executors  # noqa: F401
+    import rclpy.lifecycle  # noqa: F401
+    from . import component, generic, runner  # noqa: F401
+    from checker.report import render_text  # noqa: F401
+    from reconf_dsl.loader import load  # noqa: F401
+    conn = socket.socket(fileno=fd)
+    exited: dict[int, int] = {}
+
+    def reap() -> None:
+        while True:
+            try:
+                pid, status = os.waitpid(-1, os.WNOHANG)
+            except ChildProcessError:
+                return
+            if pid == 0:
+                return
+            exited[pid] = os.waitstatus_to_exitcode(status)
+
+    with conn, conn.makefile("rwb") as stream:
+        for line in stream:
+            reap()
+            try:
+                req = json.loads(line)
+                answer: dict[str, Any]
+                if "warm" in req:
+                    _warm([str(a) for a in req["warm"]], str(req.get("cwd") or os.getcwd()))
+                    answer = {"ok": True}
+                elif "start" in req:
+                    argv, cwd = [str(a) for a in req["start"]], str(req.get("cwd") or os.getcwd())
+                    _warm(argv, cwd)
+                    stream.flush()
+                    sys.stdout.flush()
+                    sys.stderr.flush()
+                    pid = os.fork()
+                    if pid == 0:
+                        _child(argv, str(req["log"]), cwd, conn)
+                    answer = {"pid": pid}
+                elif "poll" in req:
+                    pid = int(req["poll"])
+                    answer = {"status": exited.get(pid)}
+                else:
+                    answer = {"error": f"unknown request {sorted(req)}"}
+            except Exception as e:      # a bad request or an unreadable file: say so, keep serving
+                answer = {"error": repr(e)}
+            stream.write(json.dumps(answer).encode() + b"\n")
+            stream.flush()
+    return 0
+
+
+# --- the client (in the manager) ---
+
+class Launched:
+    """A node the launcher forked: what an executor needs of a `subprocess.Popen`."""
+
+    def __init__(self, launcher: "Launcher", pid: int) -> None:
+        self.launcher, self.pid = launcher, pid
+        self.returncode: Optional[int] = None
+
+    def poll(self) -> Optional[int]:
+        if self.returncode is None:
+            self.returncode = self.launcher.status(self.pid)
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:
+            try:
+                os.kill(self.pid, sig)
+            except ProcessLookupError:
+                pass
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+    def wait(self, timeout: Optional[float] = None) -> int:
+        end = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if end is not None and time.monotonic() >= end:
+                raise subprocess.TimeoutExpired(f"pid {self.pid}", timeout or 0.0)
+            time.sleep(0.02)
+        assert self.returncode is not None
+        return self.returncode
+
+
+class Launcher:
+    """Starts the launcher process and talks to it. If it is gone, `available` turns false and
+    callers start processes the ordinary way."""
+
+    def __init__(self, timeout: float = 30.0) -> None:
+        mine, theirs = socket.socketpair()
+        self.proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.launcher", "--fd", str(theirs.fileno())],
+                                     pass_fds=[theirs.fileno()], stdin=subprocess.DEVNULL,
+                                     preexec_fn=_die_with_parent)
+        theirs.close()
+        mine.settimeout(timeout)
+        self.sock = mine
+        self.stream = mine.makefile("rwb")
+        self.available = True
+        self.statuses: dict[int, int] = {}
+        self.unread = 0             # answers to warm requests, read before the next answer
+
+    def can_start(self, argv: list[str]) -> bool:
+        return self.available and launchable(argv)
+
+    def send(self, req: dict[str, Any]) -> None:
+        if not self.available:
+            raise OSError("the launcher has stopped")
+        try:
+            self.stream.write(json.dumps(req).encode() + b"\n")
+            self.stream.flush()
+        except OSError:
+            self.available = False
+            raise
+
+    def request(self, req: dict[str, Any]) -> dict[str, Any]:
+        self.send(req)
+        try:
+            while self.unread:
+                self.stream.readline()
+                self.unread -= 1
+            line = self.stream.readline()
+        except OSError:
+            self.available = False
+            raise
+        if not line:
+            self.available = False
+            raise OSError(f"the launcher exited (status {self.proc.poll()})")
+        answer: dict[str, Any] = json.loads(line)
+        if "error" in answer:
+            raise OSError(f"the launcher: {answer['error']}")
+        return answer
+
+    def warm(self, argv: list[str], cwd: str = "") -> None:
+        """Ask the launcher to parse what `argv` reads; the answer is not waited for."""
+        self.send({"warm": argv, "cwd": cwd or os.getcwd()})
+        self.unread += 1
+
+    def start(self, argv: list[str], log: str, cwd: str = "") -> Launched:
+        answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd()})
+        return Launched(self, int(answer["pid"]))
+
+    def status(self, pid: int) -> Optional[int]:
+        """The exit status of a child that exited, else None (also when the launcher is gone and
+        the PID still runs)."""
+        if pid in self.statuses:
+            return self.statuses[pid]
+        try:
+            status = self.request({"poll": pid})["status"]
+        except OSError:
+            try:
+                os.kill(pid, 0)
+                return None
+            except ProcessLookupError:
+                status = -1         # gone, status unknown: its parent was the launcher
+        if status is not None:
+            self.statuses[pid] = int(status)
+        return None if status is None else int(status)
+
+    def close(self) -> None:
+        try:
+            self.stream.close()
+            self.sock.close()
+        finally:
+            try:
+                self.proc.wait(timeout=3)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def _die_with_parent() -> None:
+    """The launcher ends with the manager (its children do not: they are the system's nodes)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m reconf_ros.launcher", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--fd", type=int, required=True, help="the socket to serve (inherited from the manager)")
+    args = ap.parse_args(argv)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)    # the manager ends it by closing the socket
+    return serve(args.fd)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
