@@ -5,7 +5,9 @@ with that FTM, deploy it one process per host, run the demo client at --hz reque
 (steady) measure, or (crash) kill -9 the primary's host process, or (transient) make one
 computation of the primary's application wrong. Prints per row the median / p95 / max of: reply
 latency, requests lost, duplicated and answered wrongly, and for faults the longest time the
-client went without a reply (from the fault) and the affected request's latency.
+client went without a reply (from the fault) and the affected request's latency. A transition
+row (`PBR -> LFR`) carries out the verified plan of `reconf plan transition` while the client
+sends; its latencies are those of the replies during the plan, and it gives the plan's wall time.
 
     python -m bench.bench_aft [--runs 10] [--hz 50] [--only PBR]
 """
@@ -33,13 +35,23 @@ ROWS: list[tuple[str, Optional[str], str]] = [
     ("SEC", "SEC", "none"), ("PBR(TR)", "PBR(TR)", "none"), ("SEC(PBR(TR))", "SEC(PBR(TR))", "none"),
     ("PBR, primary host killed", "PBR", "crash"), ("LFR, primary host killed", "LFR", "crash"),
     ("TR, one computation wrong", "TR", "transient"), ("AD, one computation wrong", "AD", "transient"),
-]
+] + [(f"{a} -> {b}", a, f"to {b}") for a, b in (("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"),
+                                                 ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
+                                                 ("SEC(PBR(TR))", "PBR(TR)"))]
+# "to X": the verified plan of `reconf plan transition server X` carried out while the client sends
 
 
 def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float) -> dict[str, Any]:
     with LiveSystem(work) as live:
+        arch, plan = str(EXAMPLE), None
         try:
-            procs, log = live.serve_ftm(str(EXAMPLE), ftm, hz)
+            if fault.startswith("to "):
+                assert ftm is not None
+                arch = live.with_ftm(str(EXAMPLE), ftm)
+                plan = live.plan_script(["transition", "server", fault[3:], "-f", arch])
+                procs, log = live.serve_ftm(arch, "", hz)
+            else:
+                procs, log = live.serve_ftm(arch, ftm, hz)
         except TimeoutError as e:
             return {"ok": False, "why": str(e)[:300]}
         if not wait_replies(log, 25, timeout=60):
@@ -47,10 +59,15 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
         inject = live.injector("/server/ftm/r0/srv/request") if fault == "transient" else None
         if inject is not None:
             inject.wait_ready()
-        if fault != "none" and not live.wait_detectors_armed(timeout=30):
+        if fault != "none" and plan is None and not live.wait_detectors_armed(timeout=30):
             return {"ok": False, "why": "the crash detector never armed"}
-        t0 = time.time()
-        if fault == "crash":
+        t0, wall = time.time(), 0.0
+        if plan is not None:
+            res = live.run_plan(plan, timeout=300)
+            wall = time.time() - t0
+            if res.returncode != 0:
+                return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}
+        elif fault == "crash":
             os.killpg(procs["master"], signal.SIGKILL)
         elif inject is not None:
             inject.send({"tag": "fault", "ops": [{"op": "flip", "n": 1}]})
@@ -63,8 +80,10 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
     after = [t for t in replies if t > t0 - 1.0]
     silence = max((b - a for a, b in zip(after, after[1:]) if b > t0), default=0.0) if fault != "none" else 0.0
     lat = [r[0]["latency_s"] for r in entries["replies"].values() if r[0]["t"] > t0 - 1.0]
+    if plan is not None:    # the transition's own window: from the plan's start to its end
+        lat = [r[0]["latency_s"] for r in entries["replies"].values() if t0 <= r[0]["t"] <= t0 + wall + 1.0]
     return {"ok": True, "lost": len(verdict["lost"]), "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
-            "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat)}
+            "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall}
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -87,8 +106,8 @@ def main() -> None:
     args = ap.parse_args()
     print(f"client at {args.hz:g} requests/s; median/p95/max over runs (latency: over every reply of every run)")
     print("| FTM | fault | runs | failed | lost | duplicated | wrong | reply latency ms | longest wait for a reply ms "
-          "| worst latency ms |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| worst latency ms | plan wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for row, (name, ftm, fault) in enumerate(ROWS):
             if args.only not in name:
@@ -101,7 +120,11 @@ def main() -> None:
                   f"{three([r['lost'] for r in ok], '{:.0f}')} | {three([r['dup'] for r in ok], '{:.0f}')} | "
                   f"{three([r['wrong'] for r in ok], '{:.0f}')} | {three(lat, scale=1000)} | "
                   f"{three([r['silence'] for r in ok], scale=1000) if fault != 'none' else '-'} | "
-                  f"{three([r['worst'] for r in ok], scale=1000)} |", flush=True)
+                  f"{three([r['worst'] for r in ok], scale=1000)} | "
+                  f"{three([r['wall'] for r in ok]) if fault.startswith('to ') else '-'} |", flush=True)
+            for r in runs:
+                if not r["ok"]:
+                    print(f"  (failed: {r['why']})", flush=True)
 
 
 if __name__ == "__main__":

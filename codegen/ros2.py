@@ -26,7 +26,7 @@ from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, 
 
 from .render import render
 
-__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script", "system_from_model_data"]
+__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script", "system_at", "system_from_model_data"]
 
 FORMAT_VERSION = 1
 _KEYS = ("format_version", "system", "fingerprint", "evidence", "plan", "model")
@@ -120,6 +120,32 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
     return render("plan_ros2.py.j2", doc_json=text, executor=executor_source(), system=str(plan_doc["system"]),
                   fingerprint=str(plan_doc["fingerprint"]), strategy=str(plan.get("strategy", "")),
                   steps=len(plan.get("steps", [])))
+
+
+def system_at(plan_doc: dict[str, Any], index: int = -1) -> System:
+    """The architecture a plan document has reached at state `index` (its target by default): the
+    components present then, a new version under its name in the new architecture (`X@new` is
+    `X`), and each connector with that state's roles. A node a plan starts without a run line
+    is built from it (`reconf-node --plan`), so it sees the architecture it is part of."""
+    model, plan = plan_doc["model"], plan_doc["plan"]
+    renames: dict[str, str] = plan.get("renames", {})
+    state = plan["states"][index]
+    present = set(state["components"])
+    taken = {renames[n] for n in renames if n in present}       # old names a present new version takes
+    comps = [dict(c, name=renames.get(c["name"], c["name"]), deployed=True,
+                  replaces=None if c["name"] in renames else c.get("replaces"))
+             for c in model["components"] if c["name"] in present and not (c["name"] in taken and c["name"] not in renames)]
+    kinds = {(c["name"], p["name"]): p["kind"] for c in model["components"] for p in c["ports"]}
+    names = {k["name"] for k in model["connectors"]}
+    conns = []
+    for k in model["connectors"]:
+        if k["name"] not in renames and any(renames.get(n) == k["name"] for n in names):
+            continue                                            # replaced by its new version
+        roles = [(c, p) for n, c, p in state["roles"] if n == k["name"]]
+        conns.append(dict(k, name=renames.get(k["name"], k["name"]),
+                          publishers=[[renames.get(c, c), p] for c, p in roles if kinds.get((c, p)) == "output"],
+                          subscribers=[[renames.get(c, c), p] for c, p in roles if kinds.get((c, p)) == "input"]))
+    return system_from_model_data(dict(model, components=comps, connectors=conns))
 
 
 def _predicate_back(p: Optional[dict[str, Any]]) -> Optional[Predicate]:

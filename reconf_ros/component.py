@@ -25,7 +25,7 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .executor import STATUS_PREFIX, join_list
+from .executor import CREATED_ENV, STATUS_PREFIX, join_list
 from .model import Component, Functionality, Output
 from .monitor import GAP_FACTOR, Monitor
 
@@ -379,6 +379,8 @@ class ComponentNode(LifecycleNode):
         now = time.time()
         out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
                "pid": str(os.getpid()), "errors": str(len(self.errors))}
+        if os.environ.get(CREATED_ENV):
+            out["created"] = os.environ[CREATED_ENV]      # which plan's step started it (docs/executor.md#names)
         out.update({f"mode.{f}": m for f, m in self.modes.items()})
         out.update({f"port.{p}": join_list(v) for p, v in self.attached.items()})
         out.update(self.monitor.status(now))

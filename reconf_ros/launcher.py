@@ -15,7 +15,7 @@ not fork.
 
 Protocol: one JSON object per line on the socket given by `--fd`; each request gets one answer.
     {"warm": ARGV, "cwd": DIR}          parse the architectures ARGV names -> {"ok": true}
-    {"start": ARGV, "log": PATH, "cwd": DIR}  -> {"pid": N} or {"error": TEXT}
+    {"start": ARGV, "log": PATH, "cwd": DIR, "env": {...}}  -> {"pid": N} or {"error": TEXT}
     {"poll": PID}                       -> {"status": null (running) or the exit status}
 """
 from __future__ import annotations
@@ -58,7 +58,7 @@ def _warm(argv: list[str], cwd: str) -> None:
             pass
 
 
-def _child(argv: list[str], log: str, cwd: str, conn: socket.socket) -> None:
+def _child(argv: list[str], log: str, cwd: str, env: dict[str, str], conn: socket.socket) -> None:
     """In the forked child: become a process of its own, then run `reconf-node`."""
     code = 1
     try:
@@ -74,6 +74,7 @@ def _child(argv: list[str], log: str, cwd: str, conn: socket.socket) -> None:
         os.close(fd)
         os.close(null)
         os.chdir(cwd)
+        os.environ.update(env)
         from .runner import main
         sys.argv = list(argv)
         try:
@@ -133,7 +134,8 @@ def serve(fd: int) -> int:
                     sys.stderr.flush()
                     pid = os.fork()
                     if pid == 0:
-                        _child(argv, str(req["log"]), cwd, conn)
+                        _child(argv, str(req["log"]), cwd, {str(k): str(v) for k, v in req.get("env", {}).items()},
+                               conn)
                     answer = {"pid": pid}
                 elif "poll" in req:
                     pid = int(req["poll"])
@@ -237,8 +239,10 @@ class Launcher:
         self.send({"warm": argv, "cwd": cwd or os.getcwd()})
         self.unread += 1
 
-    def start(self, argv: list[str], log: str, cwd: str = "") -> Launched:
-        answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd()})
+    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None) -> Launched:
+        """Fork `argv` with `env` added to the launcher's environment."""
+        answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd(),
+                               "env": env or {}})
         return Launched(self, int(answer["pid"]))
 
     def status(self, pid: int) -> Optional[int]:

@@ -15,6 +15,7 @@ import importlib.util
 import itertools
 import json
 import os
+import re
 import select
 import shlex
 import signal
@@ -92,6 +93,18 @@ class LiveSystem:
         out, _ = expand(system, overrides)
         path = self.dir / name
         path.write_text(to_text(out))
+        return str(path)
+
+    def with_ftm(self, arch: str, ftm: str, name: str = "start.arch") -> str:
+        """`arch`'s text with its server's mechanism declared as `ftm` (the line `ftm X on ...`),
+        written to the system's directory: an architecture a transition is planned from."""
+        text = Path(arch).read_text(encoding="utf-8")
+        changed, n = re.subn(r"^(\s*ftm )[^\n]*?( on )", lambda m: f"{m.group(1)}{ftm}{m.group(2)}", text,
+                             count=1, flags=re.M)
+        if n != 1:
+            raise ValueError(f"{arch} declares no `ftm ... on ...`")
+        path = self.dir / name
+        path.write_text(changed, encoding="utf-8")
         return str(path)
 
     def serve_ftm(self, arch: str, ftm: Optional[str], hz: float, client: str = "client", count: int = 0

@@ -2,6 +2,7 @@
 
     reconf-node reconf_ros.demo.chatter:talker            a Component from a factory
     reconf-node --arch robot.arch motor_controller        a model-driven node (reconf_ros.generic)
+    reconf-node --plan plan.json 'X@new'                  a component of the architecture a plan reaches
     reconf-node ... --deployed robot.arch                 start as that architecture deploys it
     reconf-node ... --describe                            print the model, run nothing
     reconf-node --lean ...                                only the control interface's services
@@ -90,6 +91,18 @@ def _text(path: str) -> Optional[str]:
         return None
 
 
+def _plan_target(path: str) -> tuple["System", dict[str, str]]:
+    """The architecture a plan document reaches, and its renames (`X@new` -> `X`)."""
+    import json
+    from codegen.ros2 import system_at
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+        return system_at(doc), dict(doc["plan"].get("renames", {}))
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise click.UsageError(f"{path}: not a plan document reconf can read ({e!r})") from None
+
+
 def _load(path: str) -> "System":
     from checker.report import render_text
     from reconf_dsl.diagnostics import DiagnosticError
@@ -106,9 +119,14 @@ def _load(path: str) -> "System":
 @click.argument("targets", nargs=-1, required=True)
 @click.option("--arch", "arch", type=click.Path(dir_okay=False, exists=True),
               help="TARGETS are components of this architecture, run as model-driven nodes")
+@click.option("--plan", "plan_file", type=click.Path(dir_okay=False, exists=True),
+              help="TARGETS are components of the architecture this plan document (JSON) reaches, run as "
+                   "model-driven nodes (how a plan starts a component that has no run line)")
 @click.option("--deployed", type=click.Path(dir_okay=False, exists=True),
               help="start active, attached as this architecture deploys the components; each functionality "
                    "turns normal once its assumptions are met on the wire")
+@click.option("--as", "as_name", metavar="NAME",
+              help="the component's name, when its node runs under another (`-r __node:=...`); one TARGET only")
 @click.option("--describe", is_flag=True, help="print the components as .arch text and exit (no ROS needed)")
 @click.option("--system", "system_name", help="with --describe: start the text with `system NAME`")
 @click.option("--gap-factor", type=float, default=1.5, show_default=True,
@@ -116,7 +134,8 @@ def _load(path: str) -> "System":
 @click.option("--lean", is_flag=True,
               help="serve only the control interface's four services (docs/runtime.md#cost): less CPU per node, "
                    "nothing for tools that list transitions or parameters")
-def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str], describe: bool,
+def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str], deployed: Optional[str],
+         as_name: Optional[str], describe: bool,
          system_name: Optional[str], gap_factor: float, lean: bool) -> None:
     """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
     argv = list(targets)
@@ -128,6 +147,9 @@ def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str],
         if arch:
             system = _load(arch)
             comps = [_from_architecture(system, name) for name in argv]
+        elif plan_file:
+            system, renames = _plan_target(plan_file)
+            comps = [_from_architecture(system, renames.get(name, name)) for name in argv]
         else:
             comps = [_factory(t) for t in argv]
             renamed = _node_remap(ros_args)
@@ -135,6 +157,10 @@ def main(targets: tuple[str, ...], arch: Optional[str], deployed: Optional[str],
                 comps[0].name = renamed
     except (ModelError, KeyError) as e:
         raise click.UsageError(str(e)) from None
+    if as_name:
+        if len(comps) != 1:
+            raise click.UsageError("--as names one component; give one TARGET")
+        comps[0].name = as_name
     if describe:
         click.echo(components_to_arch(comps, system_name), nl=False)
         return

@@ -257,3 +257,22 @@ def test_a_migration_warns_only_about_the_mechanisms_it_changes() -> None:
     assert not plan_ftm_migrate(broken, load_text(client_server("PBR", application="deterministic"))).plan.notes
     moved = plan_ftm_migrate(load_text(client_server("PBR")), broken)
     assert any(n.startswith("warning: the target breaks an FTM rule: RC403") for n in moved.plan.notes), moved.plan.notes
+
+
+@pytest.mark.parametrize("a, b", [("PBR", "LFR"), ("PBR(TR)", "SEC(PBR(TR))"), ("SEC(PBR(TR))", "PBR(TR)")])
+def test_the_architecture_a_plan_reaches_is_the_new_expansion(a: str, b: str) -> None:
+    """What a node a plan starts is built from (`reconf-node --plan`, docs/executor.md#names):
+    the plan's last state, new versions under their new names, is the target's expansion."""
+    from codegen.ros2 import plan_document, system_at
+    t = transition(a, b)
+    doc = plan_document(t.plan, fingerprint="sha256:0", evidence={})
+    reached = system_at(doc)
+
+    def shape(s: object) -> tuple[set[str], set[tuple[str, str, str, str]]]:
+        comps = {c.name for c in s.components}  # type: ignore[attr-defined]
+        roles = {(k.name, r.component, r.port, k.kind) for k in s.connectors for r in k.roles}  # type: ignore[attr-defined]
+        return comps, roles
+    assert not any("@" in c.name for c in reached.components)
+    assert shape(reached) == shape(t.new)
+    for c in reached.components:
+        assert [f.name for f in c.functionalities] == [f.name for f in t.new.component(c.name).functionalities]

@@ -97,3 +97,20 @@ def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
     logs = "".join(p.read_text() for p in live.dir.glob("host-master*.log"))
     assert "0-1: a message failed its checks" in logs
     assert violations(live) == {}
+
+
+# paper 000 §6's transitions, both ways; every request answered once and right while the plan runs
+TRANSITIONS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))")]
+
+
+@pytest.mark.parametrize("src,dst", TRANSITIONS)
+def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
+    arch = live.with_ftm(example("ftm/client_server_pbr_tr.arch"), src)
+    _, log = live.serve_ftm(arch, "", HZ, count=2 * COUNT)
+    assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
+    script = live.plan_script(["transition", "server", dst, "-f", arch])
+    res = live.run_plan(script, timeout=240)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    assert judged(log, 2 * COUNT) == CLEAN
+    seen = violations(live)
+    assert seen == {}, (seen, live.watched_violations())

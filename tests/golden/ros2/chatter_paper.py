@@ -38,6 +38,7 @@ from typing import Any, Callable, Iterable, Optional
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
 STATUS_PREFIX = "reconf:"
+CREATED_ENV = "RECONF_CREATED"     # "<plan fingerprint> <component>", given to the processes a plan starts
 # Fast DDS announces each participant every 3 s. A participant that starts seconds after
 # another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
 # (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
@@ -552,13 +553,15 @@ class Executor:
     """Applies a plan document's steps to the running system (docs/executor.md)."""
 
     def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Any = sys.stdout,
-                 err: Any = sys.stderr, runtime: Any = None) -> None:
+                 err: Any = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
         self.doc, self.args, self.out, self.err = doc, args, out, err
+        self.launcher = launcher                # a manager's fork server (docs/executor.md#launcher)
         self.own_runtime = runtime is None      # a manager lends its long-lived one
         self.plan, self.model = doc["plan"], Model(doc["model"])
         self.steps = self.plan["steps"]
         self.states = [State.from_doc(s) for s in self.plan.get("states", [])]
         self.renames: dict[str, str] = self.plan.get("renames", {})
+        self.placed: dict[str, str] = {}        # component -> its node's name, where not its own (see `locate`)
         self.runs = {c["name"]: c.get("run") for c in doc["model"]["components"]}
         self.started: dict[str, dict[str, Any]] = {}
         self.touched: set[str] = set()
@@ -568,8 +571,53 @@ class Executor:
             "reconf-logs", f"{doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
 
     # --- names ---
-    def node_name(self, comp: str) -> str:
+    def declared(self, comp: str) -> str:
+        """The component's name in its architecture, which its node declares in its status."""
         return self.renames.get(comp, comp)
+
+    def is_version(self, comp: str) -> bool:
+        """A new version `X@new` of a component X of the same plan (docs/executor.md#names)."""
+        return comp in self.renames and self.renames[comp] in self.model.comps
+
+    def node_name(self, comp: str) -> str:
+        """The component's node's name: its own, or where `locate` found it or `do_create` put it;
+        a new version not yet found has none ("X@new" is never a node's name)."""
+        return self.placed.get(comp) or (comp if self.is_version(comp) else self.declared(comp))
+
+    def created_mark(self, comp: str) -> str:
+        return f"{self.doc['fingerprint']} {comp}"
+
+    def locate(self, comps: Iterable[str]) -> None:
+        """Find the nodes not under their components' names, by their statuses: a new version by
+        the mark of the plan step that started it, any other component by the component its
+        node declares (a node a plan started as `X@new` declares X and runs on as X)."""
+        graph, ns = set(self.rt.nodes()), self.rt.namespace
+        mine = {st.get("created", ""): fqn for fqn, st in self.rt.statuses.items() if fqn in graph}
+        claimed = {f"{ns}/{n}" for n in self.placed.values()} | \
+            {mine[self.created_mark(c)] for c in self.model.comps if self.is_version(c) and self.created_mark(c) in mine}
+        for c in sorted(comps):
+            if c in self.placed:
+                continue
+            if self.is_version(c):
+                found = [mine[self.created_mark(c)]] if self.created_mark(c) in mine else []
+            elif self.fqn(c) in graph:
+                continue
+            else:
+                found = [fqn for fqn, st in self.rt.statuses.items() if st.get("component") == self.declared(c)
+                         and fqn in graph and fqn.rsplit("/", 1)[0] == ns and fqn not in claimed]
+            if len(found) == 1:
+                self.placed[c] = found[0].rsplit("/", 1)[1]
+                claimed.add(found[0])
+
+    def fresh_name(self, comp: str) -> str:
+        """A node name for a new version: its component's name if no node has it, else the first
+        free `<name>_<k>`."""
+        base, ns = self.declared(comp), self.rt.namespace
+        taken = set(self.rt.nodes()) | {f"{ns}/{n}" for n in self.placed.values()}
+        k, name = 2, base
+        while f"{ns}/{name}" in taken:
+            name, k = f"{base}_{k}", k + 1
+        return name
 
     def fqn(self, comp: str) -> str:
         return f"{self.rt.namespace}/{self.node_name(comp)}"
@@ -639,9 +687,11 @@ class Executor:
         plan expects running seen, one announcement period passed, and the graph unchanged for a
         while. A node the plan expects absent but that runs must not be missed (a re-run would
         start a second one)."""
-        want = {self.fqn(c) for c in expected}
+        expected = set(expected)
 
         def quiet() -> bool:
+            self.locate(expected)
+            want = {self.fqn(c) for c in expected}
             nodes, now = self.rt.graph(), time.monotonic()
             return want <= nodes and now - self.rt.started_at >= DISCOVERY_ROUND and \
                 now - self.rt.graph_since >= GRAPH_QUIET
@@ -733,39 +783,82 @@ class Executor:
             raise StepFailed(f"{when}, {comp} is in lifecycle state {lc!r}")
 
     def command(self, comp: str) -> list[str]:
+        """The component's run line, or, when it has none, a model-driven node of the architecture
+        the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
         run = self.runs.get(comp)
-        if not run:
-            raise StepFailed(f"{comp} has no run command in the architecture")
-        argv = shlex.split(run)
+        argv = shlex.split(run) if run else ["reconf-node", "--plan", self.plan_file(), comp]
         exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
         if exe is None:
             raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
         argv[0] = exe
-        if self.rt.namespace:
+        if run and comp in self.placed and os.path.basename(exe) == "reconf-node":
+            argv[1:1] = ["--as", self.declared(comp)]      # the component it is, under the node's own name
+        remaps = ([f"__ns:={self.rt.namespace}"] if self.rt.namespace else []) + \
+            ([f"__node:={self.placed[comp]}"] if comp in self.placed else [])
+        if remaps:
             argv += ["--ros-args"] if "--ros-args" not in argv else []
-            argv += ["-r", f"__ns:={self.rt.namespace}"]
+            for r in remaps:
+                argv += ["-r", r]
         return argv
+
+    def plan_file(self) -> str:
+        """The plan document, written once to the log directory for the nodes that read it."""
+        path = os.path.abspath(os.path.join(self.log_dir, "plan.json"))
+        if not os.path.exists(path):
+            os.makedirs(self.log_dir, exist_ok=True)
+            tmp = f"{path}.tmp{os.getpid()}"
+            with open(tmp, "w", encoding="utf-8") as fh:
+                json.dump(self.doc, fh, sort_keys=True)
+            os.replace(tmp, path)
+        return path
+
+    def start(self, argv: list[str], log: str, env: dict[str, str]) -> tuple[Any, str]:
+        """Start a node's process, in a session of its own with its own log and `env` added:
+        forked by the launcher when there is one and it can, else the ordinary way."""
+        if self.launcher is not None and self.launcher.can_start(argv):
+            try:
+                return self.launcher.start(argv, log, env=env), " (forked by the launcher)"
+            except OSError as e:
+                self.say(f"      the launcher could not start it ({e}); starting it the ordinary way")
+        with open(log, "ab") as fh:
+            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
+                                    start_new_session=True, env={**os.environ, **env})
+        return proc, ""
+
+    def warm(self, first: int, last: int) -> None:
+        """Let the launcher parse what the steps' new nodes will read, while the live system is
+        checked."""
+        for step in self.steps[first - 1:last]:
+            if step["action"] == "create" and self.launcher is not None:
+                try:
+                    argv = self.command(step["component"])
+                except StepFailed:
+                    continue                    # the step itself will say so
+                if self.launcher.can_start(argv):
+                    self.launcher.warm(argv)
 
     def do_create(self, step: dict[str, Any]) -> None:
         comp = step["component"]
         fqn = self.fqn(comp)
+        if self.is_version(comp):        # X@new: a node name no other node has (X's may still run)
+            self.placed[comp] = self.fresh_name(comp)
+            fqn = self.fqn(comp)
         if fqn in self.rt.nodes() or self.rt.node.count_services(f"{fqn}/get_state"):
             raise StepFailed(f"before the step, a node {fqn} is already running")
         argv = self.command(comp)
         os.makedirs(self.log_dir, exist_ok=True)
         log = os.path.join(self.log_dir, f"{self.node_name(comp)}.log")
-        with open(log, "ab") as fh:
-            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
-                                    start_new_session=True)
-        self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc}
-        self.say(f"      started {comp}: pid {proc.pid}, log {log}")
+        proc, how = self.start(argv, log, {CREATED_ENV: self.created_mark(comp)})
+        self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc, "node": fqn}
+        self.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
         self.rt.forget(fqn)
         t0 = time.monotonic()
         cli = self.rt.client(self.rt.GetState, f"{fqn}/get_state")
-        while not cli.wait_for_service(timeout_sec=min(0.2, self.rt.left())):
+        while not cli.service_is_ready():
             if proc.poll() is not None:
                 raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                                  f"(see {log})")
+            self.rt.wait(cli.service_is_ready, min(0.2, self.rt.left()))
         t_up = time.monotonic()
         if self.rt.nodes().count(fqn) > 1:
             raise StepFailed(f"two nodes named {fqn} are running")
@@ -880,6 +973,7 @@ class Executor:
 
     def _apply(self, first: int, t0: float) -> int:
         start = self.states[first - 1]
+        self.warm(first, self.args.to_step)
         hood = self.neighbourhood()
         self.rt.deadline = time.monotonic() + self.args.step_timeout
         self.settle(start.components & hood, self.args.discovery_timeout)

@@ -1,0 +1,63 @@
+"""The manager's launcher (docs/executor.md#launcher): it forks `reconf-node` with its own log,
+working directory and environment additions, reports the exit status, and parses an
+architecture again when the file changes. `--describe` needs no ROS graph, so no domain."""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Iterator
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+from reconf_ros.launcher import Launcher, launchable  # noqa: E402
+from reconf_ros.model import Component  # noqa: E402
+
+from .conftest import ROOT, example  # noqa: E402
+
+EXE = os.path.join(os.path.dirname(sys.executable), "reconf-node")
+
+
+def named() -> Component:
+    """A factory for the test: a component named by the environment the launcher gave."""
+    return Component(os.environ.get("RECONF_TEST_NAME", "unnamed"))
+
+
+@pytest.fixture
+def launcher() -> Iterator[Launcher]:
+    la = Launcher()
+    yield la
+    la.close()
+    assert la.proc.returncode is not None
+
+
+def test_only_this_environments_reconf_node(launcher: Launcher) -> None:
+    assert launchable([EXE, "x"])
+    assert not launchable(["/usr/bin/reconf-node", "x"]) or os.path.dirname(sys.executable) == "/usr/bin"
+    assert not launchable([os.path.join(os.path.dirname(sys.executable), "python"), "-c", "pass"])
+    assert launcher.can_start([EXE, "x"])
+
+
+def test_a_forked_node_has_its_log_directory_environment_and_status(launcher: Launcher, tmp_path: Path) -> None:
+    log = tmp_path / "named.log"
+    p = launcher.start([EXE, "tests.ros.test_launcher:named", "--describe"], str(log), cwd=str(ROOT),
+                       env={"RECONF_TEST_NAME": "from_env"})
+    assert p.wait(timeout=30) == 0, log.read_text()
+    assert "component from_env" in log.read_text()
+    bad = launcher.start([EXE, "--arch", example("chatter.arch"), "nosuch", "--describe"], str(tmp_path / "bad.log"))
+    assert bad.wait(timeout=30) == 2
+    assert "nosuch" in (tmp_path / "bad.log").read_text()
+
+
+def test_an_architecture_is_parsed_again_when_it_changes(launcher: Launcher, tmp_path: Path) -> None:
+    arch = tmp_path / "sys.arch"
+    arch.write_text(Path(example("chatter.arch")).read_text())
+    launcher.warm([EXE, "--arch", str(arch), "talker"])
+    first = launcher.start([EXE, "--arch", str(arch), "talker", "--describe"], str(tmp_path / "1.log"))
+    assert first.wait(timeout=30) == 0
+    arch.write_text(arch.read_text() + "\ncomponent extra {\n  output o: String\n}\n")
+    second = launcher.start([EXE, "--arch", str(arch), "extra", "--describe"], str(tmp_path / "2.log"))
+    assert second.wait(timeout=30) == 0, (tmp_path / "2.log").read_text()
+    assert "component extra" in (tmp_path / "2.log").read_text()
