@@ -8,7 +8,8 @@ On a loaded machine that CPU is taken from the running nodes, whose streams then
 manager starts one launcher before it needs it; a `create` step forks from it, and the child
 starts at `rclpy.init()`. The child is a process of its own (own PID, own session, its own log),
 so a plan, a fault injector or a user can stop it like any other; only its exit status is read
-through the launcher, which is its parent.
+through the launcher, which is its parent. A forked node runs the code the launcher imported
+when the manager started: restart the manager after changing reconf or a node's module.
 
 Nothing here initialises ROS: a process that has called `rclpy.init()` has DDS threads and must
 not fork.
@@ -40,8 +41,8 @@ def launchable(argv: list[str]) -> bool:
         os.path.dirname(os.path.abspath(argv[0])) == os.path.dirname(os.path.abspath(sys.executable))
 
 
-def _arch_paths(argv: list[str]) -> list[str]:
-    return [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in ("--arch", "--deployed")]
+def _arch_paths(argv: list[str], options: tuple[str, ...] = ("--arch", "--deployed")) -> list[str]:
+    return [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in options]
 
 
 # --- the server (its own process) ---
@@ -49,12 +50,18 @@ def _arch_paths(argv: list[str]) -> list[str]:
 def _warm(argv: list[str], cwd: str) -> None:
     """Parse the architectures `argv` names, so a forked child finds them parsed (one with
     errors is left for the child, which reports them in its log)."""
+    import click
     from reconf_dsl.diagnostics import DiagnosticError
-    from .runner import load_cached
+    from .runner import load_cached, plan_target
     for path in _arch_paths(argv):
         try:
             load_cached(os.path.join(cwd, path))
         except (DiagnosticError, OSError):
+            pass
+    for path in _arch_paths(argv, ("--plan",)):
+        try:
+            plan_target(os.path.join(cwd, path))
+        except click.UsageError:
             pass
 
 
@@ -64,8 +71,10 @@ def _child(argv: list[str], log: str, cwd: str, env: dict[str, str], conn: socke
     try:
         os.close(conn.detach())     # the server's socket is not the node's (and a later close must not hit a reused fd)
         os.setsid()
-        for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT, signal.SIGPIPE):
-            signal.signal(sig, signal.SIG_DFL if sig != signal.SIGINT else signal.default_int_handler)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)    # as in any Python process (SIGPIPE
+                                                                    # stays ignored, as Python has it)
         fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
         null = os.open(os.devnull, os.O_RDONLY)
         os.dup2(null, 0)
@@ -103,6 +112,7 @@ def serve(fd: int) -> int:
     import rclpy.lifecycle  # noqa: F401
     from . import component, generic, runner  # noqa: F401
     from checker.report import render_text  # noqa: F401
+    from codegen.ros2 import system_at  # noqa: F401
     from reconf_dsl.loader import load  # noqa: F401
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}
@@ -133,6 +143,7 @@ def serve(fd: int) -> int:
                     sys.stdout.flush()
                     sys.stderr.flush()
                     pid = os.fork()
+                    exited.pop(pid, None)            # a PID used before: not that child's status
                     if pid == 0:
                         _child(argv, str(req["log"]), cwd, {str(k): str(v) for k, v in req.get("env", {}).items()},
                                conn)
@@ -223,7 +234,7 @@ class Launcher:
                 self.stream.readline()
                 self.unread -= 1
             line = self.stream.readline()
-        except OSError:
+        except BaseException:       # an answer left unread would be taken for the next one's
             self.available = False
             raise
         if not line:
@@ -290,6 +301,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--fd", type=int, required=True, help="the socket to serve (inherited from the manager)")
     args = ap.parse_args(argv)
     signal.signal(signal.SIGINT, signal.SIG_IGN)    # the manager ends it by closing the socket
+    if sys.path and sys.path[0] in ("", os.getcwd()):
+        del sys.path[0]     # `python -m` put the directory here; `reconf-node` imports as an installed script
     return serve(args.fd)
 
 

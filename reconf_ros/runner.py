@@ -91,16 +91,39 @@ def _text(path: str) -> Optional[str]:
         return None
 
 
-def _plan_target(path: str) -> tuple["System", dict[str, str]]:
-    """The architecture a plan document reaches, and its renames (`X@new` -> `X`)."""
+_PLANS: dict[str, tuple["System", dict[str, str], list[set[str]]]] = {}
+
+
+def plan_target(path: str) -> tuple["System", dict[str, str], list[set[str]]]:
+    """The architecture a plan document reaches, its renames (`X@new` -> `X`), and each
+    state's components (a plan's documents are named by their content: read once)."""
     import json
     from codegen.ros2 import system_at
-    try:
+    key = os.path.realpath(path)
+    if key not in _PLANS:
+        try:
+            with open(path, encoding="utf-8") as fh:
+                doc = json.load(fh)
+            states = [set(st["components"]) for st in doc["plan"]["states"]]
+            _PLANS[key] = system_at(doc), dict(doc["plan"].get("renames", {})), states
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise click.UsageError(f"{path}: not a plan document reconf can read ({e!r})") from None
+    return _PLANS[key]
+
+
+def _from_plan(path: str, name: str) -> Component:
+    """Component `name` (`X@new` or X) as the plan's target has it, or, for one the target no
+    longer has, as the last state with it has it."""
+    system, renames, states = plan_target(path)
+    if system.component(renames.get(name, name)) is None:
+        import json
+        from codegen.ros2 import system_at
+        last = max((i for i, comps in enumerate(states) if name in comps), default=None)
+        if last is None:
+            raise click.UsageError(f"{path}: the plan has no component {name}")
         with open(path, encoding="utf-8") as fh:
-            doc = json.load(fh)
-        return system_at(doc), dict(doc["plan"].get("renames", {}))
-    except (OSError, ValueError, KeyError, TypeError) as e:
-        raise click.UsageError(f"{path}: not a plan document reconf can read ({e!r})") from None
+            system = system_at(json.load(fh), last)
+    return _from_architecture(system, renames.get(name, name))
 
 
 def _load(path: str) -> "System":
@@ -148,8 +171,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
             system = _load(arch)
             comps = [_from_architecture(system, name) for name in argv]
         elif plan_file:
-            system, renames = _plan_target(plan_file)
-            comps = [_from_architecture(system, renames.get(name, name)) for name in argv]
+            comps = [_from_plan(plan_file, name) for name in argv]
         else:
             comps = [_factory(t) for t in argv]
             renamed = _node_remap(ros_args)

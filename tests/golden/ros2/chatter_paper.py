@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import hashlib
 import json
 import os
 import shlex
@@ -581,7 +582,8 @@ class Executor:
 
     def node_name(self, comp: str) -> str:
         """The component's node's name: its own, or where `locate` found it or `do_create` put it;
-        a new version not yet found has none ("X@new" is never a node's name)."""
+        a new version not yet found, or a component whose name a new version's node has, has
+        none ("X@new" and "X@elsewhere" are never a node's name)."""
         return self.placed.get(comp) or (comp if self.is_version(comp) else self.declared(comp))
 
     def created_mark(self, comp: str) -> str:
@@ -595,16 +597,18 @@ class Executor:
         mine = {st.get("created", ""): fqn for fqn, st in self.rt.statuses.items() if fqn in graph}
         claimed = {f"{ns}/{n}" for n in self.placed.values()} | \
             {mine[self.created_mark(c)] for c in self.model.comps if self.is_version(c) and self.created_mark(c) in mine}
-        for c in sorted(comps):
+        for c in sorted(comps, key=lambda c: not self.is_version(c)):     # versions first: they claim
             if c in self.placed:
                 continue
             if self.is_version(c):
                 found = [mine[self.created_mark(c)]] if self.created_mark(c) in mine else []
-            elif self.fqn(c) in graph:
+            elif self.fqn(c) in graph and self.fqn(c) not in claimed:
                 continue
             else:
                 found = [fqn for fqn, st in self.rt.statuses.items() if st.get("component") == self.declared(c)
                          and fqn in graph and fqn.rsplit("/", 1)[0] == ns and fqn not in claimed]
+                if not found and self.fqn(c) in claimed:
+                    self.placed[c] = f"{self.declared(c)}@elsewhere"    # its name is a new version's node
             if len(found) == 1:
                 self.placed[c] = found[0].rsplit("/", 1)[1]
                 claimed.add(found[0])
@@ -633,6 +637,7 @@ class Executor:
         """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
         or finalized)."""
         comps = sorted(comps)
+        self.locate(comps)
         graph = set(self.rt.nodes())
         seen: dict[str, Observed] = {}
         for c in comps:
@@ -762,11 +767,13 @@ class Executor:
                     raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
 
     def publishes(self, comp: str, port: str, state: State) -> bool:
-        """Whether `comp.port`'s functionality guarantees data there in `state`'s mode."""
+        """Whether `comp.port`'s functionality guarantees data at a rate there in `state`'s mode
+        (data without a rate comes on demand: an FTM's requests, say; matching is all there is
+        to wait for)."""
         for f in self.model.comps[comp]["functionalities"]:
             if port in f["ports"]:
                 g = self.model.guarantee(self.model.mode(comp, f, state), port)
-                if g is not None and g.get("message") is not None:
+                if g is not None and g.get("message") is not None and g.get("hz") is not None:
                     return True
         return False
 
@@ -802,13 +809,16 @@ class Executor:
         return argv
 
     def plan_file(self) -> str:
-        """The plan document, written once to the log directory for the nodes that read it."""
-        path = os.path.abspath(os.path.join(self.log_dir, "plan.json"))
+        """The plan document in the log directory, for the nodes that read it; named by its
+        content, so a log directory shared by several plans gives each node its own plan."""
+        text = json.dumps(self.doc, sort_keys=True)
+        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+        path = os.path.abspath(os.path.join(self.log_dir, f"plan-{digest}.json"))
         if not os.path.exists(path):
             os.makedirs(self.log_dir, exist_ok=True)
             tmp = f"{path}.tmp{os.getpid()}"
             with open(tmp, "w", encoding="utf-8") as fh:
-                json.dump(self.doc, fh, sort_keys=True)
+                fh.write(text)
             os.replace(tmp, path)
         return path
 
@@ -835,12 +845,18 @@ class Executor:
                 except StepFailed:
                     continue                    # the step itself will say so
                 if self.launcher.can_start(argv):
-                    self.launcher.warm(argv)
+                    try:
+                        self.launcher.warm(argv)
+                    except OSError:
+                        return                  # the launcher is gone: creates start the ordinary way
 
     def do_create(self, step: dict[str, Any]) -> None:
         comp = step["component"]
         fqn = self.fqn(comp)
         if self.is_version(comp):        # X@new: a node name no other node has (X's may still run)
+            self.locate([comp])
+            if comp in self.placed:
+                raise StepFailed(f"before the step, {comp} runs already (node {self.fqn(comp)})")
             self.placed[comp] = self.fresh_name(comp)
             fqn = self.fqn(comp)
         if fqn in self.rt.nodes() or self.rt.node.count_services(f"{fqn}/get_state"):
