@@ -55,7 +55,8 @@ class ComponentNode(LifecycleNode):
                  lean: bool = False) -> None:
         # lean: only the four services the control interface uses (docs/runtime.md#cost); rclpy's
         # executor rebuilds its wait set from every entity at every wake-up
-        super().__init__(component.name, namespace=namespace or None, enable_communication_interface=not lean,
+        super().__init__(component.node_name or component.name, namespace=namespace or None,
+                         enable_communication_interface=not lean,
                          start_parameter_services=not lean)
         if lean:
             self._serve_control_interface()

@@ -84,6 +84,8 @@ def _child(argv: list[str], log: str, cwd: str, env: dict[str, str], conn: socke
         os.close(null)
         os.chdir(cwd)
         os.environ.update(env)
+        if env.get("PYTHONPATH"):     # as a new interpreter would have it
+            sys.path[1:1] = [p for p in env["PYTHONPATH"].split(os.pathsep) if p]
         from .runner import main
         sys.argv = list(argv)
         try:

@@ -285,6 +285,7 @@ class Component:
         self.timers: list[tuple[Rate, Callable[[], None]]] = []
         self.reports: dict[str, Callable[[], str]] = {}
         self.lean = False         # serve only the control interface's four services (docs/runtime.md#cost)
+        self.node_name: Optional[str] = None    # the node's name when not the component's (docs/executor.md#names)
         self.node: Any = None     # the running ComponentNode, once started
 
     # --- the API of paper 001 §5.2 ---

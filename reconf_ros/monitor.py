@@ -222,6 +222,8 @@ class Monitor:
             out[f"in.{name}.rate_hz"] = f"{self.rate(name, now):.2f}"
             out[f"in.{name}.age_s"] = "" if st.last is None else f"{now - st.last:.3f}"
             out[f"in.{name}.fresh"] = ",".join(self.fresh_sources(name, now))
+            if st.port.on_demand:
+                out[f"in.{name}.on_demand"] = "1"
             for src in st.sources.values():
                 out[f"in.{name}.from.{src.node}"] = f"{src.received}/{src.lost}/{src.missed_head}"
             for k, n in sorted(st.publishers.items()):

@@ -149,7 +149,10 @@ def _load(path: str) -> "System":
               help="start active, attached as this architecture deploys the components; each functionality "
                    "turns normal once its assumptions are met on the wire")
 @click.option("--as", "as_name", metavar="NAME",
-              help="the component's name, when its node runs under another (`-r __node:=...`); one TARGET only")
+              help="the component's name (one TARGET only), when it is not TARGET's")
+@click.option("--node", "node_name", metavar="NAME",
+              help="the node's name (one TARGET only), when it is not the component's: a new version running "
+                   "beside its old one (docs/executor.md#names)")
 @click.option("--describe", is_flag=True, help="print the components as .arch text and exit (no ROS needed)")
 @click.option("--system", "system_name", help="with --describe: start the text with `system NAME`")
 @click.option("--gap-factor", type=float, default=1.5, show_default=True,
@@ -158,7 +161,7 @@ def _load(path: str) -> "System":
               help="serve only the control interface's four services (docs/runtime.md#cost): less CPU per node, "
                    "nothing for tools that list transitions or parameters")
 def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str], deployed: Optional[str],
-         as_name: Optional[str], describe: bool,
+         as_name: Optional[str], node_name: Optional[str], describe: bool,
          system_name: Optional[str], gap_factor: float, lean: bool) -> None:
     """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
     argv = list(targets)
@@ -179,10 +182,11 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
                 comps[0].name = renamed
     except (ModelError, KeyError) as e:
         raise click.UsageError(str(e)) from None
-    if as_name:
+    if as_name or node_name:
         if len(comps) != 1:
-            raise click.UsageError("--as names one component; give one TARGET")
-        comps[0].name = as_name
+            raise click.UsageError("--as and --node name one component; give one TARGET")
+        comps[0].name = as_name or comps[0].name
+        comps[0].node_name = node_name
     if describe:
         click.echo(components_to_arch(comps, system_name), nl=False)
         return

@@ -43,7 +43,7 @@ def test_only_this_environments_reconf_node(launcher: Launcher) -> None:
 def test_a_forked_node_has_its_log_directory_environment_and_status(launcher: Launcher, tmp_path: Path) -> None:
     log = tmp_path / "named.log"
     p = launcher.start([EXE, "tests.ros.test_launcher:named", "--describe"], str(log), cwd=str(ROOT),
-                       env={"RECONF_TEST_NAME": "from_env"})
+                       env={"RECONF_TEST_NAME": "from_env", "PYTHONPATH": str(ROOT)})
     assert p.wait(timeout=30) == 0, log.read_text()
     assert "component from_env" in log.read_text()
     bad = launcher.start([EXE, "--arch", example("chatter.arch"), "nosuch", "--describe"], str(tmp_path / "bad.log"))

@@ -727,8 +727,21 @@ class Executor:
             if not kept or set(kept) >= set(self.model.satisfying(before, conn)):
                 continue
             names = {self.node_name(c) for c in kept}
+            k = self.conn_name(conn)
+            matched = len([c for n, c, p in before.roles if n == conn and c in before.components
+                           and (self.model.port(c, p) or {}).get("kind") == "output"])
             for n, reader, port in sorted(after.roles):
                 if n != conn or reader not in after.components or port not in self.model.relying_inputs(reader, after):
+                    continue
+                if self.on_demand(reader, port):
+                    # data on demand (an FTM's requests): none may flow now; the reader must be
+                    # matched with every publisher it has, the ones that stay among them
+                    if not self.wait_status(reader, lambda st: int(st.get(f"in.{port}@{k}.publishers", "0")) >= matched,
+                                            wait):
+                        st = self.rt.status(self.fqn(reader)) or {}
+                        raise StepFailed(f"{reader}.{port} is matched with {st.get(f'in.{port}@{k}.publishers', 'no')} "
+                                         f"of the {matched} publisher(s) of {k}; taking {comp}'s away could leave it "
+                                         "without one")
                     continue
                 if not self.wait_status(reader, lambda st: bool(names & set(split_list(st.get(f"in.{port}.fresh", "")))),
                                         wait):
@@ -763,8 +776,17 @@ class Executor:
             # Matched counts can be stale (a publisher just gone still counted): the data decides.
             me = f"in.{{}}.from.{self.node_name(comp)}"
             for c, p in subs:
+                if self.on_demand(c, p):
+                    continue            # nothing flows until asked for; matched above
                 if not self.wait_status(c, lambda st: me.format(p) in st, wait):
                     raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+    def on_demand(self, comp: str, port: str) -> bool:
+        """Whether data reaches `comp.port` only when asked for (an FTM's requests and results,
+        its status says; or its assumption has no rate): no data may flow while a step runs."""
+        st = self.rt.status(self.fqn(comp)) or {}
+        return st.get(f"in.{port}.on_demand") == "1" or \
+            rate((self.model.port(comp, port) or {}).get("assumption")) is None
 
     def publishes(self, comp: str, port: str, state: State) -> bool:
         """Whether `comp.port`'s functionality guarantees data at a rate there in `state`'s mode
@@ -798,10 +820,11 @@ class Executor:
         if exe is None:
             raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
         argv[0] = exe
-        if run and comp in self.placed and os.path.basename(exe) == "reconf-node":
-            argv[1:1] = ["--as", self.declared(comp)]      # the component it is, under the node's own name
+        named = comp in self.placed and os.path.basename(exe) == "reconf-node"
+        if named:       # the component it is, under the node's own name (rcl's remap rules refuse "__")
+            argv[1:1] = ["--as", self.declared(comp), "--node", self.placed[comp]]
         remaps = ([f"__ns:={self.rt.namespace}"] if self.rt.namespace else []) + \
-            ([f"__node:={self.placed[comp]}"] if comp in self.placed else [])
+            ([f"__node:={self.placed[comp]}"] if comp in self.placed and not named else [])
         if remaps:
             argv += ["--ros-args"] if "--ros-args" not in argv else []
             for r in remaps:
