@@ -62,6 +62,12 @@ class InputStats:
         assert self.needed_since is not None
         return max(0.0, now - (self.needed_since if self.last is None else max(self.last, self.needed_since)))
 
+    def owed_since(self) -> float:
+        """Since when an on-demand input has waited: its oldest owed message's asking, or its
+        last answer if later (a rate while asked: a burst of asks answered one by one at the
+        rate meets it; the latency of each ask is the asker's to judge)."""
+        return self.owed[0] if self.last is None else max(self.owed[0], self.last)
+
     def period_limit(self, factor: float) -> Optional[float]:
         hz = self.port.assumption.hz
         return None if hz is None else factor / float(hz)
@@ -89,9 +95,10 @@ class Monitor:
         st = self.inputs[port]
         if st.port.on_demand:
             if st.owed:
-                asked = st.owed.popleft()
+                waited = now - st.owed_since()
+                st.owed.popleft()
                 if st.needed_since is not None:
-                    st.max_gap = max(st.max_gap, now - asked)
+                    st.max_gap = max(st.max_gap, waited)
         elif st.needed_since is not None:
             st.max_gap = max(st.max_gap, st.waited(now))
         now = max(now, st.last or now)     # reception order, in case timestamps disagree by a hair
@@ -150,10 +157,10 @@ class Monitor:
                     if not st.received and not any(st.publishers.get(k, 0) for k in attached[name]):
                         why.append(f"{name} has no publisher")
                         continue
-                    if not st.owed or now - st.owed[0] <= limit + grace:
+                    if not st.owed or now - st.owed_since() <= limit + grace:
                         break
-                    why.append(f"{name}: asked {now - st.owed[0]:.3f} s ago, no answer (limit {limit:.3f} s "
-                               f"for {a})")
+                    why.append(f"{name}: asked and waiting {now - st.owed_since():.3f} s for an answer (limit "
+                               f"{limit:.3f} s for {a})")
                     continue
                 if st.last is not None and now - st.last <= limit + grace:
                     break
@@ -203,7 +210,7 @@ class Monitor:
                 if not st.port.on_demand:
                     st.max_gap = max(st.max_gap, st.waited(now))
                 elif st.owed:
-                    st.max_gap = max(st.max_gap, now - st.owed[0])
+                    st.max_gap = max(st.max_gap, now - st.owed_since())
             else:
                 st.needed_since = None
         return changed
