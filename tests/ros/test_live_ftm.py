@@ -5,6 +5,7 @@ fault is."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import time
 from pathlib import Path
@@ -99,18 +100,28 @@ def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
     assert violations(live) == {}
 
 
-# paper 000 §6's transitions, both ways; every request answered once and right while the plan runs
+# paper 000 §6's transitions; every request answered once and right while the plan runs
 TRANSITIONS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))")]
 
 
 @pytest.mark.parametrize("src,dst", TRANSITIONS)
 def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
+    """The verified plan of `reconf plan transition` carried out while the client sends: every
+    step done, no request lost, repeated or answered wrong, and no monitor of the mechanism saw a
+    violation for longer than TOLERATED_S. The client's does: its replies wait while the
+    protocols are suspended, which the model does not say (docs/ftm.md#a-transition-under-load);
+    the executor reports it."""
     arch = live.with_ftm(example("ftm/client_server_pbr_tr.arch"), src)
     _, log = live.serve_ftm(arch, "", HZ, count=2 * COUNT)
     assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
     script = live.plan_script(["transition", "server", dst, "-f", arch])
     res = live.run_plan(script, timeout=240)
-    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    out = res.stdout + res.stderr
+    assert re.search(r"all \d+ steps done", out), out[-3000:]
+    assert "are not met" not in out, out[-3000:]
     assert judged(log, 2 * COUNT) == CLEAN
     seen = violations(live)
     assert seen == {}, (seen, live.watched_violations())
+    # the executor's verdict is what its monitors saw: "violated" exactly when it names one
+    named = re.findall(r"but the monitor of (\S+) saw", out)
+    assert (live.report()["outcome"] == "violated") == bool(named) == (res.returncode == 1), out[-3000:]
