@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import signal
 import statistics
 import tempfile
@@ -65,7 +66,8 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
         if plan is not None:
             res = live.run_plan(plan, timeout=300)
             wall = time.time() - t0
-            if res.returncode != 0:
+            named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
+            if live.report().get("outcome") not in ("done", "violated"):
                 return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}
         elif fault == "crash":
             os.killpg(procs["master"], signal.SIGKILL)
@@ -83,7 +85,8 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
     if plan is not None:    # the transition's own window: from the plan's start to its end
         lat = [r[0]["latency_s"] for r in entries["replies"].values() if t0 <= r[0]["t"] <= t0 + wall + 1.0]
     return {"ok": True, "lost": len(verdict["lost"]), "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
-            "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall}
+            "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall,
+            "named": named if plan is not None else []}
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -125,6 +128,10 @@ def main() -> None:
             for r in runs:
                 if not r["ok"]:
                     print(f"  (failed: {r['why']})", flush=True)
+            if fault.startswith("to "):
+                named = sorted({n for r in ok for n in r["named"]})
+                print(f"  (the executor named a monitor that saw a violation in {sum(bool(r['named']) for r in ok)} "
+                      f"of {len(ok)} runs: {', '.join(named) or 'none'})", flush=True)
 
 
 if __name__ == "__main__":
