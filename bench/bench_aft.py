@@ -69,8 +69,8 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
             if live.report().get("outcome") not in ("done", "violated"):
                 return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}
-            drained = time.time() + 60      # the queue the suspension built: every request answered
-            while time.time() < drained and judge_log(read_log(str(log)), until=t0 + wall)["lost"]:
+            drained = time.time() + 60      # the queue the suspension built, drained: the client caught up
+            while time.time() < drained and judge_log(read_log(str(log)), until=time.time() - 1.5)["lost"]:
                 time.sleep(0.5)
         elif fault == "crash":
             os.killpg(procs["master"], signal.SIGKILL)
