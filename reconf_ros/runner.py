@@ -16,7 +16,7 @@ import importlib
 import os
 import shlex
 import sys
-from typing import Optional
+from typing import Any, Optional
 
 from typing import TYPE_CHECKING
 
@@ -91,12 +91,12 @@ def _text(path: str) -> Optional[str]:
         return None
 
 
-_PLANS: dict[str, tuple["System", dict[str, str], list[set[str]]]] = {}
+_PLANS: dict[str, tuple["System", dict[str, Any]]] = {}
 
 
-def plan_target(path: str) -> tuple["System", dict[str, str], list[set[str]]]:
-    """The architecture a plan document reaches, its renames (`X@new` -> `X`), and each
-    state's components (a plan's documents are named by their content: read once)."""
+def plan_target(path: str) -> tuple["System", dict[str, Any]]:
+    """The architecture a plan document reaches, and the document (a plan's documents are named
+    by their content: read once)."""
     import json
     from codegen.ros2 import system_at
     key = os.path.realpath(path)
@@ -104,8 +104,7 @@ def plan_target(path: str) -> tuple["System", dict[str, str], list[set[str]]]:
         try:
             with open(path, encoding="utf-8") as fh:
                 doc = json.load(fh)
-            states = [set(st["components"]) for st in doc["plan"]["states"]]
-            _PLANS[key] = system_at(doc), dict(doc["plan"].get("renames", {})), states
+            _PLANS[key] = system_at(doc), doc
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise click.UsageError(f"{path}: not a plan document reconf can read ({e!r})") from None
     return _PLANS[key]
@@ -114,15 +113,15 @@ def plan_target(path: str) -> tuple["System", dict[str, str], list[set[str]]]:
 def _from_plan(path: str, name: str) -> Component:
     """Component `name` (`X@new` or X) as the plan's target has it, or, for one the target no
     longer has, as the last state with it has it."""
-    system, renames, states = plan_target(path)
+    from codegen.ros2 import system_at
+    system, doc = plan_target(path)
+    renames: dict[str, str] = doc["plan"].get("renames", {})
     if system.component(renames.get(name, name)) is None:
-        import json
-        from codegen.ros2 import system_at
-        last = max((i for i, comps in enumerate(states) if name in comps), default=None)
+        states = doc["plan"]["states"]
+        last = max((i for i, st in enumerate(states) if name in st["components"]), default=None)
         if last is None:
             raise click.UsageError(f"{path}: the plan has no component {name}")
-        with open(path, encoding="utf-8") as fh:
-            system = system_at(json.load(fh), last)
+        system = system_at(doc, last)
     return _from_architecture(system, renames.get(name, name))
 
 
