@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import hashlib
 import json
 import os
@@ -39,7 +40,7 @@ from typing import Any, Callable, Iterable, Optional
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
 STATUS_PREFIX = "reconf:"
-CREATED_ENV = "RECONF_CREATED"     # "<plan fingerprint> <component>", given to the processes a plan starts
+CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
 # Fast DDS announces each participant every 3 s. A participant that starts seconds after
 # another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
 # (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
@@ -589,11 +590,12 @@ class Executor:
     def created_mark(self, comp: str) -> str:
         return f"{self.doc['fingerprint']} {comp}"
 
-    def locate(self, comps: Iterable[str]) -> None:
+    def locate(self, comps: Iterable[str], graph: Optional[set[str]] = None) -> None:
         """Find the nodes not under their components' names, by their statuses: a new version by
         the mark of the plan step that started it, any other component by the component its
-        node declares (a node a plan started as `X@new` declares X and runs on as X)."""
-        graph, ns = set(self.rt.nodes()), self.rt.namespace
+        node declares (a node a plan started as `X@new` declares X and runs on as X). `graph`:
+        the nodes, when the caller has just read them."""
+        graph, ns = (set(self.rt.nodes()) if graph is None else graph), self.rt.namespace
         mine = {st.get("created", ""): fqn for fqn, st in self.rt.statuses.items() if fqn in graph}
         claimed = {f"{ns}/{n}" for n in self.placed.values()} | \
             {mine[self.created_mark(c)] for c in self.model.comps if self.is_version(c) and self.created_mark(c) in mine}
@@ -637,8 +639,8 @@ class Executor:
         """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
         or finalized)."""
         comps = sorted(comps)
-        self.locate(comps)
         graph = set(self.rt.nodes())
+        self.locate(comps, graph)
         seen: dict[str, Observed] = {}
         for c in comps:
             if self.fqn(c) not in graph:
@@ -695,9 +697,9 @@ class Executor:
         expected = set(expected)
 
         def quiet() -> bool:
-            self.locate(expected)
-            want = {self.fqn(c) for c in expected}
             nodes, now = self.rt.graph(), time.monotonic()
+            self.locate(expected, nodes)
+            want = {self.fqn(c) for c in expected}
             return want <= nodes and now - self.rt.started_at >= DISCOVERY_ROUND and \
                 now - self.rt.graph_since >= GRAPH_QUIET
         self.rt.wait(quiet, seconds)
@@ -815,7 +817,7 @@ class Executor:
         """The component's run line, or, when it has none, a model-driven node of the architecture
         the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
         run = self.runs.get(comp)
-        argv = shlex.split(run) if run else ["reconf-node", "--plan", self.plan_file(), comp]
+        argv = shlex.split(run) if run else ["reconf-node", "--plan", self.plan_path, comp]
         exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
         if exe is None:
             raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
@@ -831,7 +833,8 @@ class Executor:
                 argv += ["-r", r]
         return argv
 
-    def plan_file(self) -> str:
+    @functools.cached_property
+    def plan_path(self) -> str:
         """The plan document in the log directory, for the nodes that read it; named by its
         content, so a log directory shared by several plans gives each node its own plan."""
         text = json.dumps(self.doc, sort_keys=True)
