@@ -84,11 +84,12 @@ def server(name: str = "server") -> Component:
             doc = json.loads(msg.data)
         except ValueError:
             return
-        if "tag" in doc:                          # a Proceed's call: answer once per tag
+        if "tag" in doc:                          # a Proceed's call: applied once per tag (a request
+                                                  # and TR's run), answered again from memory
             tag = str(doc["tag"])
             if tag not in answers:
                 answers[tag] = [run(op) for op in doc.get("ops", [])]
-                while len(answers) > 1000:
+                while len(answers) > 10_000:
                     answers.popitem(last=False)
             reply.write(reply.new(data=json.dumps({"tag": tag, "results": answers[tag]})))
         else:                                     # a client's call, without an FTM

@@ -26,8 +26,8 @@ RESEND_AFTER = 0.15     # s without a reply before the proxy sends a request aga
 RESEND_WINDOW = 20      # requests the proxy sends again at most per tick (10 ticks a second)
 APP_RETRY_AFTER = 1.0   # s without the application's answer before a Proceed asks again
 WINDOW = 16            # requests a protocol has inside its layer at once (TR: one)
-GIVE_UP_AFTER = 2.0     # s a protocol waits for a result before it drops the request (a layer
-                        # refused it, e.g. SEC on a bad signature): the proxy sends it again
+GIVE_UP_AFTER = 2.0     # s a protocol's layer may hold requests without a result before the protocol
+                        # drops them (a node that held them went away): the proxy sends them again
 KEEP = 10_000           # replies a proxy or protocol remembers
 MAX_TR_RUNS = 5         # computations TR tries before it gives up on a majority
 
@@ -139,6 +139,7 @@ class Protocol:
         self.inflight: "OrderedDict[str, float]" = OrderedDict()
         self.window = 1 if comp.name.endswith("_tr_protocol") else WINDOW
         self.dropped: set[str] = set()            # given up on: taken again if re-sent
+        self.heard = 0.0                          # when the layer last gave a result
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
@@ -188,6 +189,7 @@ class Protocol:
         if "run" in doc:                # a backup applies a checkpoint through its pipeline
             self.queue.append(doc["run"])
         rid = str(doc.get("rid", ""))
+        self.heard = now()
         if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
                 self.dropped.add(rid)
@@ -232,10 +234,15 @@ class Protocol:
             self.next_notice = t + 0.1
 
     def pump(self) -> None:
+        """Send inwards what the window allows. A request is given up only when the whole layer
+        has been silent for GIVE_UP_AFTER since it went in: a busy layer (a slow TR, a queue
+        behind a suspended protocol) still holds it, and taking another in would run two at once
+        where the window says one. A request run again reaches the application under the same
+        tag, which answers it from memory (Proceed), so a re-send never applies it twice."""
         t = now()
         for rid, at in list(self.inflight.items()):
-            if t - at > GIVE_UP_AFTER:
-                self.p.comp.node.get_logger().warning(f"{rid}: no result in {GIVE_UP_AFTER} s, dropped")
+            if t - max(at, self.heard) > GIVE_UP_AFTER:
+                self.p.comp.node.get_logger().warning(f"{rid}: no result from the layer in {GIVE_UP_AFTER} s, dropped")
                 self.dropped.add(rid)
                 del self.inflight[rid]
         while len(self.inflight) < self.window and self.queue and self.p.normal:
@@ -293,8 +300,6 @@ class Proceed:
 
     def __init__(self, comp: Component, ports: Ports, system: System) -> None:
         self.p = ports
-        self.count = itertools.count(1)
-        self.boot = f"{comp.name}-{os.getpid()}"
         self.pending: "OrderedDict[str, dict[str, Any]]" = OrderedDict()
         ports.input("from_before").on_message(self.on_request)
         ports.input("from_server").on_message(self.on_answer)
@@ -308,7 +313,12 @@ class Proceed:
             self.p.send("result", {"rid": req["rid"], "rejected": req["rejected"]})
             return
         ops = list(req.get("pre", [])) + [req["body"]] + ([{"op": "get_state"}] if req.get("want_state") else [])
-        tag = f"{self.boot}-{next(self.count)}"
+        # the tag names the request and TR's run, not this call: a request that reaches the
+        # application again (a re-send after a give-up, a new version of this node after a
+        # transition) is answered from the application's memory instead of applied twice
+        tag = f"{req['rid']}#{(req.get('tr') or {}).get('run', 1)}"
+        if tag in self.pending:
+            return                      # already asked: its answer is on its way
         self.pending[tag] = {"req": req, "ops": ops, "at": None}
         self.retry()
 
