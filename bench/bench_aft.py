@@ -109,12 +109,14 @@ def main() -> None:
     ap.add_argument("--hz", type=float, default=50)
     ap.add_argument("--seconds", type=float, default=4.0, help="measured after the fault (or the start)")
     ap.add_argument("--only", default="", help="rows whose name contains one of these (comma-separated)")
+    ap.add_argument("--keep", default="", help="keep each run's logs and reports under this directory")
     args = ap.parse_args()
     print(f"client at {args.hz:g} requests/s; median/p95/max over runs (latency: over every reply of every run)")
     print("| FTM | fault | runs | failed | lost | duplicated | wrong | reply latency ms | longest wait for a reply ms "
           "| worst latency ms | plan wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = args.keep or scratch
         for row, (name, ftm, fault) in enumerate(ROWS):
             if not any(o in name for o in args.only.split(",")):
                 continue

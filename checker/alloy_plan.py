@@ -234,8 +234,8 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
                 verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.lossless):
         if not ok:
-            return (f"a client request could be lost in {after(i)}: a proxy is not serving (degraded or absent), "
-                    "its clients' connector is unsatisfied, or its requests reach no protocol"), verdict.seconds, verdict.text
+            return (f"a client request could be lost in {after(i)}: a proxy is absent "
+                    "or its requests reach no protocol"), verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.stable):
         if not ok:
             return (f"a connector the slice relies on is unsatisfied in {after(i)}"), verdict.seconds, verdict.text

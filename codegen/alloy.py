@@ -226,7 +226,7 @@ def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
     in the `Verdict` instance. With `serving` ((connector, proxy component) pairs,
     `Plan.serving`), `lossless_states` are the configurations in which every such proxy is
-    present and normal and every such connector satisfied: no request is lost. With
+    present (a degraded proxy still relays): no request is lost. With
     `stable` (connector names, `Plan.stable`), `stable_states` are those in which all of
     them are satisfied; the plan is safe only if every configuration is one. With `binary`,
     the configurations' roles are binary relations through Role atoms

@@ -45,13 +45,14 @@ __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", 
 # model tells the kinds apart by these names.
 FTM_MESSAGES = (("FtmRequest", "std_msgs/msg/String"), ("FtmState", "std_msgs/msg/String"),
                 ("FtmHeartbeat", "std_msgs/msg/String"), ("FtmAlarm", "std_msgs/msg/String"),
-                ("FtmCert", "std_msgs/msg/String"))
+                ("FtmCert", "std_msgs/msg/String"), ("FtmSealed", "std_msgs/msg/String"))
 HEARTBEAT_HZ = 10
 
 REQ = ir.Predicate("FtmRequest")
 STATE = ir.Predicate("FtmState")
 ALARM = ir.Predicate("FtmAlarm")
 CERT = ir.Predicate("FtmCert")
+SEALED = ir.Predicate("FtmSealed")     # a request SEC's client side ciphered and signed
 BEAT = ir.Predicate("FtmHeartbeat", ir.Rate(Fraction(HEARTBEAT_HZ), "Hz"))
 
 
@@ -164,24 +165,27 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
     clients = [system.component(r.component) for r in conn.subscribers]
     client_host = next((c.host for c in clients if c is not None and c.host), None)
 
-    info.proxy = b.add(p + "proxy", client_host, [("from_pro", plain)], [("reply", t), ("to_pro", "FtmRequest")],
-                       "relay", [plain], [("reply", g), ("to_pro", REQ)], [("reply", ir.NOTHING),
-                                                                           ("to_pro", ir.NOTHING)])
-    b.wire(_topic(s, "pro2pxy"), plain, None, (info.proxy, "from_pro"))
+    # the proxy promises its clients the rate its protocols answer at; degraded, it still relays
+    # requests and replies, with no rate
+    info.proxy = b.add(p + "proxy", client_host, [("from_pro", g)], [("reply", t), ("to_pro", "FtmRequest")],
+                       "relay", [g], [("reply", g), ("to_pro", REQ)], [("reply", plain), ("to_pro", REQ)])
+    b.wire(_topic(s, "pro2pxy"), g, None, (info.proxy, "from_pro"))
     if sec:
         cb = b.add(p + "sec_client_before", client_host, [("from_proxy", REQ), ("cert", CERT)],
-                   [("to_server", "FtmRequest")], "cipher_sign", [CERT], [("to_server", REQ)],
+                   [("to_server", "FtmSealed")], "cipher_sign", [CERT], [("to_server", SEALED)],
                    [("to_server", ir.NOTHING)])
-        ca_ = b.add(p + "sec_client_after", client_host, [("from_server", plain)], [("to_proxy", t)],
-                    "decipher_check", [plain], [("to_proxy", plain)], [("to_proxy", ir.NOTHING)])
+        ca_ = b.add(p + "sec_client_after", client_host, [("from_server", g)], [("to_proxy", t)],
+                    "decipher_check", [g], [("to_proxy", g)], [("to_proxy", plain)])
         ca = b.add(p + "ca", None, [], [("cert", "FtmCert")], "certify", [], [("cert", CERT)],
                    [("cert", ir.NOTHING)])
         b.wire(_topic(s, "pxy2sec"), REQ, (info.proxy, "to_pro"), (cb, "from_proxy"))
         b.wire(_topic(s, "ca"), CERT, (ca, "cert"), (cb, "cert"))
-        b.wire(_topic(s, "pxy2pro"), REQ, (cb, "to_server"), None)
-        b.wire(_topic(s, "srv2cli"), plain, None, (ca_, "from_server"))
-        b.wire(_topic(s, "pro2pxy"), plain, (ca_, "to_proxy"), None)
-        entry_req, entry_rep = _topic(s, "pxy2pro"), _topic(s, "srv2cli")
+        # sealed requests have a topic and a type of their own: a plain protocol, still linked
+        # to the proxy's topic while a transition adds SEC, never reads one
+        b.wire(_topic(s, "cli2sec"), SEALED, (cb, "to_server"), None)
+        b.wire(_topic(s, "srv2cli"), g, None, (ca_, "from_server"))
+        b.wire(_topic(s, "pro2pxy"), g, (ca_, "to_proxy"), None)
+        entry_req, entry_rep = _topic(s, "cli2sec"), _topic(s, "srv2cli")
     else:
         b.wire(_topic(s, "pxy2pro"), REQ, (info.proxy, "to_pro"), None)
         entry_req, entry_rep = _topic(s, "pxy2pro"), _topic(s, "pro2pxy")
@@ -197,15 +201,15 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
             base = _topic(s, f"r{i}", layer)
             # every Protocol can be switched to primary (so a layer keeps its definition in any
             # composition); in a duplex, Recovery switches replica 1's outermost one
-            ins: list[tuple[str, ir.Predicate]] = [("from_client", REQ), ("from_after", g),
-                                                   ("from_recovery", ALARM)]
+            ins: list[tuple[str, ir.Predicate]] = [("from_client", SEALED if layer == "sec" else REQ),
+                                                   ("from_after", g), ("from_recovery", ALARM)]
             pro = b.add(q + "protocol", host, ins, [("reply", t), ("to_before", "FtmRequest")], "handle", [g],
                         [("reply", g), ("to_before", REQ)], [("reply", plain), ("to_before", ir.NOTHING)])
             info.protocols.append(pro)
             if outer_req is not None:
-                b.wire(outer_req, REQ, None, (pro, "from_client"), single=k > 0)
+                b.wire(outer_req, SEALED if layer == "sec" else REQ, None, (pro, "from_client"), single=k > 0)
             if outer_rep is not None:
-                b.wire(outer_rep, g if k > 0 else plain, (pro, "reply"), None, single=k > 0)
+                b.wire(outer_rep, g, (pro, "reply"), None, single=k > 0)
             bins: list[tuple[str, ir.Predicate]] = [("from_protocol", REQ)]
             bouts = [("to_proceed", "FtmRequest")]
             bassume: list[ir.Predicate] = []

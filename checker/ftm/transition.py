@@ -476,8 +476,9 @@ def _targets(pairs: list[tuple[str, str]]) -> dict[str, set[str]]:
 def request_problems(plan: Plan) -> list[str]:
     """Every state of `plan` in which a request could be lost: a `serving` proxy's requests
     reach none of its protocols (`Plan.protocols`), or a `handover` proxy that still publishes
-    on its clients' connector is degraded or its requests reach none. The Alloy plan module
-    states the same (`lossless_states`)."""
+    on its clients' connector has requests that reach none. A degraded proxy still relays (its
+    degraded mode guarantees the types without the rate). The Alloy plan module states the
+    same (`lossless_states`)."""
     cat = catalogue(plan.system)
     clients = {conn for conn, _ in plan.serving + plan.handover}
     targets = _targets(plan.protocols)
@@ -490,8 +491,6 @@ def request_problems(plan: Plan) -> list[str]:
         for conn, proxy in plan.handover:
             if conn not in {sent for sent, _ in st.attached_outputs(proxy)}:
                 continue
-            if any(c == proxy for c, _ in state.degraded):
-                out.append(f"state {k}: {proxy} is degraded while it still publishes on {conn}")
             if not _reaches(st, proxy, clients, targets.get(proxy, set())):
                 out.append(f"state {k}: the requests of {proxy} reach no protocol while it still publishes on {conn}")
     return out
@@ -507,15 +506,18 @@ def _refuse_lost_requests(t: Transition) -> Transition:
 
 
 def client_side_ok(t: Transition) -> list[str]:
-    """Every state in which a client-facing connector is unsatisfied or a Proxy degraded (for
-    every server protected before and after), or a request could be lost (`request_problems`)."""
+    """For every server protected before and after: every state in which its proxy is absent,
+    or its clients' connector unsatisfied (its clients degraded) in more than one run of states
+    (the clients wait once, for the suspension); and every state in which a request could be
+    lost (`request_problems`)."""
     out = request_problems(t.plan)
-    watched = [(i.connector, i.proxy) for i in t.old_infos if any(j.server == i.server for j in t.new_infos)]
-    for k, state in enumerate(t.plan.states):
-        ev = evaluate(t.plan.system, state, explain=False)
-        for conn, proxy in watched:
-            if not ev.connectors.get(conn, False):
-                out.append(f"state {k}: {conn} is unsatisfied")
-            if any(c == proxy for c, _ in state.degraded):
-                out.append(f"state {k}: {proxy} is degraded")
+    evs = [evaluate(t.plan.system, st, explain=False) for st in t.plan.states]
+    for i in t.old_infos:
+        if not any(j.server == i.server for j in t.new_infos):
+            continue
+        down = [k for k, ev in enumerate(evs) if not ev.connectors.get(i.connector, False)]
+        out += [f"state {k}: {i.proxy} is absent" for k, st in enumerate(t.plan.states) if i.proxy not in st.components]
+        if down and down != list(range(down[0], down[-1] + 1)):
+            gap = next(k for k in range(down[0], down[-1]) if k not in down)
+            out.append(f"state {gap}: {i.connector} is satisfied between two runs of states where it is not")
     return out

@@ -95,15 +95,21 @@ def test_replicas_are_placed_on_the_declared_hosts() -> None:
     assert hosts["server__proxy"] == "client_site"
 
 
-def test_a_suspended_protocol_still_answers_the_proxy() -> None:
+def test_a_suspended_protocol_still_answers_the_proxy_without_the_rate() -> None:
     system, _ = expanded("PBR")
     config = Configuration.initial(system)
     down = [("server__r0_dup_protocol", "handle"), ("server__r0_dup_after", "checkpoint"),
             ("server__r1_dup_protocol", "handle"), ("server__r1_dup_after", "update_state")]
-    # both protocols suspended with what feeds them: the proxy and the client stay satisfied
+    # both protocols suspended with what feeds them: the proxy cannot promise its clients the
+    # rate, so the proxy and the client must be degraded too
     ev = evaluate(system, replace(config, degraded=frozenset(down)))
+    assert not ev.valid
+    relay, use = ("server__proxy", "relay"), ("client", "use")
+    assert not evaluate(system, replace(config, degraded=frozenset(down + [relay]))).valid
+    ev = evaluate(system, replace(config, degraded=frozenset(down + [relay, use])))
     assert ev.valid
-    assert ev.connectors["/compute"] and ev.connectors["/server/ftm/pro2pxy"]
+    assert not ev.connectors["/compute"] and not ev.connectors["/server/ftm/pro2pxy"]  # no rate
+    assert ev.connectors["/server/ftm/pxy2pro"]            # the degraded proxy still forwards requests
     assert not ev.connectors["/server/ftm/r0/dup/pro2bfr"]  # nothing is forwarded inwards: requests queue
 
 

@@ -156,21 +156,26 @@ def test_alloy_verifies_every_transition_of_the_table(a: str, b: str, bridge) ->
 
 
 def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  # type: ignore[no-untyped-def]
-    """The same states with the proxy degraded in one of them: Alloy finds that state not
-    lossless (requests would reach a proxy that no longer forwards them), and refuses the plan."""
+    """The same states with the proxy's request output unlinked in one of them: Alloy finds
+    that state not lossless (the proxy's requests would reach no protocol), and refuses the
+    plan. A degraded proxy is no such state: it still relays."""
     from dataclasses import replace as dc_replace
 
     from checker.alloy import alloy_plan_verdict
     from checker.config import Configuration
     t = transition("PBR", "LFR")
     p = t.plan
-    ((_, proxy),) = p.serving
+    ((conn, proxy),) = p.serving
     proxy_funcs = {(proxy, f.name) for f in p.system.component(proxy).functionalities}  # type: ignore[union-attr]
     states = list(p.states)
     k = len(states) // 2
     s = states[k]
-    states[k] = Configuration(s.components, s.degraded | frozenset(proxy_funcs), s.roles)
-    verdict = alloy_plan_verdict(p.system, states, serving=p.serving)
+    degraded = Configuration(s.components, s.degraded | frozenset(proxy_funcs), s.roles)
+    assert all(alloy_plan_verdict(p.system, states[:k] + [degraded] + states[k + 1:], serving=p.serving,
+                                  protocols=p.protocols).lossless)
+    states[k] = Configuration(s.components, s.degraded,
+                              frozenset(r for r in s.roles if not (r[1] == proxy and r[0] != conn)))
+    verdict = alloy_plan_verdict(p.system, states, serving=p.serving, protocols=p.protocols)
     assert verdict.lossless[k] is False and all(v for i, v in enumerate(verdict.lossless) if i != k)
     assert not verdict.ok
     from checker.alloy_plan import alloy_evidence

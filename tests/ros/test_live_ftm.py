@@ -89,7 +89,7 @@ def test_one_wrong_computation(live: LiveSystem, ftm: str) -> None:
 
 def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
     _, log = serve(live, "SEC(PBR)")
-    forger = live.injector("/server/ftm/pxy2pro")
+    forger = live.injector("/server/ftm/cli2sec")   # where SEC's client side sends sealed requests
     forged = {"rid": "0-1", "floor": 1, "sealed": {"nonce": "AAAAAAAAAAAAAAAA", "ct": "AAAA", "sig": "AAAA",
                                                      "cert": {"party": "client", "sign": "AAAA", "box": "AAAA",
                                                               "ca_sig": "AAAA"}}}
