@@ -93,6 +93,7 @@ class ExpansionInfo:
     components: list[str] = field(default_factory=list)
     protocols: list[str] = field(default_factory=list)
     proxy: str = ""
+    detector: str = ""      # a duplex's crash detector on the backup's side (it raises the alarm)
 
 
 @dataclass
@@ -274,6 +275,7 @@ def expand_component(system: ir.System, name: str, decl: Optional[ir.FtmDecl] = 
                     [("beat", ir.NOTHING)])
         cd1 = b.add(p + "r1_cd", b.host(1), [("beat", BEAT)], [("alarm", "FtmAlarm")], "detect", [BEAT],
                     [("alarm", ALARM)], [("alarm", ir.NOTHING)])
+        info.detector = cd1
         rcy = b.add(p + "recovery", b.host(1), [("alarm", ALARM)], [("switch", "FtmAlarm")], "recover", [ALARM],
                     [("switch", ALARM)], [("switch", ir.NOTHING)])
         b.wire(_topic(s, "cd2cd"), BEAT, (cd0, "beat"), (cd1, "beat"))

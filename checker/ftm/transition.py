@@ -259,6 +259,9 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     # Suspend, substitute and link with the protocols kept suspended, resume.
     system, start = plan.system, plan.states[0]
     funcs = [_func(system, p) for p in sorted(hoods)]
+    # a takeover would rebind what the plan moves: a duplex's crash detection is suspended with
+    # its protocols (its alarm raised by a heartbeat the plan's own process starts delayed)
+    funcs += [_func(system, d) for d in _detectors(old, new, old_infos, new_infos, hoods)]
     pre = _suspend_steps(system, start, funcs)
     mid = start
     for a in pre:
@@ -329,6 +332,15 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     whole.handover = handover(old_infos, new_infos)
     whole.protocols = protocols(old_infos, new_infos)
     return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _detectors(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
+               hoods: dict[str, set[str]]) -> list[str]:
+    """The crash detectors, kept by the transition, of the servers whose protocols it suspends."""
+    by_server = {j.server: j for j in new_infos}
+    return sorted(i.detector for i in old_infos if i.detector and any(p in hoods for p in i.protocols)
+                  and i.server in by_server and by_server[i.server].detector == i.detector
+                  and old.component(i.detector) == new.component(i.detector))
 
 
 def _hand_over_first(plan: Plan, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],

@@ -449,23 +449,24 @@ class Runtime:
         answers: dict[str, Any] = {}
         clients = {n: self.client(srv_type, n) for n in requests}
         end = time.monotonic() + min(self.timeout, self.left())
-        self.wait(lambda: all(c.service_is_ready() for c in clients.values()), end - time.monotonic())
+        # each request goes as soon as its service is there: one service that never comes (a node
+        # just gone) must not hold back the others until the time is up
         futs: dict[str, list[Any]] = {}
-        for n, cli in clients.items():
-            if cli.service_is_ready():
-                futs[n] = [cli.call_async(requests[n])]
-            else:
-                answers[n] = StepFailed(f"service {n} is not available")
-        sent = time.monotonic()
-
-        def unanswered() -> list[str]:
-            return [n for n, fs in futs.items() if not any(f.done() for f in fs)]
-        while (pending := unanswered()) and time.monotonic() < end:
-            if repeat and time.monotonic() - sent >= RETRY_AFTER:
-                for n in pending:
-                    futs[n].append(clients[n].call_async(requests[n]))
-                sent = time.monotonic()
+        sent: dict[str, float] = {}
+        while time.monotonic() < end:
+            t = time.monotonic()
+            for n, cli in clients.items():
+                if n not in futs and cli.service_is_ready():
+                    futs[n], sent[n] = [cli.call_async(requests[n])], t
+                elif repeat and n in futs and t - sent[n] >= RETRY_AFTER and not any(f.done() for f in futs[n]):
+                    futs[n].append(cli.call_async(requests[n]))
+                    sent[n] = t
+            if len(futs) == len(clients) and all(any(f.done() for f in fs) for fs in futs.values()):
+                break
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
+        for n in clients:
+            if n not in futs:
+                answers[n] = StepFailed(f"service {n} is not available")
         for n, fs in futs.items():
             first = next((f for f in fs if f.done()), None)
             for f in fs:
