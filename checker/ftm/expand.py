@@ -3,8 +3,9 @@
 
 For a server S whose replies leave on connector X (its first service, else its first topic):
 
-- `S__proxy` takes S's place on X (clients keep their attachment). It relays whatever the
-  outermost Protocol answers: it assumes the reply type *without rate* and guarantees X.
+- `S__proxy` takes S's place on X (clients keep their attachment). It relays what the
+  outermost Protocol answers: it assumes X's guarantee from it and guarantees X; degraded, it
+  still relays requests and replies, without rate.
 - Per replica i (two for a duplex, else one), per layer (sec, dup, tr; outermost first):
   `S__r<i>_<layer>_protocol`, `_before`, `_after`, and for the innermost layer `_proceed`,
   which calls the replica's copy of the application (`S` itself on replica 0, `S__r1_app`
@@ -20,10 +21,12 @@ For a server S whose replies leave on connector X (its first service, else its f
 
 Each node has one functionality named after its Table II behaviour. A Protocol in its
 degraded mode is *suspended*: it forwards nothing inwards but still accepts requests and
-queues them, so it still guarantees the reply type (without rate) to the proxy: the proxy,
-and so every client, stays satisfied while a protocol is suspended. Pipeline topics inside a
-replica are `single` (one producer, as ROS remapping wires them), so substituting a node
-suspends what depends on it rather than running two side by side.
+queues them, so it still guarantees the reply type, without rate, to the proxy, which then
+cannot promise its clients the rate: while a protocol on its path is suspended, the proxy and
+the clients that assume the rate are degraded (docs/ftm.md#expansion). Pipeline topics inside
+a replica are `single` (one producer, as ROS remapping wires them), so substituting a node
+suspends what depends on it rather than running two side by side. SEC's sealed requests
+have their own type and topic (`FtmSealed`, `/S/ftm/cli2sec`).
 """
 from __future__ import annotations
 

@@ -12,13 +12,15 @@ must be degraded (suspended) while any step disturbs a running node of that neig
 (removes it, detaches it, attaches a publisher; creating the new nodes and attaching their
 inputs may come earlier: they start degraded and publish nothing), and normal at the end.
 The plan has three parts: suspend the protocols (with whatever depends on them, in an order
-the preconditions accept); substitute and link with them kept suspended (the planner's goal
+the preconditions accept, and a duplex's crash detector: a takeover would rebind what the
+plan moves); substitute and link with them kept suspended (the planner's goal
 keeps them degraded; new outputs that a degraded node cannot serve wait); resume and link the
 rest. The whole sequence is verified again, step by step.
 
 No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
-mode guarantees the reply type without rate), so the Proxy, and the client-facing connector,
-stay satisfied in every state; and the old request path (`_request_path`: what carries the
+mode guarantees the reply type without rate), and a degraded Proxy still relays them (the
+clients that assume the rate are degraded meanwhile: they wait for the suspension); and the
+old request path (`_request_path`: what carries the
 proxy's requests to a protocol) stays linked until the new one is, so they always reach a
 protocol. A server losing its FTM has its clients handed over to the application first
 (`_hand_over_first`); one gaining an FTM is handed over last; while its proxy publishes on the
