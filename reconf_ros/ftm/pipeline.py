@@ -26,8 +26,9 @@ RESEND_AFTER = 0.15     # s without a reply before the proxy sends a request aga
 RESEND_WINDOW = 20      # requests the proxy sends again at most per tick (10 ticks a second)
 APP_RETRY_AFTER = 1.0   # s without the application's answer before a Proceed asks again
 WINDOW = 16            # requests a protocol has inside its layer at once (TR: one)
-GIVE_UP_AFTER = 2.0     # s a protocol's layer may hold requests without a result before the protocol
-                        # drops them (a node that held them went away): the proxy sends them again
+GIVE_UP_AFTER = 2.0     # s a request may stay inside a protocol's layer, silent or overtaken by a later
+                        # one, before the protocol drops it (a node that held it went away, or
+                        # dropped its result while degraded): the proxy sends it again
 KEEP = 10_000           # replies a proxy or protocol remembers
 MAX_TR_RUNS = 5         # computations TR tries before it gives up on a majority
 
@@ -140,6 +141,7 @@ class Protocol:
         self.window = 1 if comp.name.endswith("_tr_protocol") else WINDOW
         self.dropped: set[str] = set()            # given up on: taken again if re-sent
         self.heard = 0.0                          # when the layer last gave a result
+        self.overtaken = 0.0                      # latest time a request went in that has its result
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
@@ -190,6 +192,7 @@ class Protocol:
             self.queue.append(doc["run"])
         rid = str(doc.get("rid", ""))
         self.heard = now()
+        self.overtaken = max(self.overtaken, self.inflight.get(rid, 0.0))
         if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
                 self.dropped.add(rid)
@@ -234,14 +237,15 @@ class Protocol:
             self.next_notice = t + 0.1
 
     def pump(self) -> None:
-        """Send inwards what the window allows. A request is given up only when the whole layer
-        has been silent for GIVE_UP_AFTER since it went in: a busy layer (a slow TR, a queue
+        """Send inwards what the window allows. A request that has been inside for GIVE_UP_AFTER
+        is given up only when the layer is silent since it went in, or has given the result of
+        one that went in after it (each hop keeps the order): a busy layer (a slow TR, a queue
         behind a suspended protocol) still holds it, and taking another in would run two at once
         where the window says one. A request run again reaches the application under the same
         tag, which answers it from memory (Proceed), so a re-send never applies it twice."""
         t = now()
         for rid, at in list(self.inflight.items()):
-            if t - max(at, self.heard) > GIVE_UP_AFTER:
+            if t - at > GIVE_UP_AFTER and (self.overtaken > at or t - self.heard > GIVE_UP_AFTER):
                 self.p.comp.node.get_logger().warning(f"{rid}: no result from the layer in {GIVE_UP_AFTER} s, dropped")
                 self.dropped.add(rid)
                 del self.inflight[rid]

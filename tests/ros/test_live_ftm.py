@@ -103,7 +103,7 @@ def test_a_tampered_request_is_refused(live: LiveSystem) -> None:
 
 # paper 000 §6's transitions and their way back; every request answered once and right while the
 # plan runs
-TRANSITIONS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))"),
+TRANSITIONS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
                ("SEC(PBR(TR))", "PBR(TR)")]
 
 
