@@ -87,7 +87,12 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
     lat = [r[0]["latency_s"] for r in entries["replies"].values() if r[0]["t"] > t0 - 1.0]
     if plan is not None:    # the transition's own window: from the plan's start to its end
         lat = [r[0]["latency_s"] for r in entries["replies"].values() if t0 <= r[0]["t"] <= t0 + wall + 1.0]
-    return {"ok": True, "lost": len(verdict["lost"]), "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
+    # the mechanism answers in order: a request with no reply while a later one has one is lost;
+    # the unanswered ones after the last reply are a queue still draining when the run was judged
+    last = max(entries["replies"], default=0)
+    lost = [i for i in verdict["lost"] if i < last]
+    return {"ok": True, "lost": len(lost), "behind": len(verdict["lost"]) - len(lost),
+            "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
             "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall,
             "named": named if plan is not None else []}
 
@@ -130,6 +135,10 @@ def main() -> None:
                   f"{three([r['silence'] for r in ok], scale=1000) if fault != 'none' else '-'} | "
                   f"{three([r['worst'] for r in ok], scale=1000)} | "
                   f"{three([r['wall'] for r in ok]) if fault.startswith('to ') else '-'} |", flush=True)
+            behind = [r["behind"] for r in ok if r["behind"]]
+            if behind:
+                print(f"  ({len(behind)} of {len(ok)} runs still draining when judged: up to {max(behind)} "
+                      "requests not answered yet, none skipped)", flush=True)
             for r in runs:
                 if not r["ok"]:
                     print(f"  (failed: {r['why']})", flush=True)
