@@ -39,8 +39,10 @@ DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=Re
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 # Requests on a service (`<connector>/request`) and data of a port that is not durable: reliable,
 # never replayed to a late subscriber (a protocol attached during a transition must not run old
-# requests again); what is sent before a match is lost, and the FTM proxy re-sends it.
-VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+# requests again); what is sent before a match is lost, and the FTM proxy re-sends it. Deep
+# enough for the queue a resumed protocol drains at once: a 20 s suspension at 50 requests/s is
+# 1000 replies in a burst, and with a depth of 100 the client's reader lost 195 of them.
+VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 MODES = ("normal", "degraded")
