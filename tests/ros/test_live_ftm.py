@@ -22,7 +22,8 @@ HZ = 10         # requests/s: the deepest composition saturates two cores at 50 
                 # one at 20 if another process keeps the other busy
 COUNT = 80      # requests the client sends (8 s); every one must be answered, once and right
 CLEAN: dict[str, list[int]] = {"lost": [], "duplicated": [], "wrong": []}
-TOLERATED_S = 0.5   # s a loaded two-core machine may keep a 10 Hz stream late, in all, per node
+TOLERATED_S = 0.5   # s a loaded two-core machine may keep a 10 Hz stream late, in all, per node,
+                    # over COUNT requests (a run twice as long is allowed twice as much)
 
 
 def serve(live: LiveSystem, ftm: Optional[str], count: int = COUNT) -> tuple[dict[str, Any], Path]:
@@ -39,7 +40,7 @@ def judged(log: Path, count: int = COUNT) -> dict[str, list[int]]:
     return judge_log(read_log(str(log)), until=time.time())
 
 
-def violations(live: LiveSystem, client: bool = False) -> dict[str, str]:
+def violations(live: LiveSystem, client: bool = False, tolerated: float = TOLERATED_S) -> dict[str, str]:
     """The mechanism's nodes whose monitor saw a normal mode's assumption violated for more than
     TOLERATED_S in all. A loaded machine delays a 10 Hz stream beyond 1.5 periods now and then
     whatever the mechanism does: bench_aft reports those. The client's monitor is left out unless
@@ -47,7 +48,7 @@ def violations(live: LiveSystem, client: bool = False) -> dict[str, str]:
     reports too; a transition asks for it (its plan degrades the client while it waits)."""
     st = live.settle_status()
     return {n: f"{s['message']} ({s['values'].get('violation_s')} s in all)" for n, s in st.items()
-            if (client or n != "/client") and float(s["values"].get("violation_s") or 0) > TOLERATED_S}
+            if (client or n != "/client") and float(s["values"].get("violation_s") or 0) > tolerated}
 
 
 @pytest.mark.parametrize("ftm", ["SEC(PBR(TR))", "LFR", "AD"])
@@ -124,7 +125,7 @@ def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
     assert "are not met" not in out, out[-3000:]
     assert judged(log, 2 * COUNT) == CLEAN
     # the client too: before its plan degraded it, it waited the whole suspension in normal mode
-    seen = violations(live, client=True)
+    seen = violations(live, client=True, tolerated=2 * TOLERATED_S)     # 2 * COUNT requests
     assert seen == {}, (seen, live.watched_violations())
     # the executor's verdict is what its monitors saw, with no tolerance: "violated" exactly when
     # it names one
