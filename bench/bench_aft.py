@@ -113,7 +113,8 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--hz", type=float, default=50)
     ap.add_argument("--seconds", type=float, default=4.0, help="measured after the fault (or the start)")
-    ap.add_argument("--only", default="", help="rows whose name contains one of these (comma-separated)")
+    ap.add_argument("--only", default="", help="rows whose name contains one of these (comma-separated; "
+                    "=NAME: the row of that name only, e.g. =PBR)")
     ap.add_argument("--keep", default="", help="keep each run's logs and reports under this directory")
     args = ap.parse_args()
     print(f"client at {args.hz:g} requests/s; median/p95/max over runs (latency: over every reply of every run)")
@@ -123,7 +124,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as scratch:
         tmp = args.keep or scratch
         for row, (name, ftm, fault) in enumerate(ROWS):
-            if not any(o in name for o in args.only.split(",")):
+            if not any(name == o[1:] if o.startswith("=") else o in name for o in args.only.split(",")):
                 continue
             runs = [measure(ftm, fault, args.hz, Path(tmp) / f"row{row}-run{i}", args.seconds)
                     for i in range(args.runs)]
