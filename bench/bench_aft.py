@@ -2,8 +2,10 @@
 
 For each FTM of the table, N runs (default 10) of: expand examples/ftm/client_server_pbr_tr.arch
 with that FTM, deploy it one process per host, run the demo client at --hz requests/s, then
-(steady) measure, or (crash) kill -9 the primary's host process, or (transient) make one
-computation of the primary's application wrong. Prints per row the median / p95 / max of: reply
+(steady) measure, or (crash) kill -9 the primary's host process once it has served for the
+detector's jitter window after arming (its start-up's late beats forgotten; the backup's silence
+limit at that moment is printed), or (transient) make one computation of the primary's
+application wrong. Prints per row the median / p95 / max of: reply
 latency, requests lost, duplicated and answered wrongly, and for faults the longest time the
 client went without a reply (from the fault) and the affected request's latency. A transition
 row (`PBR -> LFR`) carries out the verified plan of `reconf plan transition` while the client
@@ -24,6 +26,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
+from reconf_ros.ftm.detect import JITTER_WINDOW
 from reconf_ros.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -62,6 +65,10 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             inject.wait_ready()
         if fault != "none" and plan is None and not live.wait_detectors_armed(timeout=30):
             return {"ok": False, "why": "the crash detector never armed"}
+        limit = None
+        if fault == "crash":    # a crash in service: the start-up's late beats have left the detector's window
+            time.sleep(JITTER_WINDOW)
+            limit = float(live.statuses().get("/server__r1_cd", {}).get("values", {}).get("app.silence_limit_s", "nan"))
         t0, wall = time.time(), 0.0
         if plan is not None:
             res = live.run_plan(plan, timeout=300)
@@ -94,7 +101,7 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
     return {"ok": True, "lost": len(lost), "behind": len(verdict["lost"]) - len(lost),
             "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
             "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall,
-            "named": named if plan is not None else []}
+            "named": named if plan is not None else [], "limit": limit}
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -140,6 +147,9 @@ def main() -> None:
             if behind:
                 print(f"  ({len(behind)} of {len(ok)} runs still draining when judged: up to {max(behind)} "
                       "requests not answered yet, none skipped)", flush=True)
+            if fault == "crash":
+                print(f"  (the backup's silence limit at the crash: {three([r['limit'] for r in ok], '{:.3f}')} s)",
+                      flush=True)
             for r in runs:
                 if not r["ok"]:
                     print(f"  (failed: {r['why']})", flush=True)
