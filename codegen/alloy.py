@@ -148,7 +148,7 @@ KINDS = {
 }
 
 
-@functools.lru_cache(maxsize=1 << 16)
+@functools.lru_cache(maxsize=None)
 def mangle(kind: str, *parts: str) -> str:
     """A valid, unique Alloy identifier for a DSL name (any characters, keywords too).
 
@@ -195,7 +195,7 @@ def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
 
 
 def render_instance(system: Any, config: Any, module_name: str = "instance",
-                    focus: Any = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+                    focus: Any = None, index: "SliceIndex | None" = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
     (checker.config.Configuration); see `_render`.
 
@@ -206,16 +206,48 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
     outputs, without inputs or assumptions: only their guarantees count). Validity is
     local (an assumption reads its component's inputs, their connectors and what is
     attached to them), so the whole configuration is valid exactly when every slice of a
-    partition of its components is."""
+    partition of its components is. `index` (`slice_index(system, config)`) is what every
+    slice reads, computed once: with it a slice costs what its components cost."""
     if focus is None:
         return _render(system, [config], module_name, plan=False)
     focus = set(focus)
-    kinds = {(c.name, p.name): p.kind for c in _all_components(system) for p in c.ports}
-    read = {k for k, c, p in config.roles if c in focus and kinds.get((c, p)) == "input"}
-    context = {(c, p) for k, c, p in config.roles
-               if k in read and c not in focus and kinds.get((c, p)) == "output"}
+    index = index if index is not None else slice_index(system, config)
+    read = {k for c in focus for k, p in index.roles_of.get(c, ()) if index.kinds.get((c, p)) == "input"}
+    context = {(c, p) for k in read for c, p in index.publishers.get(k, ()) if c not in focus}
     return _render(system, [config], module_name, plan=False,
-                   slice_=(focus, context, read))
+                   slice_=(focus, context, read), index=index)
+
+
+@dataclass(frozen=True)
+class SliceIndex:
+    """What every slice of one configuration reads (`render_instance`), computed once per
+    configuration instead of once per slice."""
+
+    position: dict[str, int]                        # component -> its place in declaration order
+    components: dict[str, Any]                      # component name -> component (versions too)
+    kinds: dict[tuple[str, str], str]               # (component, port) -> "input" / "output"
+    view: Any                                       # the configuration as Alloy reads it (alloy_view)
+    roles_of: dict[str, list[tuple[str, str]]]      # component -> (connector, port) it is attached by
+    publishers: dict[str, list[tuple[str, str]]]    # connector -> (component, output port) attached
+    connectors: dict[str, tuple[int, Any]]          # connector name -> (declaration place, connector)
+
+
+def slice_index(system: Any, config: Any) -> SliceIndex:
+    comps = _all_components(system)
+    kinds = {(c.name, p.name): p.kind for c in comps for p in c.ports}
+    roles_of: dict[str, list[tuple[str, str]]] = {}
+    publishers: dict[str, list[tuple[str, str]]] = {}
+    for k, c, p in config.roles:
+        roles_of.setdefault(c, []).append((k, p))
+        if kinds.get((c, p)) == "output":
+            publishers.setdefault(k, []).append((c, p))
+    return SliceIndex(
+        position={c.name: i for i, c in enumerate(comps)},
+        components={c.name: c for c in comps},
+        kinds=kinds,
+        view=alloy_view(system, config),
+        roles_of=roles_of, publishers=publishers,
+        connectors={k.name: (i, k) for i, k in enumerate(system.connectors)})
 
 
 def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
@@ -332,7 +364,8 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
             binary: bool = False, protocols: list[tuple[str, str]] | None = None,
-            handover: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            handover: list[tuple[str, str]] | None = None,
+            index: SliceIndex | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -346,15 +379,20 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     from fractions import Fraction
 
     names: dict[str, tuple[str, ...]] = {}
-    comps = _all_components(system)
+    comps = _all_components(system) if index is None else []
     # a slice (see render_instance): the focus whole; of the other components only the
     # outputs attached to the connectors the focus reads, and the functionalities
     # behind them; only those connectors
     focus, context, read = slice_ if slice_ is not None else (None, set(), None)
-    if focus is not None:
-        publishing = {c for c, _ in context}
-        comps = [c for c in comps if c.name in focus or c.name in publishing]
-    configs = [alloy_view(system, c) for c in configs]
+    if focus is not None and index is not None:
+        wanted = focus | {c for c, _ in context}
+        comps = [index.components[n] for n in sorted(wanted & index.components.keys(), key=index.position.__getitem__)]
+        configs = [index.view]
+    else:
+        if focus is not None:
+            publishing = {c for c, _ in context}
+            comps = [c for c in comps if c.name in focus or c.name in publishing]
+        configs = [alloy_view(system, c) for c in configs]
 
     # data predicates: one atom per distinct (message, rate)
     data_atoms: dict[tuple[str, Fraction | None], str] = {}
@@ -423,7 +461,10 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
     conn_atoms = {}
-    for k in system.connectors:
+    connectors = (system.connectors if read is None or index is None else
+                  [index.connectors[n][1] for n in sorted(read & index.connectors.keys(),
+                                                          key=lambda n: index.connectors[n][0])])
+    for k in connectors:
         if read is not None and k.name not in read:
             continue
         ka = conn_atoms[k.name] = mangle("connector", k.name)
@@ -441,11 +482,17 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
         (config,) = configs
         # grouped (a connector -> a union of ports): fewer products for Alloy to type-check
         by_conn: dict[str, list[str]] = {}
-        for k, c, p in sorted(config.roles):
+        if index is not None:       # a slice: only its connectors, components and functionalities
+            in_roles: Any = sorted({(k, c, p) for c in comp_atoms for k, p in index.roles_of.get(c, ())})
+            in_comps: Any = sorted(n for n in comp_atoms if n in config.components)
+            in_degraded: Any = sorted(cf for cf in func_atoms if cf in config.degraded)
+        else:
+            in_roles, in_comps, in_degraded = sorted(config.roles), sorted(config.components), sorted(config.degraded)
+        for k, c, p in in_roles:
             if k in conn_atoms and (c, p) in port_atoms:
                 by_conn.setdefault(conn_atoms[k], []).append(port_atoms[c, p])
-        rel["comps"] += [comp_atoms[n] for n in sorted(config.components) if n in comp_atoms]
-        rel["degraded"] += [func_atoms[cf] for cf in sorted(config.degraded) if cf in func_atoms]
+        rel["comps"] += [comp_atoms[n] for n in in_comps if n in comp_atoms]
+        rel["degraded"] += [func_atoms[cf] for cf in in_degraded if cf in func_atoms]
         rel["roles"] += [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()]
 
     rate_atoms = []

@@ -1,6 +1,7 @@
 """The Alloy verdict on one configuration of a concrete architecture."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +30,15 @@ class AlloyVerdict:
     unsatisfied: tuple[tuple[str, str, int], ...]
     seconds: float
     texts: tuple[str, ...]
+    # where the rest of the time went: starting the analyzer (the JVM, once per process),
+    # rendering the modules, and the analyzer's front end (parsing them); `seconds` is solving
+    start_seconds: float = 0.0
+    render_seconds: float = 0.0
+    front_seconds: float = 0.0
+
+    def timing(self) -> dict[str, float]:
+        return {"start": round(self.start_seconds, 4), "render": round(self.render_seconds, 4),
+                "front_end": round(self.front_seconds, 4), "solve": round(self.seconds, 4)}
 
     @property
     def text(self) -> str:
@@ -54,17 +64,23 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
     in Alloy, through instance modules rendered from the shared semantics. With `only` (a
     set of component names), judge the assumptions of those components alone."""
-    from codegen.alloy import render_instance
+    from codegen.alloy import render_instance, slice_index
 
+    clock = time.perf_counter()
     bridge = bridge or AlloyBridge.get()
+    start = time.perf_counter() - clock
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
+    index = slice_index(system, config) if parts else None
     failing: set[tuple[str, str, int]] = set()
     texts: list[str] = []
-    seconds = 0.0
+    seconds = render = front = 0.0
     for focus in focuses:
-        text, names = render_instance(system, config, focus=focus)
+        clock = time.perf_counter()
+        text, names = render_instance(system, config, focus=focus, index=index)
         texts.append(text)
+        rendered = time.perf_counter()
+        render += rendered - clock
         try:
             # `check Valid` first: over constants the solver folds `valid` to true or
             # false while translating, so a valid configuration costs no evaluation; only
@@ -73,12 +89,13 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
         except AlloyError as err:
             raise with_span(err, text, names, system) from None
         seconds += outcome.elapsed
+        front += time.perf_counter() - rendered - outcome.elapsed
         if outcome.satisfiable:
             failing |= _failing(system, outcome.eval("unsatisfied"), text, names)
             if not failing:  # a counterexample with nothing failing: say so, not "valid"
                 failing.add(("", "", -1))
     valid = not failing
-    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts))
+    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front)
 
 
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:

@@ -157,3 +157,18 @@ def test_a_slice_near_the_ternary_limit_holds_guarantees_as_atoms(bridge: AlloyB
     assert any(n > 1_240 and atoms for n, atoms in sizes)
     verdict = alloy_verdict(system, config, bridge=bridge)
     assert (verdict.valid, verdict.unsatisfied) == python_verdict(system, config)
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=[e.name for e in EXAMPLES])
+def test_slices_read_through_the_index_are_the_slices(example) -> None:  # type: ignore[no-untyped-def]
+    """A check computes what every slice reads once (`slice_index`); each slice rendered
+    through it is the text rendered from the whole system, in changed configurations too."""
+    from checker.alloy.instance import slices
+    from codegen.alloy import slice_index
+    system = load([example.file])
+    configs = [Configuration.initial(system)] + _variations(system, random.Random(example.name), 4)
+    for config in configs:
+        index = slice_index(system, config)
+        for focus in slices(system, config, size=2) or []:
+            assert render_instance(system, config, focus=focus, index=index) == \
+                render_instance(system, config, focus=focus), (config, focus)
