@@ -8,6 +8,7 @@ import difflib
 import functools
 import os
 import sys
+import time
 import tempfile
 from typing import Any, Callable, Optional, TypeVar
 
@@ -140,7 +141,10 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     """
     from .engines import judge, judge_ftm
 
+    age = report.process_age()     # the interpreter's start-up and imports
+    started = time.perf_counter() - age
     system = load(list(files), sources)
+    parsed = time.perf_counter() - started - age
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         judged = judge(system, Configuration.initial(system), engine, solver)
         ftm, ftm_alloy = judge_ftm(system, engine)
@@ -154,21 +158,27 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                     (len(system.connectors), "connector"), (n, "assumption")))
     how = judged.how()
+    parts = [("start-up", age), ("parsing", parsed)] + judged.timing()
+    if ftm_alloy is not None:
+        parts.append(("FTM rules in Alloy", ftm_alloy["seconds"]))
+    wall = time.perf_counter() - started
+    timing = "; " + report.timing_note(wall, parts)
     # the engines' note (`how`) is about the assumptions; the FTM rules' is said after them
     by = ", judged by Alloy too" if ftm_alloy is not None else ""
     ftm_note = (f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules{by})" if ftm else
                 f"; FTM rules hold{by}" if any(c.ftm is not None for c in system.components) else "")
     if safe:
-        line = f"{system.name} — {summary}, all hold{how}{ftm_note}"
+        line = f"{system.name} — {summary}, all hold{how}{ftm_note}{timing}"
         human = f"[bold green]✓ safe[/]: {line}"
     else:
         held = f"{bad} do not hold" if bad else "all hold"
-        line = f"{system.name} — {summary}, {held}{how}{ftm_note}"
+        line = f"{system.name} — {summary}, {held}{how}{ftm_note}{timing}"
         human = f"[bold red]✗ unsafe[/]: {line}"
     rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")
     emit_report(rep, output_format, sources,
                 lambda: report.document("check", verdict, diags, system=system.name, files=list(system.files),
-                                        engines=judged.engines, assumptions=report.evaluation_json(ev)), human)
+                                        engines=judged.engines, timing=report.timing_json(wall, parts),
+                                        assumptions=report.evaluation_json(ev)), human)
     sys.exit(EXIT_OK if safe else EXIT_UNSAFE)
 
 

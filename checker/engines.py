@@ -46,8 +46,20 @@ class Judgement:
         if al.get("verdict") == "not run":
             return " (Python engine; too large for Alloy, see the warning)"
         if "python" not in self.engines:
-            return f" (Alloy, {al['solver']}, {al['seconds']:.2f} s)"
-        return f" (proved by Alloy, {al['solver']}, {al['seconds']:.2f} s; explained by the Python engine)"
+            return f" (Alloy, {al['solver']})"
+        return f" (proved by Alloy, {al['solver']}; explained by the Python engine)"
+
+    def timing(self) -> list[tuple[str, float]]:
+        """Where the judgement's time went, in order: the Python engine, then Alloy's start,
+        rendering, front end and solving (see `timing_note`)."""
+        out: list[tuple[str, float]] = []
+        if "python" in self.engines:
+            out.append(("Python engine", self.engines["python"]["seconds"]))
+        al = self.engines.get("alloy", {}).get("timing")
+        if al:
+            out += [("Alloy start", al["start"]), ("rendering", al["render"]),
+                    ("Alloy front end", al["front_end"]), ("solving", al["solve"])]
+        return out
 
 
 def python_failing(ev: Evaluation) -> Failing:
@@ -147,6 +159,7 @@ def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple
     used = getattr(AlloyBridge.get(), "last_solver", solver)
     return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
                                                     "seconds": round(v.seconds, 4), "solver": used,
+                                                    "timing": v.timing(),
                                                     "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
 
 

@@ -4,6 +4,7 @@ Stages never print; the CLI hands their data to one of these."""
 from __future__ import annotations
 
 import enum
+import os
 import json
 from typing import Any, Optional, TextIO
 
@@ -111,3 +112,31 @@ def document(command: str, verdict: str, diags: list[Diagnostic], **extra: Any) 
 
 def internal_error(message: str, span: Optional[Span] = None) -> Diagnostic:
     return Diagnostic("RC000", Severity.ERROR, message, span or Span.unknown("<reconf>"))
+
+
+def timing_note(wall: float, parts: list[tuple[str, float]]) -> str:
+    """`in W s: part p, ...` for a summary line: the wall time and where it went, what the
+    parts do not cover said as `other`."""
+    rest = wall - sum(s for _, s in parts)
+    shown = [f"{name} {s:.2f}" for name, s in parts] + ([f"other {rest:.2f}"] if rest >= 0.005 else [])
+    return f"in {wall:.2f} s: " + ", ".join(shown)
+
+
+def timing_json(wall: float, parts: list[tuple[str, float]]) -> dict[str, float]:
+    """The same as a JSON object: `wall` and each part's seconds under a snake_case key."""
+    out = {"wall": round(wall, 4)}
+    out.update({name.lower().replace(" ", "_").replace("-", "_"): round(s, 4) for name, s in parts})
+    out["other"] = round(max(0.0, wall - sum(s for _, s in parts)), 4)
+    return out
+
+
+def process_age() -> float:
+    """Seconds since this process started (the interpreter's start-up and imports included),
+    from /proc; 0 where that cannot be read."""
+    try:
+        with open("/proc/self/stat", encoding="ascii") as f:
+            started = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
+        with open("/proc/uptime", encoding="ascii") as f:
+            return max(0.0, float(f.read().split()[0]) - started)
+    except (OSError, ValueError, IndexError):
+        return 0.0

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from click.testing import CliRunner
@@ -139,3 +140,16 @@ def test_too_large_for_alloy_falls_back_to_python_with_a_warning(monkeypatch: "o
     assert doc["diagnostics"][0]["code"] == "RC303" and doc["diagnostics"][0]["severity"] == "warning"
     result = CliRunner().invoke(main, ["check", path, "--engine", "alloy"])
     assert result.exit_code == 2 and "RC303" in result.stderr
+
+
+def test_the_summary_says_where_the_time_went() -> None:
+    """The wall time from the process's start and its parts, in the line and in JSON."""
+    result = CliRunner().invoke(main, ["check", path_of("chatter"), "--output-format", "json"])
+    timing = json.loads(result.stdout)["timing"]
+    parts = {k: v for k, v in timing.items() if k not in ("wall", "other")}
+    assert {"start_up", "parsing", "python_engine", "alloy_start", "rendering", "alloy_front_end",
+            "solving"} <= parts.keys(), timing
+    assert all(v >= 0 for v in timing.values())
+    assert sum(parts.values()) <= timing["wall"] + 1e-3
+    text = CliRunner().invoke(main, ["check", path_of("chatter")]).output
+    assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d, parsing \d+\.\d\d, Python engine", text), text
