@@ -158,11 +158,12 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
                                                     (len(system.connectors), "connector"), (n, "assumption")))
     how = judged.how()
-    parts = [("start-up", age), ("parsing", parsed)] + judged.timing()
+    judging, details = judged.timing()
+    parts = [("start-up", age), ("parsing", parsed)] + judging
     if ftm_alloy is not None:
         parts.append(("FTM rules in Alloy", ftm_alloy["seconds"]))
     wall = time.perf_counter() - started
-    timing = "; " + report.timing_note(wall, parts)
+    timing = "; " + report.timing_note(wall, parts, details)
     # the engines' note (`how`) is about the assumptions; the FTM rules' is said after them
     by = ", judged by Alloy too" if ftm_alloy is not None else ""
     ftm_note = (f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules{by})" if ftm else

@@ -49,17 +49,22 @@ class Judgement:
             return f" (Alloy, {al['solver']})"
         return f" (proved by Alloy, {al['solver']}; explained by the Python engine)"
 
-    def timing(self) -> list[tuple[str, float]]:
-        """Where the judgement's time went, in order: the Python engine, then Alloy's start,
-        rendering, front end and solving (see `timing_note`)."""
+    def timing(self) -> tuple[list[tuple[str, float]], dict[str, str]]:
+        """Where the judgement's wall time went, in order (the Python engine, Alloy's start,
+        rendering the modules, the analyzer judging them), and what the analyzer's part was
+        made of (see `report.timing_note`)."""
         out: list[tuple[str, float]] = []
         if "python" in self.engines:
             out.append(("Python engine", self.engines["python"]["seconds"]))
         al = self.engines.get("alloy", {}).get("timing")
-        if al:
-            out += [("Alloy start", al["start"]), ("rendering", al["render"]),
-                    ("Alloy front end", al["front_end"]), ("solving", al["solve"])]
-        return out
+        if not al:
+            return out, {}
+        out += [("Alloy start", al["start"]), ("rendering", al["render"]), ("Alloy", al["judging"])]
+        by = f"{al['processes']} processes, " if al["processes"] > 1 else ""
+        summed = " summed" if al["processes"] > 1 else ""
+        detail = (f"{al['slices']} module{'s' if al['slices'] != 1 else ''}, {by}"
+                  f"front end {al['front_end']:.2f} s, solving {al['solve']:.2f} s{summed}")
+        return out, {"Alloy": detail}
 
 
 def python_failing(ev: Evaluation) -> Failing:

@@ -114,11 +114,13 @@ def internal_error(message: str, span: Optional[Span] = None) -> Diagnostic:
     return Diagnostic("RC000", Severity.ERROR, message, span or Span.unknown("<reconf>"))
 
 
-def timing_note(wall: float, parts: list[tuple[str, float]]) -> str:
-    """`in W s: part p, ...` for a summary line: the wall time and where it went, what the
-    parts do not cover said as `other`."""
+def timing_note(wall: float, parts: list[tuple[str, float]], details: Optional[dict[str, str]] = None) -> str:
+    """`in W s: part p, ...` for a summary line: the wall time and where it went (a part's
+    `details` in parentheses after it), what the parts do not cover said as `other`."""
     rest = wall - sum(s for _, s in parts)
-    shown = [f"{name} {s:.2f}" for name, s in parts] + ([f"other {rest:.2f}"] if rest >= 0.005 else [])
+    details = details or {}
+    shown = [f"{name} {s:.2f}" + (f" ({details[name]})" if name in details else "") for name, s in parts]
+    shown += [f"other {rest:.2f}"] if rest >= 0.005 else []
     return f"in {wall:.2f} s: " + ", ".join(shown)
 
 

@@ -7,6 +7,7 @@ from typing import Any
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
+from .parallel import Judged, judge_text, start_helper
 from .spans import with_span
 
 MAIN = "instance.als"
@@ -35,9 +36,16 @@ class AlloyVerdict:
     start_seconds: float = 0.0
     render_seconds: float = 0.0
     front_seconds: float = 0.0
+    # the wall time of judging the slices, by `processes` analyzers (parallel.py); the front
+    # end's and the solver's seconds are summed over them; the helper judged `helped` slices
+    judging_seconds: float = 0.0
+    processes: int = 1
+    helped: int = 0
 
     def timing(self) -> dict[str, float]:
         return {"start": round(self.start_seconds, 4), "render": round(self.render_seconds, 4),
+                "judging": round(self.judging_seconds, 4), "processes": self.processes,
+                "slices": len(self.texts), "helped": self.helped,
                 "front_end": round(self.front_seconds, 4), "solve": round(self.seconds, 4)}
 
     @property
@@ -66,36 +74,52 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     set of component names), judge the assumptions of those components alone."""
     from codegen.alloy import render_instance, slice_index
 
-    clock = time.perf_counter()
-    bridge = bridge or AlloyBridge.get()
-    start = time.perf_counter() - clock
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
-    index = slice_index(system, config) if parts else None
-    failing: set[tuple[str, str, int]] = set()
-    texts: list[str] = []
-    seconds = render = front = 0.0
-    for focus in focuses:
+    # a second analyzer in a helper process, started first so the two start-ups overlap
+    helper = start_helper(len(focuses), solver, MAIN) if bridge is None else None
+    try:
         clock = time.perf_counter()
-        text, names = render_instance(system, config, focus=focus, index=index)
-        texts.append(text)
-        rendered = time.perf_counter()
-        render += rendered - clock
-        try:
-            # `check Valid` first: over constants the solver folds `valid` to true or
-            # false while translating, so a valid configuration costs no evaluation; only
-            # a counterexample is asked which assumptions fail.
-            (outcome,) = bridge.run({MAIN: text}, MAIN, "Valid", solver, constants=True)
-        except AlloyError as err:
-            raise with_span(err, text, names, system) from None
-        seconds += outcome.elapsed
-        front += time.perf_counter() - rendered - outcome.elapsed
-        if outcome.satisfiable:
-            failing |= _failing(system, outcome.eval("unsatisfied"), text, names)
+        bridge = bridge or AlloyBridge.get()
+        start = time.perf_counter() - clock
+        clock = time.perf_counter()
+        index = slice_index(system, config) if parts else None
+        rendered = [render_instance(system, config, focus=focus, index=index) for focus in focuses]
+        render = time.perf_counter() - clock
+        texts = [text for text, _ in rendered]
+
+        def mine(i: int) -> Judged:
+            text, names = rendered[i]
+            try:
+                # `check Valid`: over constants the solver folds `valid` to true or false
+                # while translating, so a valid configuration costs no evaluation; only a
+                # counterexample is asked which assumptions fail.
+                return judge_text(bridge, text, solver, MAIN)
+            except AlloyError as err:
+                raise with_span(err, text, names, system) from None
+
+        clock = time.perf_counter()
+        if helper is not None:
+            judged, helped = helper.judge_all(texts, mine)
+        else:
+            judged, helped = {i: mine(i) for i in range(len(texts))}, 0
+        judging = time.perf_counter() - clock
+    finally:
+        if helper is not None:
+            helper.close()
+    failing: set[tuple[str, str, int]] = set()
+    seconds = front = 0.0
+    for i, (satisfiable, pairs, solve, front_end) in sorted(judged.items()):
+        seconds += solve
+        front += front_end
+        if satisfiable:
+            text, names = rendered[i]
+            failing |= _failing(system, pairs, text, names)
             if not failing:  # a counterexample with nothing failing: say so, not "valid"
                 failing.add(("", "", -1))
     valid = not failing
-    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front)
+    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front,
+                        judging, 2 if helper is not None else 1, helped)
 
 
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
