@@ -50,7 +50,10 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     configuration.
 
     A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
-    every state. `progress` is told, before each window, which steps it holds. Raises the
+    every state. The windows are judged at once, by two analyzers where that pays
+    (`checker.alloy.parallel`), until one is refuted; from there one at a time, as above.
+    `progress` is told how many windows there are, then which steps each window judged one
+    at a time holds. Raises the
     bridge's AlloyUnavailable when Java or the jar is missing."""
     if not slice_ or not plan.steps:
         return _whole(plan, solver)
@@ -63,6 +66,28 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     slicer = PlanSlicer(plan)
     judged: set[str] = set()  # the components some window's slice judges
     k, width = 0, len(plan.steps)
+    # the windows judged at once (by two analyzers where that pays) as long as their lean
+    # slices are proved; from the first that is not, one at a time as below
+    windows, too_big = _windows(plan, slicer)
+    if progress is not None:
+        progress(f"verifying {len(plan.steps)} steps in {len(windows)} windows in the Alloy Analyzer…")
+    proved = 0
+    for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows, solver)):
+        if not ok:
+            break
+        seconds += spent
+        texts.append(text)
+        kinds.add("lean")
+        widths.append(width)
+        largest = max(largest, _size(lean))
+        judged |= core
+        proved += 1
+    if proved < len(windows):
+        k, width = windows[proved][0], windows[proved][1]
+    elif too_big:
+        return _not_run(plan, solver, seconds, too_big)
+    else:
+        k = len(plan.steps)
     while k < len(plan.steps) and not reason:
         width = min(width, len(plan.steps) - k)
         window = _window(plan, k, width)
@@ -117,6 +142,51 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     evidence["slice"] = {"components": largest, "judged_once": len(outside), "windows": len(widths),
                          "kind": "full" if "full" in kinds else "lean"}
     return evidence
+
+
+def _windows(plan: Plan, slicer: Any) -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
+    """The windows `alloy_evidence` judges when every lean slice is proved: (first step,
+    steps, lean slice, its core) each, up to the first past `MODULE_BUDGET`, and then why
+    the plan cannot be verified ("" when none is)."""
+    out: list[tuple[int, int, Plan, set[str]]] = []
+    k, width = 0, len(plan.steps)
+    while k < len(plan.steps):
+        width = min(width, len(plan.steps) - k)
+        lean, core = slicer.slice(_window(plan, k, width), lean=True)
+        if width > 1 and _oversized(lean):
+            width = _narrower(width, lean)
+            continue
+        if _cost(lean) > MODULE_BUDGET:
+            return out, _too_big(lean)
+        out.append((k, width, lean, core))
+        k += width
+        width *= 2
+    return out, ""
+
+
+def _judge_at_once(plan: Plan, windows: list[tuple[int, int, Plan, set[str]]],
+                   solver: str) -> list[tuple[bool, float, str]]:
+    """`check PlanSafe` of each window's lean module, all in one batch of the analyzers
+    (`checker.alloy.parallel`), up to the first module that needs binary relations: per
+    window, whether it is proved, the solver's seconds and the module. Empty when the batch
+    fails (the windows are then judged one at a time, where each error is reported)."""
+    from codegen.alloy import render_plan
+
+    from .alloy.instance import PLAN_MAIN
+    from .alloy.parallel import Job, judge_many
+
+    texts = []
+    for _, _, lean, _ in windows:
+        if _oversized(lean):
+            break
+        text, _ = render_plan(lean.system, lean.states, serving=lean.serving, stable=lean.stable, binary=False,
+                              protocols=lean.protocols, handover=lean.handover)
+        texts.append(text)
+    try:
+        judged, _, _ = judge_many([Job(PLAN_MAIN, text, "PlanSafe") for text in texts], solver)
+    except Exception:  # noqa: BLE001 - judged one at a time below, with the error where it is
+        return []
+    return [(not v.satisfiable, v.solve, text) for v, text in zip(judged, texts)]
 
 
 def _whole(plan: Plan, solver: str) -> dict[str, Any]:

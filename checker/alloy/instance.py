@@ -7,7 +7,7 @@ from typing import Any
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
-from .parallel import Judged, judge_text, start_helper
+from .parallel import Job, helper_for, judge_many
 from .spans import with_span
 
 MAIN = "instance.als"
@@ -77,49 +77,39 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
     # a second analyzer in a helper process, started first so the two start-ups overlap
-    helper = start_helper(len(focuses), solver, MAIN) if bridge is None else None
-    try:
-        clock = time.perf_counter()
-        bridge = bridge or AlloyBridge.get()
-        start = time.perf_counter() - clock
-        clock = time.perf_counter()
-        index = slice_index(system, config) if parts else None
-        rendered = [render_instance(system, config, focus=focus, index=index) for focus in focuses]
-        render = time.perf_counter() - clock
-        texts = [text for text, _ in rendered]
+    helper = helper_for(len(focuses), solver) if bridge is None else None
+    clock = time.perf_counter()
+    bridge = bridge or AlloyBridge.get()
+    start = time.perf_counter() - clock
+    clock = time.perf_counter()
+    index = slice_index(system, config) if parts else None
+    rendered = [render_instance(system, config, focus=focus, index=index) for focus in focuses]
+    render = time.perf_counter() - clock
 
-        def mine(i: int) -> Judged:
-            text, names = rendered[i]
-            try:
-                # `check Valid`: over constants the solver folds `valid` to true or false
-                # while translating, so a valid configuration costs no evaluation; only a
-                # counterexample is asked which assumptions fail.
-                return judge_text(bridge, text, solver, MAIN)
-            except AlloyError as err:
-                raise with_span(err, text, names, system) from None
+    def spanned(i: int, err: BaseException) -> BaseException:
+        text, names = rendered[i]
+        return with_span(err, text, names, system) if isinstance(err, AlloyError) else err
 
-        clock = time.perf_counter()
-        if helper is not None:
-            judged, helped = helper.judge_all(texts, mine)
-        else:
-            judged, helped = {i: mine(i) for i in range(len(texts))}, 0
-        judging = time.perf_counter() - clock
-    finally:
-        if helper is not None:
-            helper.close()
+    clock = time.perf_counter()
+    # `check Valid`: over constants the solver folds `valid` to true or false while
+    # translating, so a valid configuration costs no evaluation; only a counterexample is
+    # asked which assumptions fail.
+    work = [Job(MAIN, text, "Valid", ("unsatisfied",)) for text, _ in rendered]
+    judged, processes, helped = judge_many(work, solver, None if helper is not None else bridge, spanned)
+    judging = time.perf_counter() - clock
     failing: set[tuple[str, str, int]] = set()
     seconds = front = 0.0
-    for i, (satisfiable, pairs, solve, front_end) in sorted(judged.items()):
-        seconds += solve
-        front += front_end
-        if satisfiable:
-            text, names = rendered[i]
-            failing |= _failing(system, pairs, text, names)
+    for (text, names), verdict in zip(rendered, judged):
+        seconds += verdict.solve
+        front += verdict.front
+        if verdict.satisfiable:
+            failing |= _failing(system, verdict.values["unsatisfied"], text, names)
             if not failing:  # a counterexample with nothing failing: say so, not "valid"
                 failing.add(("", "", -1))
+    texts = [text for text, _ in rendered]
     valid = not failing
     return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front,
-                        judging, 2 if helper is not None else 1, helped)
+                        judging, processes, helped)
 
 
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:

@@ -5,7 +5,7 @@ import pytest
 
 from bench.gen import generate
 from checker.alloy import AlloyBridge, alloy_verdict
-from checker.alloy.parallel import ENV, MIN_SLICES, Helper, helpers_wanted
+from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted
 from checker.config import Configuration
 from checker.engines import python_failing
 from checker.semantics import evaluate
@@ -20,7 +20,7 @@ def test_a_helper_process_judges_slices_and_the_verdict_is_the_same(monkeypatch:
     assert expected, "the generated system has one violated assumption"
     monkeypatch.delenv(ENV, raising=False)
     together = alloy_verdict(system, config)
-    assert together.processes == 2 and len(together.texts) >= MIN_SLICES
+    assert together.processes == 2 and len(together.texts) >= MIN_MODULES
     assert (together.valid, together.unsatisfied) == (False, expected)
     monkeypatch.setenv(ENV, "1")
     alone = alloy_verdict(system, config)
@@ -28,21 +28,25 @@ def test_a_helper_process_judges_slices_and_the_verdict_is_the_same(monkeypatch:
     assert (alone.valid, alone.unsatisfied, alone.texts) == (together.valid, together.unsatisfied, together.texts)
 
 
-def test_slices_a_dead_helper_had_taken_are_judged_here() -> None:
-    helper = Helper("sat4j", "instance.als")
+def test_modules_a_dead_helper_had_taken_are_judged_here() -> None:
+    helper = Helper("sat4j")
     try:
         helper.proc.kill()
         helper.proc.join(5)
-        with helper.counter.get_lock():
-            helper.counter.value = 2          # as if it had taken slices 0 and 1, then died
         judged_here: list[int] = []
 
-        def mine(i: int):  # type: ignore[no-untyped-def]
+        def mine(i: int) -> Judged:
+            if not judged_here:
+                with helper.counter.get_lock():
+                    helper.counter.value += 2     # as if the helper had taken two, then died
             judged_here.append(i)
-            return (False, [], 0.0, 0.0)
-        out, helped = helper.judge_all(["a", "b", "c", "d"], mine)
-        assert sorted(out) == [0, 1, 2, 3] and helped == 0
-        assert sorted(judged_here) == [0, 1, 2, 3]
+            return Judged(False, {}, 0.0, 0.0)
+        work = [Job("m.als", t, "Valid") for t in "abcd"]
+        out, helped = helper.judge_all(work, mine)
+        assert len(out) == 4 and helped == 0
+        assert sorted(judged_here) == [0, 1, 2, 3] and judged_here[:2] == [0, 3]
+        again, _ = helper.judge_all(work[:2], mine)      # a later batch of the same helper
+        assert len(again) == 2
     finally:
         helper.close()
 
@@ -50,9 +54,31 @@ def test_slices_a_dead_helper_had_taken_are_judged_here() -> None:
 def test_a_helper_only_where_it_pays(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv(ENV, raising=False)
     monkeypatch.setattr("os.cpu_count", lambda: 2)
-    assert helpers_wanted(MIN_SLICES) and not helpers_wanted(MIN_SLICES - 1)
+    assert helpers_wanted(MIN_MODULES) and not helpers_wanted(MIN_MODULES - 1)
     monkeypatch.setattr("os.cpu_count", lambda: 1)
     assert not helpers_wanted(1000)
     monkeypatch.setattr("os.cpu_count", lambda: 2)
     monkeypatch.setenv(ENV, "1")
     assert not helpers_wanted(1000)
+
+
+def test_plan_windows_judged_by_two_analyzers_give_the_same_evidence(monkeypatch: pytest.MonkeyPatch,
+                                                                     bridge: AlloyBridge) -> None:
+    import checker.alloy.parallel
+    import checker.alloy_plan
+    from checker.alloy_plan import alloy_evidence
+    from tests.alloy.test_plan_slices import _break, hub_plan
+
+    plan = hub_plan("dag", 40)
+    monkeypatch.setattr(checker.alloy_plan, "WINDOW_BUDGET", 200)
+    monkeypatch.setattr(checker.alloy.parallel, "MIN_MODULES", 2)
+    monkeypatch.delenv(ENV, raising=False)
+    together = alloy_evidence(plan)
+    index = len(plan.states) - 3
+    broken_together = alloy_evidence(_break(plan, index))
+    monkeypatch.setenv(ENV, "1")
+    alone = alloy_evidence(plan)
+    assert together["valid"] and together["slice"]["windows"] > 2
+    assert (together["module_hash"], together["slice"]) == (alone["module_hash"], alone["slice"])
+    assert not broken_together["valid"]
+    assert broken_together["reason"] == alloy_evidence(_break(plan, index))["reason"]
