@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
+from .dds import loopback_env
+
 __all__ = ["LiveSystem", "domain_id", "ros_available"]
 
 _COUNTER = itertools.count()
@@ -54,7 +56,7 @@ class LiveSystem:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.domain = domain if domain is not None else domain_id()
         bindir = os.path.dirname(sys.executable)
-        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), **loopback_env(),
                         PATH=bindir + os.pathsep + os.environ.get("PATH", ""), PYTHONUNBUFFERED="1")
         self.env.pop("ROS_LOCALHOST_ONLY", None)
         self.procs: list[subprocess.Popen[Any]] = []

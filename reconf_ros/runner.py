@@ -138,7 +138,7 @@ def _load(path: str) -> "System":
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"], "ignore_unknown_options": True})
-@click.argument("targets", nargs=-1, required=True)
+@click.argument("targets", nargs=-1)
 @click.option("--arch", "arch", type=click.Path(dir_okay=False, exists=True),
               help="TARGETS are components of this architecture, run as model-driven nodes")
 @click.option("--plan", "plan_file", type=click.Path(dir_okay=False, exists=True),
@@ -156,13 +156,23 @@ def _load(path: str) -> "System":
 @click.option("--system", "system_name", help="with --describe: start the text with `system NAME`")
 @click.option("--gap-factor", type=float, default=1.5, show_default=True,
               help="the monitor's tolerance: an input assuming r Hz is met while messages arrive within k/r s")
+@click.option("--dds-env", is_flag=True,
+              help="print the shell exports of reconf's DDS set-up (UDP on the loopback, docs/runtime.md#dds) "
+                   "and exit: eval \"$(reconf-node --dds-env)\"")
 @click.option("--lean", is_flag=True,
               help="serve only the control interface's four services (docs/runtime.md#cost): less CPU per node, "
                    "nothing for tools that list transitions or parameters")
 def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str], deployed: Optional[str],
          as_name: Optional[str], node_name: Optional[str], describe: bool,
-         system_name: Optional[str], gap_factor: float, lean: bool) -> None:
+         system_name: Optional[str], gap_factor: float, dds_env: bool, lean: bool) -> None:
     """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
+    if dds_env:
+        from .dds import loopback_env
+        for key, value in loopback_env().items():
+            click.echo(f"export {key}={shlex.quote(value)}")
+        return
+    if not targets:
+        raise click.UsageError("Missing argument 'TARGETS...': name the components to run")
     argv = list(targets)
     ros_args: list[str] = []
     if "--ros-args" in argv:

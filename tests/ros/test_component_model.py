@@ -177,3 +177,24 @@ def test_an_on_demand_input_owes_its_rate_only_while_asked() -> None:
         m.on_message("reply", t, b"s", 3 + i, "server")
     m.check(7.3, normal, attached)
     assert m.violations == 1 and not m.violating
+
+
+def test_dds_env_points_at_the_shipped_loopback_profile() -> None:
+    """`reconf-node --dds-env` (docs/runtime.md#dds): exports a shell can eval, naming a
+    profile that exists and keeps Fast DDS to UDP on 127.0.0.1."""
+    import shlex
+    import xml.etree.ElementTree as ET
+
+    from click.testing import CliRunner
+
+    from reconf_ros.runner import main as node_main
+    result = CliRunner().invoke(node_main, ["--dds-env"])
+    assert result.exit_code == 0, result.output
+    env = dict(shlex.split(line)[1].split("=", 1) for line in result.output.splitlines())
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SYSTEM_DEFAULT"
+    ns = {"d": "http://www.eprosima.com"}
+    root = ET.parse(env["FASTDDS_DEFAULT_PROFILES_FILE"]).getroot()
+    builtin = root.find(".//d:participant[@is_default_profile='true']//d:useBuiltinTransports", ns)
+    assert builtin is not None and builtin.text == "false"
+    assert {a.text for a in root.findall(".//d:address", ns)} == {"127.0.0.1"}
+    assert [t.text for t in root.findall(".//d:transport_descriptor/d:type", ns)] == ["UDPv4"]

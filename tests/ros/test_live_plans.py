@@ -101,3 +101,19 @@ def test_through_a_manager(live: LiveSystem) -> None:
         assert b"reconf_ros.launcher" in fh.read()
     again = live.run_plan(script, "--manager", sock, report="again.json")
     assert again.returncode == 1 and "it was applied already" in again.stderr, again.stdout + again.stderr
+
+
+def test_nodes_use_no_shared_memory(live: LiveSystem) -> None:
+    """docs/runtime.md#dds: a live system's processes talk over UDP on the loopback; none maps
+    a Fast DDS shared-memory segment (with LOCALHOST discovery every one does)."""
+    from pathlib import Path
+    live.deploy(example("chatter.arch"))
+    live.wait_ready()
+    maps = {}
+    for pid in sorted(live.pids):
+        try:
+            maps[pid] = Path(f"/proc/{pid}/maps").read_text()
+        except OSError:
+            continue
+    assert maps, live.pids
+    assert [pid for pid, text in maps.items() if "/dev/shm/fastdds" in text] == []
