@@ -17,6 +17,11 @@ from checker.alloy.metamodel import MAIN
 
 STATES = ("Pre", "Post")
 
+# Paper 001 §4.3 checks each action `for 5`: at most five of each of its signatures. Its
+# assertions relate two systems (`all s, s': System`); here they are Pre and Post, exactly.
+PAPER_SCOPE = 5
+PAPER_SIGS = ("Component", "Port", "Functionality", "Connector")
+
 
 @dataclass
 class Configuration:
@@ -46,6 +51,7 @@ class CommandRow:
     seconds: float
     solver: str
     counterexample: Counterexample | None = None
+    bounds: dict[str, str] = field(default_factory=dict)   # sig -> "<= 5" or "= 1", as solved
 
 
 @dataclass
@@ -62,10 +68,22 @@ class VerifyReport:
     def total_seconds(self) -> float:
         return sum(r.seconds for r in self.rows)
 
+    def below_paper(self) -> list[str]:
+        """Each check's signature whose bound is below the paper's `for 5` (empty: every
+        check covers at least the configurations the paper's do)."""
+        return [f"{r.command}: {sig} {r.bounds.get(sig, 'unbounded')}" for r in self.rows if r.kind == "check"
+                for sig in PAPER_SIGS if _most(r.bounds.get(sig)) < PAPER_SCOPE]
+
     def to_json(self) -> dict[str, Any]:
         return {"scope": self.scope, "solver": self.solver, "ok": self.ok,
                 "total_seconds": round(self.total_seconds, 3),
+                "paper_scope": {"scope": PAPER_SCOPE, "signatures": list(PAPER_SIGS),
+                                "below": self.below_paper()},
                 "commands": [asdict(r) for r in self.rows]}
+
+
+def _most(bound: str | None) -> int:
+    return -1 if bound is None else int(bound.split()[-1])
 
 
 def _names(tuples: set[tuple[str, ...]]) -> list[str]:
@@ -111,13 +129,14 @@ def counterexample(o: CommandOutcome) -> Counterexample:
     return Counterexample(_action(pre, post), pre, post)
 
 
-def _row(o: CommandOutcome) -> CommandRow:
+def _row(o: CommandOutcome, bounds: dict[str, tuple[int, bool]]) -> CommandRow:
     expected = "-" if o.expects is None or o.expects < 0 else (
         ("counterexample" if o.expects else "no counterexample") if o.is_check
         else ("instance" if o.expects else "no instance"))
     cex = counterexample(o) if o.is_check and o.satisfiable else None
     return CommandRow(o.label, "check" if o.is_check else "run", o.scope, o.outcome, expected,
-                      o.as_expected, round(o.elapsed, 3), o.solver, cex)
+                      o.as_expected, round(o.elapsed, 3), o.solver, cex,
+                      {sig: f"{'=' if exact else '<='} {n}" for sig, (n, exact) in sorted(bounds.items())})
 
 
 def verify_model(scope: int = 5, solver: str = "glucose",
@@ -134,7 +153,7 @@ def verify_model(scope: int = 5, solver: str = "glucose",
         if before:
             before(label, n, len(labels))
         (outcome,) = bridge.run(modules, MAIN, label, used)
-        row = _row(outcome)
+        row = _row(outcome, bridge.bounds(modules, MAIN, label))
         rows.append(row)
         if after:
             after(row)
@@ -154,6 +173,17 @@ def _render_text(report: VerifyReport, console: Any) -> None:
     for r in report.rows:
         if r.counterexample:
             _render_counterexample(r, console)
+    for kind in ("check", "run"):
+        alike: dict[tuple[tuple[str, str], ...], int] = {}
+        for r in report.rows:
+            if r.kind == kind:
+                alike[tuple(r.bounds.items())] = alike.get(tuple(r.bounds.items()), 0) + 1
+        for bounds, n in sorted(alike.items()):
+            shown = ", ".join(f"{sig} {b}" for sig, b in bounds)
+            console.print(f"atoms per signature in {n} {kind}{'s' if n > 1 else ''}: {shown}")
+    below = report.below_paper()
+    console.print(f"the paper's scope (for {PAPER_SCOPE} of {', '.join(PAPER_SIGS)}; System: Pre and Post): "
+                  + ("every check covers it" if not below else "[bold]NOT covered[/bold]: " + "; ".join(below)))
     verdict = "all as expected" if report.ok else "SOME OUTCOMES DIFFER FROM THEIR EXPECTATION"
     console.print(f"{len(report.rows)} commands, {report.total_seconds:.1f} s: {verdict}")
 

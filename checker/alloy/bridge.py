@@ -356,6 +356,36 @@ class AlloyBridge:
             outcomes.append(outcome)
         return outcomes
 
+    def bounds(self, modules: Mapping[str, str], main: str, command: str) -> dict[str, tuple[int, bool]]:
+        """The most atoms the analyzer gives each signature of `main` for `command`, and
+        whether that number is exact, as its scope computer sets them before translating
+        (the sigs of opened library modules left out)."""
+        from edu.mit.csail.sdg.ast import Command, Sig  # type: ignore[import-not-found]
+        from java.lang import Class, Iterable  # type: ignore[import-not-found]
+
+        with self._lock:
+            world = self._world(modules, main)
+            found = [c for c in world.module.getAllCommands() if str(c.label) == command]
+            if not found:
+                raise AlloyError(f"no command {command!r} in {main}")
+            # the analyzer's scope computer is package-private: reached by reflection
+            computer = Class.forName("edu.mit.csail.sdg.translator.ScopeComputer", True,
+                                     self._A4Options.class_.getClassLoader())
+            compute = computer.getDeclaredMethod(
+                "compute", self._A4Reporter.class_, self._A4Options.class_, Iterable.class_, Command.class_)
+            most, exact = (computer.getDeclaredMethod(m, Sig.class_) for m in ("sig2scope", "isExact"))
+            for m in (compute, most, exact):
+                m.setAccessible(True)
+            try:
+                pair = compute.invoke(None, self._A4Reporter(), self.options(DEFAULT_SOLVER), world.sigs(), found[0])
+            except Exception as err:  # noqa: BLE001 - the analyzer's Err, wrapped by reflection
+                cause = err.getCause() if hasattr(err, "getCause") and err.getCause() is not None else err
+                raise AlloyError(f"the scope of {command}: {cause}") from None
+            scopes = pair.b
+            return {str(s.label).removeprefix("this/"): (int(most.invoke(scopes, s)), bool(exact.invoke(scopes, s)))
+                    for s in world.sigs()
+                    if isinstance(s, Sig.PrimSig) and not s.builtin and str(s.label).startswith("this/")}
+
     def options(self, solver_id: str) -> Any:
         """The analyzer's options for every command run here: `solver_id`, skolemisation
         depth 1, no integer overflow."""

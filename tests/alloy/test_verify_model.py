@@ -10,9 +10,10 @@ from pathlib import Path
 
 from click.testing import CliRunner
 
-from checker.alloy import metamodel_modules
+from checker.alloy import AlloyBridge, metamodel_modules
 from checker.alloy.metamodel import MAIN
-from checker.verify_model import verify_model, verify_model_cmd
+from checker.verify_model import PAPER_SIGS, CommandRow, VerifyReport, verify_model, verify_model_cmd
+from codegen.alloy import DEFAULT_SCOPE
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -63,3 +64,27 @@ def test_exit_code_2_without_alloy() -> None:
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert out.returncode == 2
     assert "Alloy jar not found" in out.stderr
+
+
+def test_each_signature_bound_is_stated_as_the_analyzer_sets_it() -> None:
+    result = CliRunner().invoke(verify_model_cmd, ["--scope", "3", "--output-format", "json"])
+    report = json.loads(result.stdout)
+    rows = {r["command"]: r for r in report["commands"]}
+    assert rows["SafeDetach"]["bounds"]["Component"] == "<= 3"
+    assert rows["SafeDetach"]["bounds"]["Pre"] == "= 1"       # a one sig, exactly
+    assert rows["Detach"]["bounds"]["Connector"] == "<= 3"
+    # at scope 3 every check is below the paper's `for 5`, and the report says so
+    assert len(report["paper_scope"]["below"]) == len(PAPER_SIGS) * sum(r["kind"] == "check" for r in rows.values())
+    text = CliRunner().invoke(verify_model_cmd, ["--scope", "3"]).stderr
+    assert "atoms per signature in" in text and "NOT covered" in text
+
+
+def test_the_default_scope_covers_the_papers() -> None:
+    modules = metamodel_modules(DEFAULT_SCOPE)
+    bridge = AlloyBridge.get()
+    checks = [label for label in bridge.commands(modules, MAIN) if label.startswith("Safe")]
+    rows = [CommandRow(label, "check", "", "", "", None, 0.0, "", None,
+                       {s: f"<= {n}" for s, (n, _) in bridge.bounds(modules, MAIN, label).items()})
+            for label in checks]
+    assert len(checks) >= 6 and VerifyReport(DEFAULT_SCOPE, "", rows).below_paper() == []
+    assert {int(rows[0].bounds[s].split()[-1]) for s in PAPER_SIGS} == {DEFAULT_SCOPE}
