@@ -356,8 +356,8 @@ class AlloyBridge:
             outcomes.append(outcome)
         return outcomes
 
-    def bounds(self, modules: Mapping[str, str], main: str, command: str) -> dict[str, tuple[int, bool]]:
-        """The most atoms the analyzer gives each signature of `main` for `command`, and
+    def bounds(self, modules: Mapping[str, str], main: str) -> dict[str, dict[str, tuple[int, bool]]]:
+        """For each command of `main`, the most atoms the analyzer gives each signature and
         whether that number is exact, as its scope computer sets them before translating
         (the sigs of opened library modules left out)."""
         from edu.mit.csail.sdg.ast import Command, Sig  # type: ignore[import-not-found]
@@ -365,9 +365,6 @@ class AlloyBridge:
 
         with self._lock:
             world = self._world(modules, main)
-            found = [c for c in world.module.getAllCommands() if str(c.label) == command]
-            if not found:
-                raise AlloyError(f"no command {command!r} in {main}")
             # the analyzer's scope computer is package-private: reached by reflection
             computer = Class.forName("edu.mit.csail.sdg.translator.ScopeComputer", True,
                                      self._A4Options.class_.getClassLoader())
@@ -376,15 +373,19 @@ class AlloyBridge:
             most, exact = (computer.getDeclaredMethod(m, Sig.class_) for m in ("sig2scope", "isExact"))
             for m in (compute, most, exact):
                 m.setAccessible(True)
-            try:
-                pair = compute.invoke(None, self._A4Reporter(), self.options(DEFAULT_SOLVER), world.sigs(), found[0])
-            except Exception as err:  # noqa: BLE001 - the analyzer's Err, wrapped by reflection
-                cause = err.getCause() if hasattr(err, "getCause") and err.getCause() is not None else err
-                raise AlloyError(f"the scope of {command}: {cause}") from None
-            scopes = pair.b
-            return {str(s.label).removeprefix("this/"): (int(most.invoke(scopes, s)), bool(exact.invoke(scopes, s)))
-                    for s in world.sigs()
-                    if isinstance(s, Sig.PrimSig) and not s.builtin and str(s.label).startswith("this/")}
+            sigs = [s for s in world.sigs()
+                    if isinstance(s, Sig.PrimSig) and not s.builtin and str(s.label).startswith("this/")]
+            out = {}
+            for cmd in world.module.getAllCommands():
+                try:
+                    scopes = compute.invoke(None, self._A4Reporter(), self.options(DEFAULT_SOLVER),
+                                            world.sigs(), cmd).b
+                except Exception as err:  # noqa: BLE001 - the analyzer's Err, wrapped by reflection
+                    cause = err.getCause() if hasattr(err, "getCause") and err.getCause() is not None else err
+                    raise AlloyError(f"the scope of {cmd.label}: {cause}") from None
+                out[str(cmd.label)] = {str(s.label).removeprefix("this/"):
+                                       (int(most.invoke(scopes, s)), bool(exact.invoke(scopes, s))) for s in sigs}
+            return out
 
     def options(self, solver_id: str) -> Any:
         """The analyzer's options for every command run here: `solver_id`, skolemisation
@@ -405,16 +406,30 @@ class AlloyBridge:
             raise self._error(err) from None
         elapsed = time.perf_counter() - start
         satisfiable = bool(sol.satisfiable())
+        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
+        return self._outcome(cmd, satisfiable, elapsed, solver_id, evaluator)
+
+    @staticmethod
+    def _outcome(cmd: Any, satisfiable: bool, elapsed: float, solver_id: str,
+                 evaluator: Callable[[str], Tuples] | None = None) -> CommandOutcome:
         text = str(cmd.toString())
         scope = text.split(" for ", 1)[1] if " for " in text else ""
         if " expect " in scope:
             scope = scope.split(" expect ")[0]
-        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
         return CommandOutcome(
             label=str(cmd.label), is_check=bool(cmd.check), expects=int(cmd.expects),
             satisfiable=satisfiable, elapsed=elapsed, solver=solver_id, scope=scope,
             _evaluator=evaluator,
         )
+
+    def outcomes_of(self, modules: Mapping[str, str], main: str, judged: Mapping[str, tuple[bool, float]],
+                    solver: str) -> list[CommandOutcome]:
+        """The outcomes of the commands of `main` judged elsewhere (another process), as
+        {label: (satisfiable, seconds)}, in the module's order, without solutions to evaluate."""
+        with self._lock:
+            world = self._world(modules, main)
+            return [self._outcome(c, *judged[str(c.label)], solver)
+                    for c in world.module.getAllCommands() if str(c.label) in judged]
 
     def _eval(self, world: _World, sol: Any, expr: str) -> Tuples:
         with self._lock:

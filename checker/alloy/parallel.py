@@ -31,6 +31,7 @@ class Job(NamedTuple):
     text: str
     command: str
     evals: tuple[str, ...] = ()
+    constants: bool = True      # every relation a constant (instance and plan modules)
 
 
 class Judged(NamedTuple):
@@ -40,18 +41,18 @@ class Judged(NamedTuple):
     front: float                                # the rest: the front end's seconds
 
 
-def helpers_wanted(modules: int) -> bool:
-    """Whether a batch of `modules` should have a helper: two cores or more, enough modules,
-    and not switched off by RECONF_ALLOY_PROCESSES=1."""
+def helpers_wanted(modules: int, minimum: int = MIN_MODULES) -> bool:
+    """Whether a batch of `modules` should have a helper: two cores or more, at least
+    `minimum` modules, and not switched off by RECONF_ALLOY_PROCESSES=1."""
     if os.environ.get(ENV, "").strip() == "1":
         return False
-    return modules >= MIN_MODULES and (os.cpu_count() or 1) >= 2
+    return modules >= minimum and (os.cpu_count() or 1) >= 2
 
 
 def judge(bridge: Any, job: Job, solver: str) -> Judged:
-    """`job` run by `bridge` (constants only: instance and plan modules)."""
+    """`job` run by `bridge`."""
     clock = time.perf_counter()
-    (outcome,) = bridge.run({job.main: job.text}, job.main, job.command, solver, constants=True)
+    (outcome,) = bridge.run({job.main: job.text}, job.main, job.command, solver, constants=job.constants)
     values = {e: sorted(outcome.eval(e)) for e in job.evals} if outcome.satisfiable else {}
     spent = time.perf_counter() - clock
     return Judged(bool(outcome.satisfiable), values, outcome.elapsed, max(0.0, spent - outcome.elapsed))
@@ -150,10 +151,10 @@ class Helper:
 _SHARED: dict[str, Helper] = {}
 
 
-def helper_for(modules: int, solver: str) -> Optional[Helper]:
+def helper_for(modules: int, solver: str, minimum: int = MIN_MODULES) -> Optional[Helper]:
     """This process's helper for a batch of `modules` (started on the first batch that pays,
     `helpers_wanted`), or None."""
-    if not helpers_wanted(modules):
+    if not helpers_wanted(modules, minimum):
         return None
     helper = _SHARED.get(solver)
     if helper is not None and helper.proc.is_alive():
@@ -166,11 +167,13 @@ def helper_for(modules: int, solver: str) -> Optional[Helper]:
 
 
 def judge_many(work: list[Job], solver: str, bridge: Any = None,
-               on_error: Callable[[int, BaseException], BaseException] | None = None) -> tuple[list[Judged], int, int]:
-    """Every module of `work` judged, by this process's analyzer and, when it pays, a helper:
-    the verdicts in order, how many processes judged, and how many modules the helper took.
-    `on_error(i, err)` gives the exception to raise for an error in module i."""
-    helper = helper_for(len(work), solver) if bridge is None else None
+               on_error: Callable[[int, BaseException], BaseException] | None = None,
+               minimum: int = MIN_MODULES) -> tuple[list[Judged], int, int]:
+    """Every module of `work` judged, by this process's analyzer and, when it pays (`minimum`
+    modules or more), a helper: the verdicts in order, how many processes judged, and how
+    many modules the helper took. `on_error(i, err)` gives the exception to raise for an
+    error in module i."""
+    helper = helper_for(len(work), solver, minimum) if bridge is None else None
     from .bridge import AlloyBridge
     bridge = bridge or AlloyBridge.get()
 

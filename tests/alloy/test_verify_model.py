@@ -82,9 +82,17 @@ def test_each_signature_bound_is_stated_as_the_analyzer_sets_it() -> None:
 def test_the_default_scope_covers_the_papers() -> None:
     modules = metamodel_modules(DEFAULT_SCOPE)
     bridge = AlloyBridge.get()
-    checks = [label for label in bridge.commands(modules, MAIN) if label.startswith("Safe")]
+    bounds = bridge.bounds(modules, MAIN)
+    checks = [label for label in bounds if label.startswith("Safe")]
     rows = [CommandRow(label, "check", "", "", "", None, 0.0, "", None,
-                       {s: f"<= {n}" for s, (n, _) in bridge.bounds(modules, MAIN, label).items()})
-            for label in checks]
+                       {s: f"<= {n}" for s, (n, _) in bounds[label].items()}) for label in checks]
     assert len(checks) >= 6 and VerifyReport(DEFAULT_SCOPE, "", rows).below_paper() == []
     assert {int(rows[0].bounds[s].split()[-1]) for s in PAPER_SIGS} == {DEFAULT_SCOPE}
+
+
+def test_one_process_and_two_agree(monkeypatch: object) -> None:
+    two = verify_model(3)
+    monkeypatch.setenv("RECONF_ALLOY_PROCESSES", "1")  # type: ignore[attr-defined]
+    one = verify_model(3)
+    assert one.processes == 1 and two.processes == (2 if (os.cpu_count() or 1) >= 2 else 1)
+    assert [(r.command, r.outcome, r.bounds) for r in one.rows] == [(r.command, r.outcome, r.bounds) for r in two.rows]
