@@ -155,6 +155,32 @@ class _Skeleton:
         self.generation += 1
 
 
+# The analyzer bounds an abstract sig by the union of its children, nested one level per
+# child, and reads that union back recursively (A4Solution.query): a sig of 10,000 atoms
+# (the hub's slice of a 20,000-component fan-in) overflows the caller's stack. Translation
+# runs on a thread of its own with room for that; the stack is virtual memory until used.
+BIG_STACK = 512 * 1024 * 1024
+_big: dict[str, Any] = {}
+_big_lock = threading.Lock()
+
+
+def on_big_stack(fn: Callable[..., Any], *args: Any) -> Any:
+    """`fn(*args)` on this process's big-stack thread (no Python callbacks inside `fn`: the
+    caller waits, holding whatever it holds)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _big_lock:
+        pool = _big.get("pool")
+        if pool is None:
+            saved = threading.stack_size(BIG_STACK)
+            try:
+                pool = _big["pool"] = ThreadPoolExecutor(1, thread_name_prefix="reconf-alloy")
+                pool.submit(lambda: None).result()   # the thread is made now, with this stack
+            finally:
+                threading.stack_size(saved)
+    return pool.submit(fn, *args).result()
+
+
 def atom_name(label: str) -> str:
     """An atom of a solution by its sig's name: `this/c_x$0` is `c_x`."""
     label = label.split("/")[-1]
@@ -401,7 +427,7 @@ class AlloyBridge:
             raise AlloyError("the module was replaced by a later one before all its commands ran")
         start = time.perf_counter()
         try:
-            sol = self._Translate.execute_command(self._A4Reporter(), world.sigs(), cmd, opts)
+            sol = on_big_stack(self._Translate.execute_command, self._A4Reporter(), world.sigs(), cmd, opts)
         except self._Err as err:
             raise self._error(err) from None
         elapsed = time.perf_counter() - start

@@ -88,3 +88,29 @@ def test_timeout_kills_a_long_solve() -> None:
     with pytest.raises(AlloyTimeout):
         run_with_timeout(modules, MAIN, "SafeAttach", solver="sat4j", timeout=4)
     assert time.monotonic() - start < 15
+
+
+
+WIDE = """
+import sys
+from checker.alloy import AlloyBridge
+n = int(sys.argv[1])
+names = [f"a{i}" for i in range(n)]
+text = "\\n".join(["module wide", "abstract sig A {}"]
+                  + [f"one sig {', '.join(names[i:i + 8])} extends A {{}}" for i in range(0, n, 8)]
+                  + ["check Many { some A } expect 0"])
+if sys.argv[2:] == ["here"]:
+    import checker.alloy.bridge as bridge_module
+    bridge_module.on_big_stack = lambda fn, *args: fn(*args)
+(o,) = AlloyBridge.get().run({"wide.als": text}, "wide.als")
+print(o.outcome)
+"""
+
+
+def test_a_sig_of_thousands_of_atoms_translates() -> None:
+    # the analyzer reads a sig's bound back one child per stack frame: in a fresh JVM, 5,000
+    # children overflow the calling thread's stack, so translation runs on a thread with room
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run([sys.executable, "-c", WIDE, "5000"], env=env, capture_output=True, text=True,
+                         timeout=120, cwd=ROOT)
+    assert out.returncode == 0 and out.stdout.strip() == "no counterexample", out.stderr[-2000:]
