@@ -19,7 +19,7 @@ from reconf_dsl.span import Span
 from .config import Configuration, FuncId
 
 __all__ = ["satisfies", "shortfall", "Link", "AssumptionResult", "Evaluation", "evaluate", "build_graph",
-           "current_mode"]
+           "current_mode", "witnesses"]
 
 
 def shortfall(p: Predicate, q: Predicate) -> Optional[str]:
@@ -84,6 +84,30 @@ def current_mode(f: Functionality, comp: str, config: Configuration) -> Mode:
     mode = f.degraded if (comp, f.name) in config.degraded else f.normal
     assert mode is not None, "resolved IR has both modes"
     return mode
+
+
+def witnesses(system: System, config: Configuration, wide: int) -> dict[str, set[tuple[str, str]]]:
+    """For each connector with more than `wide` attached outputs, one of them, (component,
+    port), whose present functionality guarantees in its current mode what satisfies the
+    connector's guarantee; connectors none satisfies are left out. A check's slice may
+    show such a connector's witness alone (README, "Alloy")."""
+    comps = _components(system, config)
+    attached: dict[str, list[tuple[str, str]]] = {}
+    for conn, c, p in config.roles:
+        port = comps[c].port(p) if c in comps else None
+        if port is not None and port.kind == "output":
+            attached.setdefault(conn, []).append((c, p))
+    out: dict[str, set[tuple[str, str]]] = {}
+    for k in system.connectors:
+        pubs = sorted(attached.get(k.name, ()))
+        if len(pubs) <= wide:
+            continue
+        for c, p in pubs:
+            if any(satisfies(current_mode(f, c, config).guarantee(p), k.guarantee)
+                   for f in comps[c].functionalities if p in f.ports):
+                out[k.name] = {(c, p)}
+                break
+    return out
 
 
 def _components(system: System, config: Configuration) -> dict[str, Component]:

@@ -195,7 +195,8 @@ def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
 
 
 def render_instance(system: Any, config: Any, module_name: str = "instance",
-                    focus: Any = None, index: "SliceIndex | None" = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+                    focus: Any = None, index: "SliceIndex | None" = None,
+                    keep: Any = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
     (checker.config.Configuration); see `_render`.
 
@@ -207,13 +208,19 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
     local (an assumption reads its component's inputs, their connectors and what is
     attached to them), so the whole configuration is valid exactly when every slice of a
     partition of its components is. `index` (`slice_index(system, config)`) is what every
-    slice reads, computed once: with it a slice costs what its components cost."""
+    slice reads, computed once: with it a slice costs what its components cost.
+
+    `keep` ({connector: {(component, output)}}) has a slice show only those publishers of
+    a connector it reads (besides the focus's own): a connector is satisfied by some
+    attached output, so a slice valid with some of them is valid with all of them."""
     if focus is None:
         return _render(system, [config], module_name, plan=False)
     focus = set(focus)
     index = index if index is not None else slice_index(system, config)
     read = {k for c in focus for k, p in index.roles_of.get(c, ()) if index.kinds.get((c, p)) == "input"}
-    context = {(c, p) for k in read for c, p in index.publishers.get(k, ()) if c not in focus}
+    keep = keep or {}
+    context = {(c, p) for k in read for c, p in index.publishers.get(k, ())
+               if c not in focus and (k not in keep or (c, p) in keep[k])}
     return _render(system, [config], module_name, plan=False,
                    slice_=(focus, context, read), index=index)
 

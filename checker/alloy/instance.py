@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
-from .parallel import Job, helper_for, judge_many
+from .parallel import Job, Judged, helper_for, judge_many
 from .spans import with_span
 
 MAIN = "instance.als"
@@ -68,10 +68,12 @@ def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> lis
 
 def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
                   bridge: AlloyBridge | None = None, slice_size: int = SLICE,
-                  only: Any = None) -> AlloyVerdict:
+                  only: Any = None, keep: Any = None) -> AlloyVerdict:
     """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
     in Alloy, through instance modules rendered from the shared semantics. With `only` (a
-    set of component names), judge the assumptions of those components alone."""
+    set of component names), judge the assumptions of those components alone. `keep`
+    (checker.semantics.witnesses) lets a slice show a wide connector's witness alone; a
+    slice that is not valid so is judged again with every publisher."""
     from codegen.alloy import render_instance, slice_index
 
     parts = slices(system, config, slice_size, only)
@@ -83,7 +85,7 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     start = time.perf_counter() - clock
     clock = time.perf_counter()
     index = slice_index(system, config) if parts else None
-    rendered = [render_instance(system, config, focus=focus, index=index) for focus in focuses]
+    rendered = [render_instance(system, config, focus=focus, index=index, keep=keep) for focus in focuses]
     render = time.perf_counter() - clock
 
     def spanned(i: int, err: BaseException) -> BaseException:
@@ -96,6 +98,12 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     # asked which assumptions fail.
     work = [Job(MAIN, text, "Valid", ("unsatisfied",)) for text, _ in rendered]
     judged, processes, helped = judge_many(work, solver, None if helper is not None else bridge, spanned)
+    for i, verdict in enumerate(judged):
+        if verdict.satisfiable and keep and focuses[i] is not None:   # judged again with every publisher
+            whole = render_instance(system, config, focus=focuses[i], index=index)
+            if whole[0] != rendered[i][0]:
+                rendered[i] = whole
+                judged[i] = _judge_one(bridge, whole[0], solver, i, spanned)
     judging = time.perf_counter() - clock
     failing: set[tuple[str, str, int]] = set()
     seconds = front = 0.0
@@ -110,6 +118,13 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     valid = not failing
     return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front,
                         judging, processes, helped)
+
+
+def _judge_one(bridge: AlloyBridge, text: str, solver: str, i: int,
+               spanned: Callable[[int, BaseException], BaseException]) -> Judged:
+    (verdict,), _, _ = judge_many([Job(MAIN, text, "Valid", ("unsatisfied",))], solver, bridge,
+                                  lambda _, err: spanned(i, err))
+    return verdict
 
 
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:

@@ -172,3 +172,32 @@ def test_slices_read_through_the_index_are_the_slices(example) -> None:  # type:
         for focus in slices(system, config, size=2) or []:
             assert render_instance(system, config, focus=focus, index=index) == \
                 render_instance(system, config, focus=focus), (config, focus)
+
+
+def test_a_wide_connector_is_shown_by_its_witness(bridge: AlloyBridge, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A slice may show a connector of many publishers by one that satisfies it: the verdicts
+    and failing assumptions are the full slices', whether the lean slice holds or not."""
+    from bench.gen import generate
+    from checker.semantics import witnesses
+    path = tmp_path / "fanin.arch"
+    path.write_text(generate("fanin", 160, seed=2), encoding="utf-8")
+    system = load([str(path)])
+    base = Configuration.initial(system)
+    keep = witnesses(system, base, 16)
+    assert set(keep) == {"/hub/in0", "/hub/in1", "/hub/in2"} and all(len(w) == 1 for w in keep.values())
+    lean, full = (alloy_verdict(system, base, bridge=bridge, keep=k) for k in (keep, None))
+    assert lean.valid and full.valid
+    # the hub's slice shows the three witnesses, not the 79 publishers: the largest slice shrinks
+    assert [t.count("-> p_c") > 0 for t in lean.texts] and \
+        max(len(re.findall(r"c_c\d+ -> p_c\d+_o_o0", t)) for t in lean.texts) < \
+        max(len(re.findall(r"c_c\d+ -> p_c\d+_o_o0", t)) for t in full.texts)
+    # the hub loses one of its topics, and some publishers of another go: the lean slice of
+    # the hub is not valid, and is judged again with every publisher
+    gone = {c for k, c, _ in base.roles if k == "/hub/in2"}
+    cut = Configuration(base.components - set(sorted(gone)[:20]), base.degraded,
+                        frozenset(r for r in base.roles if r[0] != "/hub/in1" and r[1] not in sorted(gone)[:20]))
+    keep = witnesses(system, cut, 16)
+    lean, full = (alloy_verdict(system, cut, bridge=bridge, keep=k) for k in (keep, None))
+    assert not lean.valid and (lean.valid, lean.unsatisfied) == (full.valid, full.unsatisfied) \
+        == python_verdict(system, cut)
+    assert any(u[0] == "hub" for u in lean.unsatisfied)
