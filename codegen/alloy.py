@@ -221,8 +221,7 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
     keep = keep or {}
     context = {(c, p) for k in read for c, p in index.publishers.get(k, ())
                if c not in focus and (k not in keep or (c, p) in keep[k])}
-    return _render(system, [config], module_name, plan=False,
-                   slice_=(focus, context, read), index=index)
+    return _render(system, [config], module_name, plan=False, slice_=(focus, context, read, index))
 
 
 @dataclass(frozen=True)
@@ -368,11 +367,10 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
 
 
 def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
-            slice_: tuple[set[str], set[tuple[str, str]], set[str]] | None = None,
+            slice_: tuple[set[str], set[tuple[str, str]], set[str], SliceIndex] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
             binary: bool = False, protocols: list[tuple[str, str]] | None = None,
-            handover: list[tuple[str, str]] | None = None,
-            index: SliceIndex | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
+            handover: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
     configurations (checker.config.Configuration).
 
@@ -386,20 +384,23 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
     from fractions import Fraction
 
     names: dict[str, tuple[str, ...]] = {}
-    comps = _all_components(system) if index is None else []
     # a slice (see render_instance): the focus whole; of the other components only the
     # outputs attached to the connectors the focus reads, and the functionalities
-    # behind them; only those connectors
-    focus, context, read = slice_ if slice_ is not None else (None, set(), None)
-    if focus is not None and index is not None:
+    # behind them; only those connectors, all read through the configuration's index
+    focus: set[str] | None = None
+    context: set[tuple[str, str]] = set()
+    index: SliceIndex | None = None
+    if slice_ is not None:
+        focus, context, read, index = slice_
         wanted = focus | {c for c, _ in context}
         comps = [index.components[n] for n in sorted(wanted & index.components.keys(), key=index.position.__getitem__)]
         configs = [index.view]
+        connectors = [index.connectors[n][1] for n in sorted(read & index.connectors.keys(),
+                                                             key=lambda n: index.connectors[n][0])]
     else:
-        if focus is not None:
-            publishing = {c for c, _ in context}
-            comps = [c for c in comps if c.name in focus or c.name in publishing]
+        comps = _all_components(system)
         configs = [alloy_view(system, c) for c in configs]
+        connectors = system.connectors
 
     # data predicates: one atom per distinct (message, rate)
     data_atoms: dict[tuple[str, Fraction | None], str] = {}
@@ -468,12 +469,7 @@ def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
                 for a in f.normal.assumptions:
                     rel["nasms"].append(f"{fa} -> {data(a)}")
     conn_atoms = {}
-    connectors = (system.connectors if read is None or index is None else
-                  [index.connectors[n][1] for n in sorted(read & index.connectors.keys(),
-                                                          key=lambda n: index.connectors[n][0])])
     for k in connectors:
-        if read is not None and k.name not in read:
-            continue
         ka = conn_atoms[k.name] = mangle("connector", k.name)
         names[ka] = ("connector", k.name)
         rel["cguar"].append(f"{ka} -> {data(k.guarantee)}")
