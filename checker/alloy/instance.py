@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
-from .parallel import Job, Judged, helper_for, judge_many
+from .parallel import Job, helper_for, judge, judge_many
 from .spans import with_span
 
 MAIN = "instance.als"
@@ -96,14 +96,17 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
     # `check Valid`: over constants the solver folds `valid` to true or false while
     # translating, so a valid configuration costs no evaluation; only a counterexample is
     # asked which assumptions fail.
-    work = [Job(MAIN, text, "Valid", ("unsatisfied",)) for text, _ in rendered]
+    work = [_valid(text) for text, _ in rendered]
     judged, processes, helped = judge_many(work, solver, None if helper is not None else bridge, spanned)
     for i, verdict in enumerate(judged):
         if verdict.satisfiable and keep and focuses[i] is not None:   # judged again with every publisher
             whole = render_instance(system, config, focus=focuses[i], index=index)
             if whole[0] != rendered[i][0]:
                 rendered[i] = whole
-                judged[i] = _judge_one(bridge, whole[0], solver, i, spanned)
+                try:
+                    judged[i] = judge(bridge, _valid(whole[0]), solver)
+                except Exception as err:  # noqa: BLE001 - positioned as the batch's errors are
+                    raise spanned(i, err) from None
     judging = time.perf_counter() - clock
     failing: set[tuple[str, str, int]] = set()
     seconds = front = 0.0
@@ -120,11 +123,9 @@ def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
                         judging, processes, helped)
 
 
-def _judge_one(bridge: AlloyBridge, text: str, solver: str, i: int,
-               spanned: Callable[[int, BaseException], BaseException]) -> Judged:
-    (verdict,), _, _ = judge_many([Job(MAIN, text, "Valid", ("unsatisfied",))], solver, bridge,
-                                  lambda _, err: spanned(i, err))
-    return verdict
+def _valid(text: str) -> Job:
+    """`check Valid` of an instance module, asking which assumptions fail if it is not."""
+    return Job(MAIN, text, "Valid", ("unsatisfied",))
 
 
 def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
