@@ -103,11 +103,18 @@ def witnesses(system: System, config: Configuration, wide: int) -> dict[str, set
         if len(pubs) <= wide:
             continue
         for c, p in pubs:
-            if any(satisfies(current_mode(f, c, config).guarantee(p), k.guarantee)
-                   for f in comps[c].functionalities if p in f.ports):
+            if any(satisfies(gp, k.guarantee) for _, gp, _ in _guarantees(comps[c], p, config)):
                 out[k.name] = {(c, p)}
                 break
     return out
+
+
+def _guarantees(c: Component, port: str, config: Configuration) -> list[tuple[Functionality, Predicate, bool]]:
+    """What output `port` of `c` guarantees: for each functionality it belongs to, the
+    guarantee of its current mode, and whether that mode is degraded. The output satisfies
+    a guarantee when any of these does."""
+    return [(f, current_mode(f, c.name, config).guarantee(port), (c.name, f.name) in config.degraded)
+            for f in c.functionalities if port in f.ports]
 
 
 def _components(system: System, config: Configuration) -> dict[str, Component]:
@@ -123,10 +130,7 @@ def build_graph(system: System, config: Configuration) -> "nx.DiGraph[tuple[str,
     for name, c in comps.items():
         for p in c.ports:
             if p.kind == "output":
-                # An output is satisfied for a guarantee by any present functionality in its current mode.
-                guars = [(f, current_mode(f, name, config).guarantee(p.name), (name, f.name) in config.degraded)
-                         for f in c.functionalities if p.name in f.ports]
-                g.add_node(("out", name, p.name), port=p, component=c, guarantees=guars)
+                g.add_node(("out", name, p.name), port=p, component=c, guarantees=_guarantees(c, p.name, config))
             else:
                 g.add_node(("in", name, p.name), port=p, component=c)
     for cname, conn in conns.items():
