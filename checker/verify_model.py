@@ -158,7 +158,8 @@ def verify_model(scope: int = 5, solver: str = "glucose",
     used = bridge.usable_solver(solver)
     bounds = bridge.bounds(modules, MAIN)
     processes = 1
-    if len(modules) == 1 and parallel.helpers_wanted(len(labels), minimum=2):
+    # the helper is started (or found) first, so the progress line says what happens
+    if len(modules) == 1 and parallel.helper_for(len(labels), used, minimum=2) is not None:
         if before:
             before(f"all {len(labels)} commands, in 2 processes", 0, len(labels))
         work = [parallel.Job(MAIN, modules[MAIN], label, constants=False) for label in labels]
