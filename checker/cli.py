@@ -1,7 +1,8 @@
 """The `reconf` command line. Human output goes to stderr through rich, machine output to stdout.
 
-Exit codes: 0 safe / done, 1 unsafe / no safe plan, 2 bad input, usage, missing dependency
-or internal error."""
+Exit codes: 0 safe / done, 1 unsafe / no safe plan, 2 bad input, usage, missing dependency,
+resource failure or internal error; with `--detailed-exitcode`, `plan` and `gate` exit 3 for a safe
+change that has steps (0 then means nothing to do). See docs/exit-codes.md."""
 from __future__ import annotations
 
 import difflib
@@ -29,6 +30,7 @@ from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
 
 EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_CHANGES = 3          # only with --detailed-exitcode: a safe plan with at least one step
 F = TypeVar("F", bound=Callable[..., Any])
 
 
