@@ -17,6 +17,7 @@ import click
 from rich.markup import escape
 
 from reconf_dsl.ir import System
+from codegen.ros2 import FORMAT_VERSION
 from reconf_dsl.loader import Sources, load
 
 from . import report
@@ -24,32 +25,14 @@ from .cli import EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_
 from .plan_options import with_common, with_plan_options
 from .progress import status
 from .planning import NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
+from .planning.plan import degradation
 from .report import OutputFormat
 
-PLAN_FORMAT_VERSION = 1
 
 
 def fingerprint(system: System) -> str:
     """A digest of what the architecture says (not where it was written, nor its layout)."""
     return "sha256:" + hashlib.sha256(repr(dc_replace(system, files=())).encode("utf-8")).hexdigest()
-
-
-def degradation(plan: Plan) -> dict[str, Any]:
-    """Which functionalities were degraded, for how many steps, and the longest run."""
-    steps: dict[str, int] = {}
-    longest: dict[str, int] = {}
-    run: dict[str, int] = {}
-    for state in plan.states[1:]:
-        now = {f"{c}.{f}" for c, f in state.degraded if c in state.components}
-        for name in now:
-            steps[name] = steps.get(name, 0) + 1
-            run[name] = run.get(name, 0) + 1
-            longest[name] = max(longest.get(name, 0), run[name])
-        for name in list(run):
-            if name not in now:
-                run[name] = 0
-    return {"functionalities": dict(sorted(steps.items())), "longest": max(longest.values(), default=0),
-            "longest_functionality": max(longest, key=lambda k: (longest[k], k)) if longest else None}
 
 
 def default_files() -> list[str]:
@@ -196,7 +179,7 @@ def alloy_planned(p: Plan, max_steps: int) -> Plan:
 
 def plan_document(label: str, system: System, p: Plan, evidence: dict[str, Any],
                   target: Optional[System] = None) -> dict[str, Any]:
-    doc: dict[str, Any] = {"format_version": PLAN_FORMAT_VERSION, "tool": "reconf", "command": "plan",
+    doc: dict[str, Any] = {"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan",
                            "operation": label, "verdict": "plan", "system": system.name,
                            "fingerprint": fingerprint(system), "plan": p.to_dict(),
                            "degradation": degradation(p), "evidence": evidence}
@@ -255,7 +238,7 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
 def no_plan(label: str, reasons: list[str], fmt: OutputFormat, p: Optional[Plan] = None,
             evidence: Optional[dict[str, Any]] = None) -> None:
     if fmt is OutputFormat.JSON:
-        click.echo(json.dumps({"format_version": PLAN_FORMAT_VERSION, "tool": "reconf", "command": "plan",
+        click.echo(json.dumps({"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan",
                                "operation": label, "verdict": "no-plan", "reasons": reasons,
                                "evidence": evidence or {}}, indent=2))
     else:

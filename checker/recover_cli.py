@@ -41,13 +41,12 @@ def read_report(path: str) -> dict[str, Any]:
 @guarded("recover")
 def recover_cmd(report: str, back: bool, sources: Sources, **opts: Any) -> None:
     """Plan from what a failed run observed to the plan's target (or, --back, its start)."""
-    from codegen.ros2 import system_from_model_data
+    from codegen.ros2 import state_at, system_from_model_data
     doc = read_report(report)
     plan_doc = doc["plan_document"]
     system = system_from_model_data(plan_doc["model"])
-    states = plan_doc["plan"]["states"]
     observed = _config(doc["observed"])
-    target = _config(states[0] if back else states[-1])
+    target = _config(state_at(plan_doc["plan"], 0 if back else -1))
     renames: Optional[dict[str, str]] = plan_doc["plan"].get("renames") or None
     label = f"recover {os.path.basename(report)} → {'the start' if back else 'the target'}"
 

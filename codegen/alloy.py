@@ -14,7 +14,7 @@ import functools
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import jinja2
 
@@ -256,7 +256,7 @@ def slice_index(system: Any, config: Any) -> SliceIndex:
         connectors={k.name: (i, k) for i, k in enumerate(system.connectors)})
 
 
-def render_plan(system: Any, configs: list[Any], module_name: str = "plan",
+def render_plan(system: Any, configs: Sequence[Any], module_name: str = "plan",
                 serving: Any = (), stable: Any = (), binary: bool = False,
                 protocols: Any = (), handover: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
@@ -366,7 +366,7 @@ def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str,
     return list(role_atoms.values())
 
 
-def _render(system: Any, configs: list[Any], module_name: str, plan: bool,
+def _render(system: Any, configs: Sequence[Any], module_name: str, plan: bool,
             slice_: tuple[set[str], set[tuple[str, str]], set[str], SliceIndex] | None = None,
             serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
             binary: bool = False, protocols: list[tuple[str, str]] | None = None,

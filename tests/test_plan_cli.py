@@ -24,7 +24,7 @@ def test_paper_strategy_reproduces_the_seven_steps() -> None:
     from checker.actions import action_from_dict
     steps = tuple(action_from_dict(s).describe() for s in doc["plan"]["steps"])
     assert steps == BY_NAME["chatter"].paper_plan
-    assert doc["format_version"] == 1 and doc["fingerprint"].startswith("sha256:")
+    assert doc["format_version"] == 2 and doc["fingerprint"].startswith("sha256:")
     assert doc["evidence"]["python"]["valid"] is True
 
 

@@ -24,7 +24,7 @@ from checker.config import Configuration
 from checker.planning import Plan, plan_replace
 from checker.planning.plan import Goal, run_actions
 from checker.semantics import evaluate
-from codegen.ros2 import model_data, plan_document, render_plan_script
+from codegen.ros2 import FORMAT_VERSION, model_data, plan_document, render_plan_script
 from reconf_dsl.ir import Predicate, Rate, System
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES, Example
@@ -96,7 +96,7 @@ def doc_for(system: System, steps: list[Action], start: Configuration, name: str
     states = run_actions(system, start, steps)
     end = states[-1]
     plan = Plan(system, list(steps), states, name, 0, Goal(end.components, end.roles, end.degraded))
-    return {"format_version": 1, "system": system.name, "fingerprint": "sha256:test", "evidence": {},
+    return {"format_version": FORMAT_VERSION, "system": system.name, "fingerprint": "sha256:test", "evidence": {},
             "plan": plan.to_dict(), "model": model_data(system)}
 
 

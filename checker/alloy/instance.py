@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Sequence
 
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
@@ -154,7 +154,7 @@ def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
 ACTIONS = ("remove", "create", "detach", "attach", "degrade", "upgrade")
 
 
-def _planned_actions(system: Any, configs: list[Any]) -> list[tuple[str, ...]]:
+def _planned_actions(system: Any, configs: Sequence[Any]) -> list[tuple[str, ...]]:
     """Per step, the action the module's `plan_safe` required of it (the one the difference
     between the two configurations is): what a plan Alloy found safe performs."""
     from codegen.alloy import alloy_view, step_action
@@ -191,7 +191,7 @@ class AlloyPlanVerdict:
         return all(self.valid) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
-def alloy_plan_verdict(system: Any, configs: list[Any], solver: str = DEFAULT_SOLVER,
+def alloy_plan_verdict(system: Any, configs: Sequence[Any], solver: str = DEFAULT_SOLVER,
                        bridge: AlloyBridge | None = None, serving: Any = (),
                        stable: Any = (), binary: bool = False, protocols: Any = (),
                        handover: Any = ()) -> AlloyPlanVerdict:

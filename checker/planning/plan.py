@@ -10,6 +10,7 @@ degraded for k steps costs w·k, and the empty plan costs 0.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any, Optional, Sequence
 
 from reconf_dsl.ir import System
@@ -18,9 +19,11 @@ from ..actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalo
                        failing_assumptions, preconditions)
 from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
+from .states import States
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "settle", "disruption", "state_weight", "run_actions", "verify",
-           "FULL_CHECK_LIMIT"]
+           "FULL_CHECK_LIMIT", "state_dict", "state_change",
+           "degradation"]
 
 
 class NoSafePlan(Exception):
@@ -134,7 +137,7 @@ def disruption(system: System, states: Sequence[Configuration], steps: Optional[
 class Plan:
     system: System
     steps: list[Action]
-    states: list[Configuration]
+    states: Sequence[Configuration]     # a `States` for a verified plan: see checker.planning.states
     strategy: str
     disruption: int
     goal: Goal
@@ -172,20 +175,71 @@ class Plan:
         return f"{len(self.steps)} steps ({parts}); disruption {self.disruption}; strategy {self.strategy}{left}"
 
     def to_dict(self) -> dict[str, Any]:
+        """The plan as data: its first state in full and, per step, what the step changed (states
+        as deltas, so the document grows with the plan's length, not length × size)."""
         return {"strategy": self.strategy, "disruption": self.disruption,
                 "steps": [a.to_dict() for a in self.steps],
-                "states": [{"components": sorted(s.components), "degraded": [list(d) for d in sorted(s.degraded)],
-                            "roles": [list(r) for r in sorted(s.roles)]} for s in self.states],
+                "start": state_dict(self.states[0]),
+                "changes": [state_change(before, after) for before, after in pairwise(self.states)],
                 "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
                 "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
 
 
-def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -> list[Configuration]:
+def state_dict(s: Configuration) -> dict[str, list[Any]]:
+    """A configuration as data, each part sorted."""
+    return {"components": sorted(s.components), "degraded": [list(d) for d in sorted(s.degraded)],
+            "roles": [list(r) for r in sorted(s.roles)]}
+
+
+def state_change(before: Configuration, after: Configuration) -> dict[str, dict[str, list[Any]]]:
+    """What `after` adds to `before` and drops from it, part by part (empty parts left out)."""
+    change: dict[str, dict[str, list[Any]]] = {}
+    for part in ("components", "degraded", "roles"):
+        b, a = getattr(before, part), getattr(after, part)
+        if a is b:
+            continue
+        for key, items in (("add", a - b), ("drop", b - a)):
+            if items:
+                change.setdefault(key, {})[part] = sorted(list(x) if isinstance(x, tuple) else x for x in items)
+    return change
+
+
+def degradation(plan: Plan) -> dict[str, Any]:
+    """Which functionalities were degraded, for how many steps, and the longest run: read from
+    the steps (a step changes the functionalities of one component), in time linear in the plan."""
+    comps = catalogue(plan.system).comps
+    steps: dict[str, int] = {}
+    longest: dict[str, int] = {}
+    since: dict[str, int] = {}          # degraded (and present) from this state on
+
+    def close(name: str, i: int) -> None:
+        n = i - since.pop(name)
+        steps[name] = steps.get(name, 0) + n
+        longest[name] = max(longest.get(name, 0), n)
+
+    first = plan.states[0]
+    since.update((f"{c}.{f}", 1) for c, f in first.degraded if c in first.components)
+    for i, ((before, after), a) in enumerate(zip(pairwise(plan.states), plan.steps), 1):
+        comp = comps.get(getattr(a, "component", ""))
+        if comp is None or a.kind in ("attach", "detach"):
+            continue
+        for f in comp.functionalities:
+            fid, name = (comp.name, f.name), f"{comp.name}.{f.name}"
+            was = fid in before.degraded and comp.name in before.components
+            now = fid in after.degraded and comp.name in after.components
+            if now and not was:
+                since[name] = i
+            elif was and not now:
+                close(name, i)
+    for name in list(since):
+        close(name, len(plan.states))
+    return {"functionalities": dict(sorted(steps.items())), "longest": max(longest.values(), default=0),
+            "longest_functionality": max(longest, key=lambda k: (longest[k], k)) if longest else None}
+
+
+def run_actions(system: System, start: Configuration, steps: Sequence[Action]) -> Sequence[Configuration]:
     """The states s0…sn of `steps` from `start` (preconditions not checked)."""
-    states = [start]
-    for a in steps:
-        states.append(effect(system, states[-1], a))
-    return states
+    return States(system, start, steps)
 
 
 FULL_CHECK_LIMIT = 10_000
@@ -205,14 +259,13 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
     cat = catalogue(system)
     if full is None:
         full = (len(steps) + 1) * max(1, len(start.components)) <= FULL_CHECK_LIMIT
-    states = [start]
+    kept, before = {0: start}, start
+    total, weight = 0, state_weight(system, start)
     for i, a in enumerate(steps, 1):
-        before = states[-1]
         reasons = preconditions(system, before, a)
         if reasons:
             raise NoSafePlan([f"{strategy}: step {i} ({a.describe()}) is refused: " + "; ".join(reasons)])
         after = effect(system, before, a)
-        states.append(after)
         if full or i == len(steps):
             failing = [(r.component, r.functionality, r.assumption)
                        for r in evaluate(system, after, explain=False).unsatisfied]
@@ -221,14 +274,19 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
         if failing:
             c, f, asm = failing[0]
             raise NoSafePlan([f"{strategy}: after step {i} ({a.describe()}) {c}.{f} assumes {asm}, which fails"])
-    if not goal.reached(states[-1]):
+        weight = next_weight(system, before, weight, a, after)
+        total += weight
+        if States.keep(i, len(steps)):
+            kept[i] = after
+        before = after
+    if not goal.reached(before):
         raise NoSafePlan([f"{strategy}: the plan does not reach the goal"])
     notes = goal.residual_notes()
     if not full:
         notes.append(f"verification: the last state judged in full; the {len(steps) - 1} intermediate states "
                      "re-checked where each step can change them (a full re-evaluation of every state is "
                      f"beyond {FULL_CHECK_LIMIT:,} states × components)")
-    return Plan(system, list(steps), states, strategy, disruption(system, states, steps), goal, dict(renames or {}),
+    return Plan(system, list(steps), States(system, start, steps, kept), strategy, total, goal, dict(renames or {}),
                 notes, "full" if full else "local")
 
 

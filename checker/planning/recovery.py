@@ -15,6 +15,7 @@ from ..actions import Degrade, effect
 from ..config import Configuration
 from .operations import solve
 from .plan import Goal, Plan, Problem, disruption, settle
+from .states import States
 
 __all__ = ["plan_recovery"]
 
@@ -23,10 +24,9 @@ def plan_recovery(system: System, observed: Configuration, target: Configuration
                   strategy: str = "default") -> Plan:
     settled = settle(system, Goal(observed.components, observed.roles, observed.degraded))
     emergency = [Degrade(c, f) for c, f in sorted(settled.degraded - observed.degraded)]
-    states = [observed]
+    start = observed
     for a in emergency:
-        states.append(effect(system, states[-1], a))
-    start = states[-1]       # valid: settle degrades until nothing fails
+        start = effect(system, start, a)     # valid at the end: settle degrades until nothing fails
     goal = Goal(target.components, target.roles, target.degraded)
     deployed = tuple(c for c in system.components + system.versions if c.name in start.components)
     rest = tuple(c for c in system.components + system.versions if c.name not in start.components)
@@ -35,7 +35,7 @@ def plan_recovery(system: System, observed: Configuration, target: Configuration
     if not emergency:
         return plan
     steps = list(emergency) + plan.steps
-    all_states = states + plan.states[1:]
+    all_states = States(base, observed, steps)
     notes = [f"the observed configuration is not valid: steps 1-{len(emergency)} degrade what fails in it"] + plan.notes
     return Plan(base, steps, all_states, plan.strategy, disruption(base, all_states, steps), plan.goal,
                 plan.renames, notes, plan.verification)

@@ -175,12 +175,14 @@ def _slice(plan: Plan, lean: bool, att: _Attachments) -> tuple[Plan, set[str]]:
 
     kept = frozenset(r for r in att.roles if r[1] in core or (r[1] in stubs and att.is_output(r[1], r[2])))
 
-    projected: dict[int, frozenset[tuple[str, str, str]]] = {}  # per distinct roles (see _Attachments)
+    # per distinct roles (see _Attachments), each held so that its id is not reused
+    projected: dict[int, tuple[frozenset[tuple[str, str, str]], frozenset[tuple[str, str, str]]]] = {}
 
     def project(s: Configuration) -> Configuration:
-        roles = projected.get(id(s.roles))
-        if roles is None:
-            roles = projected[id(s.roles)] = s.roles & kept
+        hit = projected.get(id(s.roles))
+        if hit is None or hit[0] is not s.roles:
+            hit = projected[id(s.roles)] = (s.roles, s.roles & kept)
+        roles = hit[1]
         return Configuration(frozenset(s.components & keep), frozenset(d for d in s.degraded if d[0] in keep), roles)
 
     states = [project(s) for s in plan.states]

@@ -230,6 +230,7 @@ def test_plan_as_json() -> None:
     plan = plan_replace(talker_system(), "talker", "talker_v2", "paper")
     data = json.loads(json.dumps(plan.to_dict()))
     assert [s["action"] for s in data["steps"]] == [a.kind for a in plan.steps]
-    assert len(data["states"]) == len(plan.steps) + 1 and data["disruption"] == 7
+    assert len(data["changes"]) == len(plan.steps) and data["disruption"] == 7
+    assert data["start"]["components"] == sorted(plan.states[0].components)
     assert plan.summary().startswith("7 steps")
     assert plan.describe()[0] == "  1. ↓ degrade listener.listen"

@@ -80,6 +80,24 @@ class State:
     def from_doc(d: dict[str, Any]) -> "State":
         return State(d["components"], d["degraded"], d["roles"])
 
+    @staticmethod
+    def all_of(plan: dict[str, Any]) -> list["State"]:
+        """Every state of a plan document's plan: its first state and each step's change (format 2),
+        or every state recorded in full (format 1)."""
+        if "states" in plan:
+            return [State.from_doc(s) for s in plan["states"]]
+        if "start" not in plan:
+            return []
+        states = [State.from_doc(plan["start"])]
+        for change in plan.get("changes", []):
+            parts: list[frozenset[Any]] = []
+            for key, now in zip(("components", "degraded", "roles"), states[-1].key()):
+                add, drop = ({x if isinstance(x, str) else tuple(x) for x in change.get(side, {}).get(key, ())}
+                             for side in ("add", "drop"))
+                parts.append((now - drop) | add if add or drop else now)
+            states.append(State(parts[0], parts[1], parts[2]))
+        return states
+
     def to_doc(self) -> dict[str, Any]:
         return {"components": sorted(self.components), "degraded": [list(d) for d in sorted(self.degraded)],
                 "roles": [list(r) for r in sorted(self.roles)]}
@@ -284,8 +302,8 @@ def label(i: int, step: dict[str, Any]) -> str:
 def replay(doc: dict[str, Any], out: Any) -> bool:
     """Replay the plan from its first state; print every state; True when all are safe."""
     model, plan = Model(doc["model"]), doc["plan"]
-    steps, recorded = plan["steps"], plan.get("states", [])
-    state = State.from_doc(recorded[0]) if recorded else State([], [], [])
+    steps, recorded = plan["steps"], State.all_of(plan)
+    state = recorded[0] if recorded else State([], [], [])
     ok, refused = True, None
     rows = [("  0.   initial state", state)]
     for i, step in enumerate(steps, 1):
@@ -294,7 +312,7 @@ def replay(doc: dict[str, Any], out: Any) -> bool:
             refused = (i, step, why)
             break
         state = model.effect(state, step)
-        if i < len(recorded) and State.from_doc(recorded[i]).key() != state.key():
+        if i < len(recorded) and recorded[i].key() != state.key():
             print(f"dry run: after step {i} the embedded plan records a different state than the steps give",
                   file=out)
             ok = False
@@ -562,7 +580,7 @@ class Executor:
         self.own_runtime = runtime is None      # a manager lends its long-lived one
         self.plan, self.model = doc["plan"], Model(doc["model"])
         self.steps = self.plan["steps"]
-        self.states = [State.from_doc(s) for s in self.plan.get("states", [])]
+        self.states = State.all_of(self.plan)
         self.renames: dict[str, str] = self.plan.get("renames", {})
         self.placed: dict[str, str] = {}        # component -> its node's name, where not its own (see `locate`)
         self.runs = {c["name"]: c.get("run") for c in doc["model"]["components"]}
@@ -1317,7 +1335,7 @@ DOC = json.loads(r"""{
   "python_engine": "all 8 states valid"
  },
  "fingerprint": "sha256:65cacd404aaae5dfbdea0860f9b19833de27f51dc2572e027463f265e287fb6e",
- "format_version": 1,
+ "format_version": 2,
  "model": {
   "components": [
    {
@@ -1390,20 +1408,24 @@ DOC = json.loads(r"""{
   "name": "chatter"
  },
  "plan": {
+  "changes": [
+   {"add": {"degraded": [["listener", "listen"]]}},
+   {"drop": {"roles": [["/chatter", "talker", "out"]]}},
+   {"drop": {"components": ["talker"]}},
+   {"add": {"components": ["talker_v2"], "degraded": [["talker_v2", "talk"]]}},
+   {"drop": {"degraded": [["talker_v2", "talk"]]}},
+   {"add": {"roles": [["/chatter", "talker_v2", "out"]]}},
+   {"drop": {"degraded": [["listener", "listen"]]}}
+  ],
   "disruption": 7,
   "left_degraded": [],
   "notes": [],
   "renames": {},
-  "states": [
-   {"components": ["listener", "talker"], "degraded": [], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker", "out"]]},
-   {"components": ["listener", "talker"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker", "out"]]},
-   {"components": ["listener", "talker"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
-   {"components": ["listener"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
-   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"], ["talker_v2", "talk"]], "roles": [["/chatter", "listener", "in"]]},
-   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"]]},
-   {"components": ["listener", "talker_v2"], "degraded": [["listener", "listen"]], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker_v2", "out"]]},
-   {"components": ["listener", "talker_v2"], "degraded": [], "roles": [["/chatter", "listener", "in"], ["/chatter", "talker_v2", "out"]]}
-  ],
+  "start": {
+   "components": ["listener", "talker"],
+   "degraded": [],
+   "roles": [["/chatter", "listener", "in"], ["/chatter", "talker", "out"]]
+  },
   "steps": [
    {"action": "degrade", "component": "listener", "functionality": "listen"},
    {"action": "detach", "component": "talker", "connector": "/chatter", "port": "out"},
