@@ -157,6 +157,11 @@ def satisfies(p: Predicate, q: Predicate) -> bool:
     return sat
 
 
+ROOM = 500_000
+"""Entries (connectors and ports, per index) the caches of a `_Catalogue` hold at most, beyond
+16 indexes: each index is about 40 bytes an entry, so about 80 MB whatever the system's size."""
+
+
 class _Catalogue:
     """What the actions need to know about a System, indexed once."""
 
@@ -172,7 +177,7 @@ class _Catalogue:
         # The same indexes by identity of the two sets: an action's effect derives the next
         # configuration's index from the current one, so a plan step costs its own size only.
         self._ident: dict[tuple[int, int], tuple[frozenset[str], frozenset[Role], _Index]] = {}
-        self._room = max(16, min(256, 4_000_000 // (len(system.connectors) + len(self.ports) + 1)))
+        self._room = max(16, min(256, ROOM // (len(system.connectors) + len(self.ports) + 1)))
 
     def is_output(self, comp: str, port: str) -> bool:
         p = self.ports.get((comp, port))

@@ -16,6 +16,7 @@ from reconf_dsl.ir import System
 from ..actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
 from ..config import Configuration
 from .plan import Goal, next_weight, state_weight
+from .states import States
 
 __all__ = ["improve", "cost"]
 
@@ -88,13 +89,16 @@ def improve(system: System, start: Configuration, steps: list[Action], goal: Goa
     # quadratically many variants: beyond 20 components, far fewer steps are simulated.
     sim = _Budget(work * min(1.0, (20 / max(1, len(start.components))) ** 2))
     for _ in range(rounds):
-        states = [start]
-        weights = [0]
-        weight = state_weight(system, start)
-        for a in steps:
-            states.append(effect(system, states[-1], a))
-            weight = next_weight(system, states[-2], weight, a, states[-1])
+        weights, kept = [0], {0: start}
+        config, weight = start, state_weight(system, start)
+        for i, a in enumerate(steps, 1):
+            after = effect(system, config, a)
+            weight = next_weight(system, config, weight, a, after)
             weights.append(weights[-1] + weight)
+            if States.keep(i, len(steps)):
+                kept[i] = after
+            config = after
+        states = States(system, start, steps, kept)      # not every state: see checker.planning.states
         best = (weights[-1], len(steps))
         found = None
         for k, cand in _variants(steps):
