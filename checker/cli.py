@@ -125,8 +125,12 @@ def main() -> None:
 engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
                              show_default=True,
                              help="both: Alloy proves, Python explains, and they must agree")
-solver_option = click.option("--solver", default="glucose", show_default=True,
-                             help="SAT solver for Alloy (glucose, minisat, sat4j); falls back to sat4j")
+from .alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES  # noqa: E402 - the one table of solvers
+
+solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
+                             default=DEFAULT_SOLVER, show_default=True,
+                             help=f"SAT solver for Alloy; a native one whose library does not load here "
+                                  f"falls back to {FALLBACK_SOLVER}")
 
 
 @main.command()
@@ -236,8 +240,7 @@ def fmt(files: tuple[str, ...], check_only: bool, diff: bool, to_stdout: bool, s
             sys.exit(EXIT_UNSAFE)
 
 
-def plural(n: int, word: str, many: Optional[str] = None) -> str:
-    return f"{n} {word if n == 1 else (many or word + 's')}"
+plural = report.plural   # `1 assumption`, `3 assumptions`: for every command's counts
 
 
 def write_atomically(path: str, text: str) -> None:

@@ -114,6 +114,17 @@ def internal_error(message: str, span: Optional[Span] = None) -> Diagnostic:
     return Diagnostic("RC000", Severity.ERROR, message, span or Span.unknown("<reconf>"))
 
 
+def plural(n: int, word: str, many: Optional[str] = None) -> str:
+    """A count and its noun in agreement: `1 assumption`, `3 assumptions` (`many` when the
+    plural is not the word and an s: `functionality`, `functionalities`)."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def agree(n: int, one: str, many: str) -> str:
+    """The words that agree with a count of `n`: agree(1, "does", "do") is "does"."""
+    return one if n == 1 else many
+
+
 def timing_note(wall: float, parts: list[tuple[str, float]], details: Optional[dict[str, str]] = None) -> str:
     """`in W s: part p, ...` for a summary line: the wall time and where it went (a part's
     `details` in parentheses after it), what the parts do not cover said as `other`."""

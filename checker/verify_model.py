@@ -5,6 +5,7 @@ Exit codes: 0 all as expected, 1 some outcome differs, 2 Alloy or Java unavailab
 """
 from __future__ import annotations
 
+import functools
 import json
 import sys
 import time
@@ -14,7 +15,12 @@ from typing import Any, Callable
 import click
 
 from checker.alloy import AlloyBridge, AlloyError, AlloyUnavailable, CommandOutcome, metamodel_modules
+from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES
 from checker.alloy.metamodel import MAIN
+from checker.report import OutputFormat, plural
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.loader import Sources, read_source
+from reconf_dsl.span import Span
 
 STATES = ("Pre", "Post")
 
@@ -143,7 +149,7 @@ def _row(o: CommandOutcome, bounds: dict[str, tuple[int, bool]]) -> CommandRow:
                       {sig: f"{'=' if exact else '<='} {n}" for sig, (n, exact) in sorted(bounds.items())})
 
 
-def verify_model(scope: int = 5, solver: str = "glucose",
+def verify_model(scope: int = 5, solver: str = DEFAULT_SOLVER,
                  before: Callable[[str, int, int], None] | None = None,
                  after: Callable[[CommandRow], None] | None = None,
                  modules: dict[str, str] | None = None) -> VerifyReport:
@@ -203,13 +209,13 @@ def _render_text(report: VerifyReport, console: Any) -> None:
                 alike[tuple(r.bounds.items())] = alike.get(tuple(r.bounds.items()), 0) + 1
         for bounds, n in sorted(alike.items()):
             shown = ", ".join(f"{sig} {b}" for sig, b in bounds)
-            console.print(f"atoms per signature in {n} {kind}{'s' if n > 1 else ''}: {shown}")
+            console.print(f"atoms per signature in {plural(n, kind)}: {shown}")
     below = report.below_paper()
     console.print(f"the paper's scope (for {PAPER_SCOPE} of {', '.join(PAPER_SIGS)}; System: Pre and Post): "
                   + ("every check covers it" if not below else "[bold]NOT covered[/bold]: " + "; ".join(below)))
     verdict = "all as expected" if report.ok else "SOME OUTCOMES DIFFER FROM THEIR EXPECTATION"
     by = f" by {report.processes} processes" if report.processes > 1 else ""
-    console.print(f"{len(report.rows)} commands{by} in {report.wall:.1f} s (the commands' own: "
+    console.print(f"{plural(len(report.rows), 'command')}{by} in {report.wall:.1f} s (the commands' own: "
                   f"{report.total_seconds:.1f} s): {verdict}")
 
 
@@ -227,22 +233,40 @@ def _render_counterexample(r: CommandRow, console: Any) -> None:
             console.print(f"    unsatisfied: {', '.join(conf.unsatisfied)}")
 
 
+def _guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """`checker.cli.guarded`, looked up when the command runs (`checker.cli` imports this
+    module to register the command): every failure a diagnostic with a code, never a traceback."""
+    @functools.wraps(fn)
+    def inner(*args: Any, **kwargs: Any) -> Any:
+        from checker.cli import guarded
+        return guarded("verify-model")(fn)(*args, **kwargs)
+    return inner
+
+
+def _failure(diagnostic: Diagnostic) -> Exception:
+    from checker.cli import Failure
+    return Failure([diagnostic])
+
+
 @click.command("verify-model")
 @click.option("--scope", type=click.IntRange(1, 12), default=5, show_default=True,
               help="Scope of every check (runs use scope 3).")
-@click.option("--solver", default="glucose", show_default=True,
-              help="SAT solver: glucose, glucose41, minisat, sat4j (falls back to sat4j).")
-@click.option("--output-format", type=click.Choice(["text", "json"]), default="text",
-              show_default=True)
+@click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False), default=DEFAULT_SOLVER,
+              show_default=True,
+              help=f"SAT solver; a native one whose library does not load here falls back to {FALLBACK_SOLVER}.")
+@click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
+              default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
 @click.option("--model", "model_path", type=click.Path(exists=True, dir_okay=False), default=None,
               help="Verify this meta-model file instead of the bundled one (its commands run "
                    "with the scopes written in it; --scope is ignored).")
-def verify_model_cmd(scope: int, solver: str, output_format: str, model_path: str | None) -> None:
+@_guarded
+def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model_path: str | None,
+                     sources: Sources) -> None:
     """Prove the six reconfiguration actions safe in the Alloy meta-model."""
     from rich.console import Console
 
     console = Console(stderr=True)
-    progress = console.is_terminal and output_format == "text"
+    progress = console.is_terminal and output_format is OutputFormat.TEXT
     status = console.status("") if progress else None
 
     def before(label: str, n: int, total: int) -> None:
@@ -254,25 +278,30 @@ def verify_model_cmd(scope: int, solver: str, output_format: str, model_path: st
             mark = "[green]✓[/green]" if row.as_expected is not False else "[red]✗[/red]"
             console.print(f"{mark} {row.command}: {row.outcome} in {row.seconds:.2f} s")
 
+    modules = None
+    if model_path is not None:
+        modules = {MAIN: read_source(model_path, sources)}
     try:
         if status is not None:
             status.start()
         try:
-            modules = None
-            if model_path is not None:
-                with open(model_path, encoding="utf-8") as fh:
-                    modules = {MAIN: fh.read()}
             report = verify_model(scope, solver, before, after, modules)
         finally:
             if status is not None:
                 status.stop()
     except AlloyUnavailable as exc:
-        console.print(f"error: Alloy unavailable: {exc}")
-        sys.exit(2)
+        raise _failure(Diagnostic("RC301", Severity.ERROR, f"Alloy unavailable: {exc}", Span.unknown("<alloy>"))) \
+            from None
     except AlloyError as exc:
-        console.print(f"error: {exc}")
-        sys.exit(2)
-    if output_format == "json":
+        if model_path is None:
+            raise _failure(Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the meta-model: {exc}",
+                                      Span.unknown("<alloy>"),
+                                      notes=("this is a bug in reconf: please report it",))) from None
+        shown = next(reversed(sources.texts))
+        where = Span(shown, exc.line, exc.column, exc.line, exc.column + 1) if exc.line else Span.unknown(shown)
+        raise _failure(Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the model: {exc.message}", where)) \
+            from None
+    if output_format is OutputFormat.JSON:
         click.echo(json.dumps(report.to_json(), indent=2))
     else:
         _render_text(report, console)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Protocol
+from typing import Any, Callable, Mapping, NamedTuple, Protocol
 
 from .errors import AlloyError, AlloyUnavailable
 from .jvm import ensure_jvm
@@ -18,32 +18,41 @@ from .split import Split, skeleton_key, split_module
 VFS = "/alloyvfs/"
 # parsed skeletons kept for the next modules (a plan's windows share one, a check's slices another)
 SKELETONS = 8
-DEFAULT_SOLVER = "glucose"
-FALLBACK_SOLVER = "sat4j"
 
-# Friendly names for A4Options.SatSolver; the jar's own ids work too.
-SOLVER_ALIASES = {
-    "glucose": "glucose(jni)",
-    "glucose41": "glucose 4.1(jni)",
-    "minisat": "minisat(jni)",
-    "minisatprover": "minisatprover(jni)",
-    "lingeling": "lingeling(jni)",
-    "plingeling": "plingeling(jni)",
-    "cryptominisat": "cryptominisat(jni)",
-    "sat4j": "sat4j",
-}
+
+class Solver(NamedTuple):
+    """A SAT solver reconf offers: the name `--solver` takes, the analyzer's id for it
+    (A4Options.SatSolver), and the Kodkod SATFactory constant of a native one (None: pure Java)."""
+
+    name: str
+    analyzer: str
+    native: str | None
+
+
+# The one table of solvers: every command's `--solver` choices, the README's list (a test holds
+# it to this) and the fallback come from here; the first is the default. Each native solver's
+# library ships in the Alloy jar and is probed before use; one that does not load falls back to
+# the pure-Java one. Not offered: plingeling (an external program the jar has for macOS only)
+# and cryptominisat (the analyzer fails on it with a NullPointerException on Linux x86-64).
+SOLVER_TABLE = (
+    Solver("glucose", "glucose(jni)", "Glucose"),
+    Solver("glucose41", "glucose 4.1(jni)", "Glucose41"),
+    Solver("lingeling", "lingeling(jni)", "Lingeling"),
+    Solver("minisat", "minisat(jni)", "MiniSat"),
+    Solver("minisatprover", "minisatprover(jni)", "MiniSatProver"),
+    Solver("sat4j", "sat4j", None),
+)
+SOLVER_NAMES = tuple(s.name for s in SOLVER_TABLE)
+DEFAULT_SOLVER = SOLVER_TABLE[0].name
+FALLBACK_SOLVER = next(s.analyzer for s in SOLVER_TABLE if s.native is None)
+
+# name -> A4Options.SatSolver id; the jar's own ids work too (through the Python API)
+SOLVER_ALIASES = {s.name: s.analyzer for s in SOLVER_TABLE}
 
 Tuples = set[tuple[str, ...]]
 
 # A4Options.SatSolver id -> the kodkod SATFactory constant behind it (probed cheaply)
-_SAT_FACTORIES = {
-    "glucose(jni)": "Glucose",
-    "glucose 4.1(jni)": "Glucose41",
-    "minisat(jni)": "MiniSat",
-    "minisatprover(jni)": "MiniSatProver",
-    "lingeling(jni)": "Lingeling",
-    "cryptominisat(jni)": "CryptoMiniSat",
-}
+_SAT_FACTORIES = {s.analyzer: s.native for s in SOLVER_TABLE if s.native is not None}
 
 
 @dataclass
