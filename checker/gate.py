@@ -30,7 +30,7 @@ from . import formats, report
 from .cli import EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, plural, solver_option
 from .config import Configuration
 from .engines import EngineUnavailable
-from .policy import Policy, covered, coverage, ftm_names, load_policy
+from .policy import Policy, check_names, covered, coverage, ftm_names, load_policy
 from .progress import status
 from .report import ReportFormat
 
@@ -218,18 +218,18 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
         else:
             out.ok("gate.policy", name, policy.span("max-disruption"))
     degraded = degraded_steps(p)
-    for entry in policy.never_degrade:
+    for i, entry in enumerate(policy.never_degrade):
         hits = sorted((k, v) for k, v in degraded.items() if policy.forbids_degrading(*k) == entry)
         name = f"never degrade {entry}"
         if not hits:
-            out.ok("gate.policy", name, policy.span("never-degrade"))
+            out.ok("gate.policy", name, policy.entry_span("never-degrade", i))
             continue
         for (c, f), steps in hits:
             span = func_span([new, old], c, f) or new.span
             out.fail("gate.policy", f"{name} ({c}.{f})", error(
                 "RC503", f"the migration plan degrades {c}.{f} during {plural(len(steps), 'step')} "
                 f"({', '.join(map(str, steps))}); never-degrade in {policy.where} forbids it", span,
-                related=(Related(policy.span("never-degrade"), f"never-degrade includes {entry!r}"),),
+                related=(Related(policy.entry_span("never-degrade", i), f"never-degrade includes {entry!r}"),),
                 notes=(f"plan: {p.summary()}",)))
 
 
@@ -288,13 +288,17 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], output_format: Re
       never-degrade = [...]     COMPONENT.FUNCTIONALITY or FUNCTIONALITY never degraded
       keep-ftm = true | [...]   faults covered by these components' (or FTMs') mechanisms stay covered
       strategy = "default"      planning strategy
+    Every name must name something in NEW or OLD (RC508).
     Exit codes: 0 pass, 1 fail, 2 bad input.
     """
-    policy = load_policy(policy_file)
+    policy = load_policy(policy_file, sources=sources)
     with revisions() as revs:
         try:
             old = load([resolve(base, revs)], sources)
             new = load([resolve(head, revs)], sources)
+            wrong = check_names(policy, old, new)
+            if wrong:
+                raise DiagnosticError(wrong)
         except DiagnosticError as e:
             rename_sources(sources, revs)
             raise DiagnosticError([revs.diagnostic(d) for d in e.diagnostics]) from None
