@@ -3,6 +3,9 @@
 It passes when NEW is safe and a verified migration plan from OLD to NEW exists within the
 policy (`checker.policy`): disruption at most max-disruption, no never-degrade functionality
 degraded at any step, no fault covered in OLD left uncovered by NEW's FTMs (keep-ftm).
+When OLD itself is not safe no plan from it exists: the gate fails (RC509) and says how to let
+a fix through; with `--allow-unsafe-base` (or `allow-unsafe-base = true`) a safe NEW passes
+alone, with a warning (RC510) that it must be deployed by other means.
 
 OLD, NEW and the policy are paths, or `git:REF:PATH` read from the repository of the working
 directory without checking it out (PATH from the repository root, or from here when it starts
@@ -24,14 +27,14 @@ from typing import IO, Any, Iterator, Optional
 import click
 
 from reconf_dsl import ir
-from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
 from reconf_dsl.ir import System
 from reconf_dsl.loader import MAX_FILE_BYTES, Sources, display_path, load
 from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 
 from . import formats, report
-from .cli import EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, plural, solver_option
+from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, plural, solver_option
 from .config import Configuration
 from .engines import EngineUnavailable
 from .policy import Policy, check_names, covered, coverage, ftm_names, load_policy
@@ -301,11 +304,17 @@ class Outcome:
     plan: Any = None
     plan_doc: Optional[dict[str, Any]] = None
     safe: Optional[bool] = None
+    base_safe: Optional[bool] = None
     engines: dict[str, Any] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
         return not any(d.is_error for d in self.diagnostics)
+
+    @property
+    def nothing_to_do(self) -> bool:
+        """A pass whose plan has no step: NEW is what is deployed."""
+        return self.passed and self.plan is not None and not self.plan.steps
 
     def fail(self, suite: str, name: str, d: Diagnostic) -> None:
         self.diagnostics.append(d)
@@ -424,7 +433,41 @@ def alloy_evidence(p: Any, solver: str) -> dict[str, Any]:
                                       notes=("this is a bug in reconf: please report it",))) from None
 
 
-def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str) -> Outcome:
+UNSAFE_BASE_CASE = "the base is safe, so a migration from it can be planned"
+
+
+def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str, Any]], allowed: Optional[str],
+                         out: Outcome) -> None:
+    """OLD is not safe, NEW is: no plan from the deployed configuration exists. `allowed` says
+    what lets a fix through (the flag or the policy key), None when nothing does."""
+    shown = [f"{c}.{f} assumes {a}, which does not hold" for c, f, a in failing]
+    reasons = shown[:10] + ([f"… and {len(shown) - 10} more"] if len(shown) > 10 else [])
+    related = tuple(Related(s, f"in the base, {c}.{f} assumes {a}, which does not hold")
+                    for c, f, a in failing[:10] if (s := func_span([old], c, f)) is not None)
+    deploy = ("deployed by other means (a restart, a maintenance window), as no safe step-by-step plan from "
+              "the deployed configuration exists")
+    if allowed is None:
+        out.fail("gate.policy", UNSAFE_BASE_CASE, error(
+            "RC509", f"the base {old.name} is not safe ({plural(len(failing), 'assumption')} "
+            f"{'does' if len(failing) == 1 else 'do'} not hold), so no safe migration from the deployed "
+            f"configuration exists; {new.name} is safe", old.span, related=related,
+            notes=(*reasons, "if this change fixes the base, let it through with --allow-unsafe-base or "
+                   "allow-unsafe-base = true in the policy: the gate then judges the head alone, and the change "
+                   "must be " + deploy)))
+        return
+    out.diagnostics.append(warning(
+        "RC510", f"the base {old.name} is not safe ({plural(len(failing), 'assumption')} "
+        f"{'does' if len(failing) == 1 else 'do'} not hold): {new.name} was judged alone and is safe; "
+        f"{allowed} lets it through, but no safe plan from the deployed configuration exists: deploy it by "
+        "other means", old.span, related=related,
+        notes=(*reasons, "the change must be " + deploy,
+               "max-disruption and never-degrade were not checked: they judge a plan")))
+    out.ok("gate.policy", f"{new.name} is safe alone (the base is not; {allowed})", new.span)
+
+
+def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str,
+                 allow_unsafe_base: bool = False) -> Outcome:
+    from .actions import failing_assumptions
     from .engines import judge
     out = Outcome()
     ftm_findings(old, new, policy, out)
@@ -433,11 +476,19 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
     out.safe, out.engines = judged.valid, judged.engines
     out.cases[:0] = report.assumption_cases(new.name, judged.python)
     out.diagnostics[:0] = [report.assumption_diagnostic(r) for r in judged.python.unsatisfied]
+    base_failing = failing_assumptions(old, Configuration.initial(old))
+    out.base_safe = not base_failing
     if not judged.valid:
         d = error("RC507", f"{new.name} is not safe: no migration to it is planned", new.span,
                   notes=(f"{plural(len(judged.python.unsatisfied), 'assumption')} "
-                         f"{'does' if len(judged.python.unsatisfied) == 1 else 'do'} not hold; see above",))
+                         f"{'does' if len(judged.python.unsatisfied) == 1 else 'do'} not hold; see above",)
+                  + ((f"the base {old.name} is not safe either",) if base_failing else ()))
         out.fail("gate.policy", "a verified migration plan exists", d)
+        return out
+    if base_failing:
+        allowed = ("--allow-unsafe-base" if allow_unsafe_base else
+                   f"allow-unsafe-base = true in {policy.where}" if policy.allow_unsafe_base else None)
+        unsafe_base_findings(old, new, base_failing, allowed, out)
         return out
     plan_findings(old, new, policy, engine != "python", solver, out)
     return out
@@ -452,12 +503,17 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
 @click.option("--policy", "policy_file", metavar="FILE",
               help="policy TOML, a path or git:REF:PATH (default: reconf.toml, or [tool.reconf] in pyproject.toml, "
                    "found from here)")
+@click.option("--allow-unsafe-base", is_flag=True,
+              help="when OLD is not safe (no plan from it exists), pass a safe NEW alone, with a warning: the fix "
+                   "must be deployed by other means")
+@click.option("--detailed-exitcode", is_flag=True,
+              help="exit 0 when there is nothing to do, 3 when the change is safe and has steps (1 fail, 2 bad input)")
 @format_option
 @engine_option
 @solver_option
 @guarded("gate")
-def gate_cmd(base: str, head: str, policy_file: Optional[str], output_format: ReportFormat, engine: str, solver: str,
-             sources: Sources) -> None:
+def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
+             output_format: ReportFormat, engine: str, solver: str, sources: Sources) -> None:
     """Pass when NEW is safe and a verified migration plan from OLD to NEW exists within the policy.
 
     \b
@@ -466,8 +522,10 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], output_format: Re
       never-degrade = [...]     COMPONENT.FUNCTIONALITY or FUNCTIONALITY never degraded
       keep-ftm = true | [...]   faults covered by these components' (or FTMs') mechanisms stay covered
       strategy = "default"      planning strategy
+      allow-unsafe-base = true  as --allow-unsafe-base
     Every name must name something in NEW or OLD (RC508).
-    Exit codes: 0 pass, 1 fail, 2 bad input.
+    Exit codes: 0 pass, 1 fail, 2 bad input; with --detailed-exitcode,
+    0 nothing to do, 3 a safe change with steps.
     """
     with revisions() as revs:
         try:
@@ -481,21 +539,25 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], output_format: Re
             rename_sources(sources, revs)
             raise DiagnosticError([revs.diagnostic(d) for d in e.diagnostics]) from None
         rename_sources(sources, revs)
-        out = judge_change(old, new, policy, engine, solver)
+        out = judge_change(old, new, policy, engine, solver, allow_unsafe_base)
         out.diagnostics = [revs.diagnostic(d) for d in out.diagnostics]
         out.cases = [replace(c, span=revs.span(c.span)) if c.span else c for c in out.cases]
     verdict = "pass" if out.passed else "fail"
     n = sum(1 for d in out.diagnostics if d.is_error)
     plan_line = f"; plan: {out.plan.summary()}" if out.plan is not None else ""
+    if out.passed and out.plan is None:
+        plan_line = "; the base is not safe: no plan from it, deploy by other means"
     line = f"{base} → {head}" + (f": {new.name} is safe{plan_line}, within {policy.where}" if out.passed else
                                  f": {plural(n, 'reason')}{plan_line}")
     human = f"[bold green]✓ gate passed[/] {line}" if out.passed else f"[bold red]✗ gate failed[/] {line}"
     rep = formats.Report("gate", verdict, out.diagnostics, out.cases, f"gate {verdict}: {line}")
     emit_report(rep, output_format, sources,
                 lambda: report.document("gate", verdict, out.diagnostics, base=base, head=head,
-                                        policy=policy.to_json(), safe=out.safe, engines=out.engines,
-                                        plan=out.plan_doc), human)
-    sys.exit(EXIT_OK if out.passed else EXIT_UNSAFE)
+                                        policy=policy.to_json(), safe=out.safe, base_safe=out.base_safe,
+                                        engines=out.engines, plan=out.plan_doc), human)
+    if not out.passed:
+        sys.exit(EXIT_UNSAFE)
+    sys.exit(EXIT_CHANGES if detailed_exitcode and not out.nothing_to_do else EXIT_OK)
 
 
 def rename_sources(sources: Sources, revs: Revisions) -> None:
