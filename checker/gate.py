@@ -22,7 +22,7 @@ import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass, field, replace
-from typing import IO, Any, Iterator, Optional
+from typing import IO, Any, Callable, Iterator, Optional
 
 import click
 
@@ -34,9 +34,10 @@ from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 
 from . import formats, report
-from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, plural, solver_option
+from .cli import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, emit_report, engine_option, format_option, guarded,
+                  plural, solver_option, write_atomically)
 from .config import Configuration
-from .engines import EngineUnavailable
+from .engines import EngineUnavailable, EnginesDisagree
 from .policy import Policy, check_names, covered, coverage, ftm_names, load_policy
 from .progress import status
 from .report import ReportFormat
@@ -494,6 +495,51 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
     return out
 
 
+# ---------------------------------------------------------------- reports
+
+REPORT_FORMATS = ("json", "sarif", "github", "junit", "markdown")
+
+
+def parse_reports(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> list[tuple[str, str]]:
+    out = []
+    for v in values:
+        fmt, sep, path = v.partition("=")
+        if not sep or fmt not in REPORT_FORMATS or not path:
+            raise click.BadParameter(f"'{v}' is not FORMAT=FILE with FORMAT one of {', '.join(REPORT_FORMATS)}")
+        out.append((fmt, path))
+    return out
+
+
+def write_reports(reports: list[tuple[str, str]], render: Callable[[str], str]) -> list[Diagnostic]:
+    """Each report `render`ed in its format and written (atomically); what could not be written."""
+    failed = []
+    for fmt, path in reports:
+        try:
+            write_atomically(path, render(fmt))
+        except OSError as e:
+            failed.append(error("RC511", f"cannot write the {fmt} report {path}: {e.strerror or e}",
+                                Span.unknown("<command line>")))
+    return failed
+
+
+def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic], base: str, head: str) -> None:
+    """Bad input: every report file still holds a valid document, which says why nothing was judged."""
+    from .gate_comment import failure_comment
+    n = sum(1 for d in diags if d.is_error)
+    summary = f"{n} error{'s' if n != 1 else ''}"
+
+    def render(fmt: str) -> str:
+        if fmt == "json":
+            return report.document("gate", "error", diags, base=base, head=head) + "\n"
+        if fmt == "markdown":
+            return failure_comment(base, head, diags)
+        return formats.render(formats.Report("gate", "error", diags, formats.failure_cases("gate", diags), summary),
+                              fmt)
+
+    for d in write_reports(reports, render):
+        click.echo(f"reconf gate: {d.message}", err=True)
+
+
 # ---------------------------------------------------------------- the command
 
 @click.command("gate")
@@ -508,12 +554,16 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
                    "must be deployed by other means")
 @click.option("--detailed-exitcode", is_flag=True,
               help="exit 0 when there is nothing to do, 3 when the change is safe and has steps (1 fail, 2 bad input)")
+@click.option("--report", "reports", multiple=True, metavar="FORMAT=FILE", callback=parse_reports,
+              help="also write the report as FORMAT (json, sarif, github, junit, markdown: a pull-request comment) "
+                   "to FILE; repeatable, so that one run writes every output CI needs")
 @format_option
 @engine_option
 @solver_option
 @guarded("gate")
 def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             output_format: ReportFormat, engine: str, solver: str, sources: Sources) -> None:
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
+             sources: Sources) -> None:
     """Pass when NEW is safe and a verified migration plan from OLD to NEW exists within the policy.
 
     \b
@@ -527,6 +577,36 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     Exit codes: 0 pass, 1 fail, 2 bad input; with --detailed-exitcode,
     0 nothing to do, 3 a safe change with steps.
     """
+    try:
+        run_gate(base, head, policy_file, allow_unsafe_base, detailed_exitcode, reports, output_format, engine,
+                 solver, sources)
+    except (DiagnosticError, Failure) as e:
+        write_failure_reports(reports, e.diagnostics, base, head)
+        raise
+    except (EngineUnavailable, EnginesDisagree) as e:
+        write_failure_reports(reports, [e.diagnostic], base, head)
+        raise
+    except (click.exceptions.Exit, click.ClickException):
+        raise
+    except Exception as e:  # the guard reports it; the files must say so too
+        if not os.environ.get("RECONF_DEBUG"):
+            write_failure_reports(reports, [report.internal_error(f"internal error: {type(e).__name__}: {e}")],
+                                  base, head)
+        raise
+
+
+def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -> Policy:
+    if policy_file is None or not policy_file.startswith(GIT_PREFIX):
+        return load_policy(policy_file, sources=sources)
+    path = resolve(policy_file, revs, includes=False)
+    return load_policy(path, shown=revs.rename(display_path(path)), origin=split_ref(policy_file)[0],
+                       sources=sources)
+
+
+def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
+             sources: Sources) -> None:
+    from .gate_comment import comment
     with revisions() as revs:
         try:
             policy = gate_policy(policy_file, revs, sources)
@@ -551,10 +631,25 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
                                  f": {plural(n, 'reason')}{plan_line}")
     human = f"[bold green]✓ gate passed[/] {line}" if out.passed else f"[bold red]✗ gate failed[/] {line}"
     rep = formats.Report("gate", verdict, out.diagnostics, out.cases, f"gate {verdict}: {line}")
-    emit_report(rep, output_format, sources,
-                lambda: report.document("gate", verdict, out.diagnostics, base=base, head=head,
-                                        policy=policy.to_json(), safe=out.safe, base_safe=out.base_safe,
-                                        engines=out.engines, plan=out.plan_doc), human)
+
+    def json_doc() -> str:
+        return report.document("gate", verdict, out.diagnostics, base=base, head=head, policy=policy.to_json(),
+                               safe=out.safe, base_safe=out.base_safe, engines=out.engines, plan=out.plan_doc)
+
+    def render(fmt: str) -> str:
+        if fmt == "json":
+            return json_doc() + "\n"
+        if fmt == "markdown":
+            summary = (f"{new.name} is safe, within {policy.where}" if out.passed else
+                       f"{plural(n, 'reason')} the change does not pass")
+            return comment(verdict=verdict, base=base, head=head, diagnostics=out.diagnostics, summary=summary,
+                           plan=out.plan)
+        return formats.render(rep, fmt)
+
+    failed = write_reports(reports, render)
+    if failed:
+        raise DiagnosticError(failed)
+    emit_report(rep, output_format, sources, json_doc, human)
     if not out.passed:
         sys.exit(EXIT_UNSAFE)
     sys.exit(EXIT_CHANGES if detailed_exitcode and not out.nothing_to_do else EXIT_OK)
@@ -571,11 +666,3 @@ def rename_sources(sources: Sources, revs: Revisions) -> None:
         text = sources.texts.pop(key)
         if new not in own:
             sources.texts[new] = text
-
-
-def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -> Policy:
-    if policy_file is None or not policy_file.startswith(GIT_PREFIX):
-        return load_policy(policy_file, sources=sources)
-    path = resolve(policy_file, revs, includes=False)
-    return load_policy(path, shown=revs.rename(display_path(path)), origin=split_ref(policy_file)[0],
-                       sources=sources)

@@ -1,11 +1,16 @@
-"""`reconf gate` as a CI pipeline runs it: a fix of an unsafe base, --detailed-exitcode."""
+"""`reconf gate` as a CI pipeline runs it: a fix of an unsafe base, --detailed-exitcode, every
+output from one run (--report), and the pull-request comment's picture of what changes."""
 from __future__ import annotations
 
 import json
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
+from bench.gen import generate
+from checker import gate_comment
 from checker.cli import EXIT_CHANGES, main
 from tests.examples_table import BY_NAME
 from tests.test_formats import validate_sarif
@@ -75,3 +80,106 @@ def test_detailed_exitcode(here) -> None:
     assert gate("--base", CHATTER, "--head", REDUNDANT)[0] == 0
     (here / "reconf.toml").write_text("max-disruption = 0\n", encoding="utf-8")
     assert gate("--base", CHATTER, "--head", REDUNDANT, "--detailed-exitcode")[0] == 1      # over the policy
+
+
+# ---------------------------------------------------------------- every output from one run
+
+def test_one_run_writes_every_report(here) -> None:
+    (here / "out").mkdir()
+    code, out, _ = gate("--base", CHATTER, "--head", SLOW, "--report", "sarif=out/gate.sarif",
+                        "--report", "markdown=gate.md", "--report", "junit=gate.xml", "--report", "json=gate.json",
+                        fmt="github")
+    assert code == 1
+    assert out.startswith("::error file=") and "RC201" in out
+    sarif = validate_sarif((here / "out" / "gate.sarif").read_text(encoding="utf-8"))
+    assert {r["ruleId"] for r in sarif["runs"][0]["results"]} == {"RC201", "RC507"}
+    assert ET.fromstring((here / "gate.xml").read_text(encoding="utf-8")).get("failures") == "2"
+    assert json.loads((here / "gate.json").read_text(encoding="utf-8"))["verdict"] == "fail"
+    md = (here / "gate.md").read_text(encoding="utf-8")
+    assert md.splitlines()[0] == gate_comment.marker(SLOW)
+    assert "architecture gate failed" in md and "**RC201**" in md
+
+
+def test_reports_stay_valid_on_bad_input(here) -> None:
+    (here / "reconf.toml").write_text('never-degrade = ["detectt"]\n', encoding="utf-8")
+    code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT, "--report", "sarif=gate.sarif",
+                        "--report", "markdown=gate.md", "--report", "junit=gate.xml", "--report", "json=gate.json")
+    assert code == 2
+    assert json.loads(out)["verdict"] == "error"
+    (r,) = validate_sarif((here / "gate.sarif").read_text(encoding="utf-8"))["runs"][0]["results"]
+    assert r["ruleId"] == "RC508"
+    assert ET.fromstring((here / "gate.xml").read_text(encoding="utf-8")).get("errors") == "1"
+    assert json.loads((here / "gate.json").read_text(encoding="utf-8"))["diagnostics"][0]["code"] == "RC508"
+    md = (here / "gate.md").read_text(encoding="utf-8")
+    assert md.startswith(gate_comment.marker(REDUNDANT)) and "could not judge" in md and "RC508" in md
+
+
+def test_a_report_that_cannot_be_written_is_bad_input(here) -> None:
+    code, out, _ = gate("--base", CHATTER, "--head", CHATTER, "--report", "sarif=no/such/dir/gate.sarif")
+    assert code == 2
+    (d,) = json.loads(out)["diagnostics"]
+    assert d["code"] == "RC511" and "no/such/dir/gate.sarif" in d["message"]
+
+
+def test_a_bad_report_option_is_a_usage_error(here) -> None:
+    code, _, err = gate("--base", CHATTER, "--head", CHATTER, "--report", "pdf=gate.pdf")
+    assert code == 2 and "FORMAT=FILE" in err
+
+
+# ---------------------------------------------------------------- the picture of what changes
+
+@pytest.fixture(scope="module")
+def dag300(tmp_path_factory) -> tuple[Path, Path]:
+    d = tmp_path_factory.mktemp("dag")
+    text = generate("dag", 300, version=True)
+    (d / "base.arch").write_text(text, encoding="utf-8")
+    # c150 runs with other arguments: a new process, so the plan replaces it
+    changed = text.replace('-r __node:=c150"', '-r __node:=c150 --log-level debug"', 1)
+    assert changed != text
+    (d / "head.arch").write_text(changed, encoding="utf-8")
+    return d / "base.arch", d / "head.arch"
+
+
+def mermaid_blocks(md: str) -> list[str]:
+    return [b.split("```", 1)[0] for b in md.split("```mermaid\n")[1:]]
+
+
+def test_the_picture_shows_the_changed_neighbourhood_of_a_300_component_system(here, dag300) -> None:
+    from checker.pictures import plan_picture
+    from checker.planning import plan_migrate
+    from codegen.graph import to_mermaid
+    from reconf_dsl.loader import load
+    base, head = dag300
+    whole = to_mermaid(plan_picture(plan_migrate(load([str(base)]), load([str(head)]))))
+    assert len(whole) > gate_comment.MERMAID_LIMIT        # the whole system would not be drawn at all
+    code, _, err = gate("--base", str(base), "--head", str(head), "--report", "markdown=gate.md")
+    assert code == 0, err
+    md = (here / "gate.md").read_text(encoding="utf-8")
+    (block,) = mermaid_blocks(md)
+    assert len(block) < 5_000 and len(md) < gate_comment.COMMENT_LIMIT
+    assert '("c150' in block and '("c150@new' in block
+    shown = block.count('("')                              # components are drawn with round brackets
+    assert 3 <= shown < 30
+    assert "(15 of 300 components" in md
+
+
+def test_a_picture_over_the_limit_is_left_out_and_said(here, dag300, monkeypatch) -> None:
+    monkeypatch.setattr(gate_comment, "MERMAID_LIMIT", 500)
+    base, head = dag300
+    code, _, _ = gate("--base", str(base), "--head", str(head), "--report", "markdown=gate.md")
+    assert code == 0
+    md = (here / "gate.md").read_text(encoding="utf-8")
+    assert not mermaid_blocks(md)
+    assert "over Mermaid's limit of 500" in md and "reconf graph-plan" in md
+
+
+def test_neighbourhood_keeps_changed_components_their_topics_and_the_components_on_them() -> None:
+    from codegen.graph import GraphEdge, GraphNode, Picture
+    pic = Picture("p", [GraphNode("c:a", "a", "ellipse", "created"), GraphNode("c:b", "b", "ellipse"),
+                        GraphNode("c:far", "far", "ellipse"), GraphNode("t:x", "x", "box"),
+                        GraphNode("t:y", "y", "box"), GraphNode("e:env", "env", "note")],
+                  [GraphEdge("c:a", "t:x", "out", "created"), GraphEdge("t:x", "c:b", "in"),
+                   GraphEdge("c:b", "t:y", "out"), GraphEdge("t:y", "c:far", "in")])
+    part = gate_comment.neighbourhood(pic)
+    assert [n.id for n in part.nodes] == ["c:a", "c:b", "t:x"]
+    assert [(e.source, e.target) for e in part.edges] == [("c:a", "t:x"), ("t:x", "c:b")]
