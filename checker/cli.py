@@ -261,16 +261,29 @@ def write_atomically(path: str, text: str) -> None:
 
 PICTURE_FORMATS = ["dot", "svg", "mermaid", "markdown"]
 picture_format_option = click.option(
-    "--format", "picture_format", type=click.Choice(PICTURE_FORMATS), default="dot", show_default=True,
+    "--format", "picture_format", type=click.Choice(PICTURE_FORMATS), default=None,
     help="dot (Graphviz source), svg (through Graphviz `dot`), mermaid, or markdown (Mermaid in a fenced block, "
-         "for pull-request comments)")
+         "for pull-request comments)  [default: what -o's extension says (.dot/.gv, .svg, .mmd, .md), else dot]")
+force_option = click.option(
+    "--force", is_flag=True,
+    help="draw SVG however large the picture (Graphviz can take minutes beyond a few hundred nodes)")
 
 
-def draw(pics: list[Any], picture_format: str) -> str:
-    """Pictures as one text: DOT graphs one after the other, SVG documents, or Mermaid blocks."""
+def picture_format_for(picture_format: Optional[str], output: Optional[str]) -> str:
+    """--format, or what -o's extension says; a contradiction between them is RC013."""
+    from .pictures import format_of_output
+    try:
+        return format_of_output(picture_format, output)
+    except ValueError as e:
+        raise Failure([Diagnostic("RC013", Severity.ERROR, str(e), Span.unknown("<command line>"))]) from None
+
+
+def draw(pics: list[Any], picture_format: str, force: bool = False) -> str:
+    """Pictures as one text: DOT graphs one after the other, SVG documents, or Mermaid blocks.
+    SVG of a picture over SVG_MAX_NODES nodes is refused (RC012) unless `force`."""
     from codegen.graph import to_dot, to_mermaid
 
-    from .pictures import GraphvizUnavailable, to_svg
+    from .pictures import SVG_MAX_NODES, GraphvizUnavailable, largest, to_svg
     if picture_format == "mermaid" and len(pics) == 1:
         return to_mermaid(pics[0])
     if picture_format in ("mermaid", "markdown"):
@@ -279,40 +292,69 @@ def draw(pics: list[Any], picture_format: str) -> str:
     dots = [to_dot(p) for p in pics]
     if picture_format == "dot":
         return "".join(dots)
+    nodes = largest(pics)
+    if nodes > SVG_MAX_NODES and not force:
+        raise Failure([Diagnostic(
+            "RC012", Severity.ERROR,
+            f"the picture has {nodes:,} nodes; Graphviz `dot` lays out up to {SVG_MAX_NODES} in seconds but takes minutes "
+            "beyond a few hundred (over 10 at 1,000 components), so no SVG is drawn",
+            Span.unknown("<graphviz>"),
+            notes=("write the DOT source with --format dot and render it yourself (`dot -Tsvg`, or `sfdp -Tsvg` "
+                   "for a large graph), draw it as --format mermaid, or pass --force to wait for `dot`",))])
     try:
-        return "".join(to_svg(d) for d in dots)
+        with status(f"drawing {nodes:,} nodes with Graphviz dot…") as say:
+            out = []
+            for i, d in enumerate(dots, 1):
+                if len(dots) > 1:
+                    say(f"drawing picture {i} of {len(dots)} ({nodes:,} nodes at most) with Graphviz dot…")
+                out.append(to_svg(d))
+        return "".join(out)
     except GraphvizUnavailable as e:
         raise Failure([Diagnostic("RC011", Severity.ERROR, str(e), Span.unknown("<graphviz>"),
                                   notes=("install Graphviz (e.g. `apt-get install graphviz` or `brew install graphviz`), "
                                          "or use --format dot, mermaid or markdown",))]) from None
 
 
-def write_pictures(texts: list[str], picture_format: str, output: Optional[str]) -> None:
-    """One text to stdout or OUTPUT; several to OUTPUT's stem with -01, -02… when OUTPUT is given."""
+def write_pictures(texts: list[str], picture_format: str, output: Optional[str], numbered: bool = False) -> None:
+    """One text to stdout or OUTPUT. With `numbered` (a series, one picture per step) the texts go
+    to OUTPUT's stem with -01, -02…, and files of an earlier, longer series there are removed."""
+    from .pictures import series, stale
     if not output:
         click.echo("".join(texts) if picture_format in ("dot", "svg") else "\n".join(texts), nl=False)
         return
-    if len(texts) == 1:
-        write_atomically(output, texts[0])
+    if not numbered:
+        write_atomically(output, "".join(texts) if picture_format in ("dot", "svg") else "\n".join(texts))
         console().print(f"wrote {output}")
         return
-    stem, ext = os.path.splitext(output)
-    for i, text in enumerate(texts, 1):
-        write_atomically(f"{stem}-{i:02d}{ext}", text)
-    console().print(f"wrote {stem}-01{ext} … {stem}-{len(texts):02d}{ext}")
+    names = series(output, len(texts))
+    for name, text in zip(names, texts):
+        write_atomically(name, text)
+    console().print(f"wrote {names[0]}" + (f" … {names[-1]}" if len(names) > 1 else ""))
+    removed = []
+    for name in stale(output, names):
+        try:
+            os.unlink(name)
+            removed.append(name)
+        except OSError as e:
+            console().print(f"[yellow]could not remove[/] {name}, a step file of an earlier plan: {e.strerror}")
+    if removed:
+        shown = ", ".join(removed) if len(removed) <= 3 else f"{removed[0]} … {removed[-1]}"
+        console().print(f"removed {plural(len(removed), 'step file')} of an earlier, longer plan: {shown}")
 
 
 @main.command()
 @files_argument
 @picture_format_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to a file instead of stdout")
+@force_option
 @guarded("graph")
-def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], sources: Sources,
-          output_format: OutputFormat = OutputFormat.TEXT) -> None:
+def graph(files: tuple[str, ...], picture_format: Optional[str], output: Optional[str], force: bool,
+          sources: Sources, output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Draw the architecture: DOT in the rqt_graph look (nodes ellipses, topics boxes), SVG, or Mermaid."""
     from .pictures import picture
+    fmt = picture_format_for(picture_format, output)
     system = load(list(files), sources)
-    write_pictures([draw([picture(system)], picture_format)], picture_format, output)
+    write_pictures([draw([picture(system)], fmt, force)], fmt, output)
 
 
 @main.command("graph-plan")
@@ -324,15 +366,19 @@ def graph(files: tuple[str, ...], picture_format: str, output: Optional[str], so
 @click.option("--strategy", type=click.Choice(["default", "paper", "exhaustive"]), default="default",
               show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
-              help="write to a file (with --steps and dot or svg: FILE-01.EXT, FILE-02.EXT, …)")
+              help="write to a file (with --steps and dot or svg: FILE-01.EXT, FILE-02.EXT, …, and the "
+                   "numbered files of an earlier, longer plan removed)")
+@force_option
 @guarded("graph")
-def graph_plan(old: str, new: str, picture_format: str, each_step: bool, strategy: str, output: Optional[str],
-               sources: Sources, output_format: OutputFormat = OutputFormat.TEXT) -> None:
+def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: bool, strategy: str,
+               output: Optional[str], force: bool, sources: Sources,
+               output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Draw the migration plan from OLD to NEW (paths or git:REF:PATH): created green, degraded
     orange, removed red; one annotated picture, or one per step with --steps."""
     from .gate import resolve, revisions
     from .pictures import plan_picture, step_pictures
     from .planning import NoSafePlan, plan_migrate
+    fmt = picture_format_for(picture_format, output)
     with revisions() as revs:
         a, b = load([resolve(old, revs)], sources), load([resolve(new, revs)], sources)
     try:
@@ -344,11 +390,9 @@ def graph_plan(old: str, new: str, picture_format: str, each_step: bool, strateg
     pics = step_pictures(p) if each_step else [plan_picture(p)]
     if not pics:
         pics = [plan_picture(p, f"{b.name}: nothing to do")]
-    if each_step and output and picture_format in ("dot", "svg"):
-        texts = [draw([pic], picture_format) for pic in pics]
-    else:
-        texts = [draw(pics, picture_format)]
-    write_pictures(texts, picture_format, output)
+    numbered = bool(each_step and output and fmt in ("dot", "svg"))
+    texts = [draw([pic], fmt, force) for pic in pics] if numbered else [draw(pics, fmt, force)]
+    write_pictures(texts, fmt, output, numbered)
 
 
 def _register() -> None:

@@ -2,6 +2,8 @@
 plans → one picture per step, or one picture of the whole plan."""
 from __future__ import annotations
 
+import os
+import re
 import shutil
 import subprocess
 from typing import Any, Optional
@@ -12,8 +14,81 @@ from reconf_dsl.ir import System
 from .config import Configuration, Role
 
 
+# Graphviz `dot` takes time that grows steeply with a picture's nodes (components, connectors,
+# environment inputs), and more on some shapes than others. Measured on systems of
+# `python -m bench.gen` (Graphviz 2.43, a 2-core machine): at about 300 nodes every shape took
+# under 1.2 s; at about 400, 2-3 s (chain, cycle, DAG); at about 500, 0.9 s (DAG) to 18 s (chain);
+# at about 590, 8-15 s; a tree of 2,854 nodes 51 s; 1,000 components of a DAG, over 10 minutes.
+# A larger picture is drawn as SVG only when asked to be (`--force`).
+SVG_MAX_NODES = 400
+
+# What an output file's extension says of its format; the image formats reconf does not write.
+PICTURE_EXTENSIONS = {".dot": "dot", ".gv": "dot", ".svg": "svg", ".mmd": "mermaid", ".md": "markdown"}
+IMAGE_EXTENSIONS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".gif": "GIF", ".pdf": "PDF",
+                    ".ps": "PostScript", ".eps": "PostScript", ".bmp": "BMP", ".webp": "WebP",
+                    ".tif": "TIFF", ".tiff": "TIFF"}
+FORMAT_NAMES = {"dot": "Graphviz DOT source", "svg": "SVG", "mermaid": "a Mermaid diagram",
+                "markdown": "Markdown (Mermaid in a fenced block)"}
+
+
 class GraphvizUnavailable(Exception):
     """Graphviz `dot` is not installed (or failed): SVG cannot be drawn."""
+
+
+def largest(pics: list[Picture]) -> int:
+    """The most nodes of any of `pics` (what `dot` would lay out at once)."""
+    return max((len(p.nodes) for p in pics), default=0)
+
+
+def format_of_output(picture_format: Optional[str], output: Optional[str]) -> str:
+    """The format to write: `picture_format` when given, else the one `output`'s extension says,
+    else dot. Raises ValueError (its text in the user's words) when the two contradict, or the
+    extension names an image format reconf does not write."""
+    stem, ext = os.path.splitext(output or "")
+    said = PICTURE_EXTENSIONS.get(ext.lower())
+    image = IMAGE_EXTENSIONS.get(ext.lower())
+    if image is not None:
+        given = f" (--format {picture_format} writes {FORMAT_NAMES[picture_format]})" if picture_format else ""
+        right = next(e for e, f in PICTURE_EXTENSIONS.items() if f == (picture_format or "svg"))
+        raise ValueError(f"-o {output} asks for {image}, which reconf does not draw{given}; name the file "
+                         f"{stem}{right}, or write {stem}.dot and render it with "
+                         f"`dot -T{ext[1:].lower()} {stem}.dot -o {output}`")
+    if picture_format is None:
+        return said or "dot"
+    if said is not None and said != picture_format:
+        right = next(e for e, f in PICTURE_EXTENSIONS.items() if f == picture_format)
+        raise ValueError(f"-o {output} says {FORMAT_NAMES[said]}, but --format {picture_format} writes "
+                         f"{FORMAT_NAMES[picture_format]}; name the file {stem}{right}, "
+                         f"or leave out --format to write {FORMAT_NAMES[said]}")
+    return picture_format
+
+
+def series(output: str, count: int) -> list[str]:
+    """The files of a series of `count` pictures written to `output`: STEM-01.EXT, STEM-02.EXT, …"""
+    stem, ext = os.path.splitext(output)
+    return [f"{stem}-{i:02d}{ext}" for i in range(1, count + 1)]
+
+
+def stale(output: str, written: list[str]) -> list[str]:
+    """Files of an earlier series to `output` that this one did not write: exactly STEM-NN.EXT
+    (NN as the series numbers them, 01, 02, …, 100), in the order of their numbers."""
+    stem, ext = os.path.splitext(output)
+    folder, base = os.path.split(stem)
+    pattern = re.compile(re.escape(base) + r"-(\d+)" + re.escape(ext))
+    mine = {os.path.abspath(w) for w in written}
+    found = []
+    try:
+        names = os.listdir(folder or ".")
+    except OSError:
+        return []
+    for name in names:
+        m = pattern.fullmatch(name)
+        if m is None or f"{int(m.group(1)):02d}" != m.group(1) or int(m.group(1)) < 1:
+            continue
+        path = os.path.join(folder, name)
+        if os.path.abspath(path) not in mine and os.path.isfile(path):
+            found.append((int(m.group(1)), path))
+    return [p for _, p in sorted(found)]
 
 
 def picture(system: System, config: Optional[Configuration] = None, *, title: Optional[str] = None,
