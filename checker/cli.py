@@ -24,7 +24,10 @@ from reconf_dsl.span import Span
 
 from . import formats, report
 from .config import Configuration
+from .alloy.errors import AlloyUnavailable
 from .engines import EngineUnavailable, EnginesDisagree
+from .ftm.expand import FtmRuleBroken
+from .planning.plan import BadRequest
 from .progress import status
 from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
@@ -54,6 +57,9 @@ def guarded(command: str) -> Callable[[F], F]:
             sources: Sources = kwargs.setdefault("sources", Sources())
             try:
                 return fn(*args, **kwargs)
+            except FtmRuleBroken as e:          # an unsafe architecture, as `check` judges it
+                emit_failure(command, e.diagnostics, fmt, sources)
+                sys.exit(EXIT_UNSAFE)
             except DiagnosticError as e:
                 emit_failure(command, e.diagnostics, fmt, sources)
                 sys.exit(EXIT_BAD_INPUT)
@@ -63,6 +69,12 @@ def guarded(command: str) -> Callable[[F], F]:
             except (EngineUnavailable, EnginesDisagree) as e:
                 emit_failure(command, [e.diagnostic], fmt, sources)
                 sys.exit(EXIT_BAD_INPUT)
+            except AlloyUnavailable as e:       # a missing or unstartable analyzer, wherever it was needed
+                emit_failure(command, [Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
+                                                  notes=("or use --no-alloy / --engine python",))], fmt, sources)
+                sys.exit(EXIT_BAD_INPUT)
+            except BadRequest as e:             # the user's mistake in what to plan: a usage error
+                raise click.UsageError(str(e)) from None
             except KeyboardInterrupt:
                 console().print("interrupted")
                 sys.exit(130)

@@ -21,11 +21,11 @@ from codegen.ros2 import FORMAT_VERSION
 from reconf_dsl.loader import Sources, load
 
 from . import report
-from .cli import EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from .plan_options import with_common, with_plan_options
 from .progress import status
 from .planning import NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
-from .planning.plan import degradation
+from .planning.plan import BadRequest, degradation, unknown
 from .report import OutputFormat
 
 
@@ -71,17 +71,16 @@ def replace_cmd(component: str, replacement: Optional[str], source: Optional[str
         name = replacement or component
         new = other.component(name)
         if new is None:
-            return no_plan(f"replace {component}", [f"{source} declares no component {name}"],
-                           opts["output_format"])
+            raise unknown("component", name, [c.name for c in other.components + other.versions], source)
         if system.component(new.name) is not None:
             new = dc_replace(new, name=f"{new.name}@new")
     elif new is None:
         versions = [v.name for v in system.versions if v.replaces == component]
         if len(versions) != 1:
-            return no_plan(f"replace {component}",
-                           [f"{component} has {'no' if not versions else 'several'} declared replacement "
-                            f"version{'s: ' + ', '.join(versions) if versions else ''}; say which with --with"],
-                           opts["output_format"])
+            if system.component(component) is None:
+                raise unknown("deployed component", component, [c.name for c in system.components], system.name)
+            raise BadRequest(f"{component} has {'no declared new version' if not versions else 'several: '}"
+                             f"{', '.join(versions)}; say which with --with, or take one from a file with --from")
         new = versions[0]
     label = f"replace {component} with {new if isinstance(new, str) else new.name}"
     run(label, system, lambda: plan_replace(system, component, new, opts["strategy"]), sources, **opts)
@@ -134,7 +133,8 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
 
 def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
-        target: Optional[System] = None, engine: str = "python", max_steps: int = 12) -> None:
+        target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
+        detailed_exitcode: bool = False) -> None:
     fmt = output_format
     try:
         p = make()
@@ -163,7 +163,7 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
         click.echo(json.dumps(doc, indent=2))
     else:
         show(label, p, evidence, output)
-    sys.exit(EXIT_OK)
+    sys.exit(EXIT_CHANGES if detailed_exitcode and p.steps else EXIT_OK)
 
 
 def alloy_planned(p: Plan, max_steps: int) -> Plan:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import os
 
+import pytest
 from click.testing import CliRunner
 
 from checker.cli import main
@@ -117,7 +118,28 @@ component listener""")
 
 def test_missing_version_is_explained() -> None:
     r = invoke("plan", "replace", "listener", "-f", CHATTER, "--no-alloy")
-    assert r.exit_code == 1 and "no declared replacement" in r.stderr
+    assert r.exit_code == 2 and "listener has no declared new version" in r.stderr
+
+
+@pytest.mark.parametrize("args, said", [
+    (("replace", "nosuch"), "nosuch is not a deployed component of chatter"),
+    (("replace", "talkr"), "talkr is not a deployed component of chatter (did you mean talker?)"),
+    (("remove", "listenr"), "listenr is not a deployed component of chatter (did you mean listener?)"),
+    (("replace", "talker", "--with", "listener"), "listener is deployed already"),
+    (("replace", "talker", "--with", "talker"), "talker cannot replace itself"),
+    (("replace", "talker", "--with", "talker_v9"), "talker_v9 is not a declared component of chatter"),
+])
+def test_a_mistake_in_what_to_plan_is_a_usage_error(args: tuple[str, ...], said: str) -> None:
+    """Not "no safe plan" (exit 1), which would say the change is unsafe: the user's words, exit 2."""
+    r = invoke("plan", *args, "-f", CHATTER, "--no-alloy", "--output-format", "json")
+    assert r.exit_code == 2 and said in r.stderr and "Usage:" in r.stderr and not r.stdout, r.output
+
+
+def test_detailed_exitcode_tells_a_change_from_nothing_to_do() -> None:
+    change = invoke("plan", "replace", "talker", "-f", CHATTER, "--no-alloy", "--detailed-exitcode")
+    same = invoke("plan", "migrate", CHATTER, CHATTER, "--no-alloy", "--detailed-exitcode")
+    plain = invoke("plan", "replace", "talker", "-f", CHATTER, "--no-alloy")
+    assert (change.exit_code, same.exit_code, plain.exit_code) == (3, 0, 0)
 
 
 def test_alloy_engine_matches_the_optimum() -> None:

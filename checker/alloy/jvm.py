@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import importlib.resources
 import os
+import re
 import threading
 from pathlib import Path
 
@@ -11,6 +12,8 @@ from .errors import AlloyUnavailable
 JAR_ENV = "RECONF_ALLOY_JAR"
 HEAP_ENV = "RECONF_ALLOY_XMX"
 DEFAULT_HEAP = "2g"
+MIN_HEAP_MB = 64          # the analyzer's own classes need about 40 MB
+_UNITS = {"": 1 / 2**20, "k": 1 / 1024, "m": 1, "g": 1024, "t": 1024**2}
 _INSTALL_HINT = "install it with: pip install PythonAlloyClient==0.1.4 (or set RECONF_ALLOY_JAR)"
 _JAVA_HINT = "install Java 17+ (e.g. apt-get install openjdk-17-jre-headless), set JAVA_HOME, or pip install 'reconf[jre]'"
 
@@ -66,6 +69,19 @@ def find_jvm() -> str:
     raise AlloyUnavailable(f"no Java runtime found; {_JAVA_HINT}")
 
 
+def heap() -> str:
+    """The JVM's maximum heap, from $RECONF_ALLOY_XMX (default 2g), checked here: a JVM given a
+    malformed or too small -Xmx ends the whole process (exit 1, nothing written) as it starts."""
+    value = os.environ.get(HEAP_ENV, DEFAULT_HEAP).strip()
+    m = re.fullmatch(r"(\d+)([kKmMgGtT]?)", value)
+    if m is None:
+        raise AlloyUnavailable(f"{HEAP_ENV}={value!r} is not a heap size (a number with k, m, g or t, like 2g)")
+    mb = int(m[1]) * _UNITS[m[2].lower()]
+    if mb < MIN_HEAP_MB:
+        raise AlloyUnavailable(f"{HEAP_ENV}={value} is too small for the Alloy Analyzer: at least {MIN_HEAP_MB}m")
+    return value
+
+
 def ensure_jvm() -> None:
     """Start the JVM with the Alloy jar on its class path, once (a JVM cannot restart)."""
     import jpype
@@ -76,11 +92,11 @@ def ensure_jvm() -> None:
             return
         jar = find_jar()
         jvm = find_jvm()
-        heap = os.environ.get(HEAP_ENV, DEFAULT_HEAP)
+        xmx = heap()
         try:
             jpype.startJVM(
                 jvm,
-                f"-Xmx{heap}",
+                f"-Xmx{xmx}",
                 # the serial collector: Alloy's work is one thread, and on a small machine
                 # the parallel collectors' threads compete with it (200 components: 0.3 s)
                 "-XX:+UseSerialGC",

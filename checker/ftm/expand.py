@@ -71,6 +71,11 @@ def composition_of(decl: ir.FtmDecl) -> Composition:
     return comp
 
 
+class FtmRuleBroken(DiagnosticError):
+    """An FTM rule the architecture breaks (RC407: nothing to protect): the architecture is
+    unsafe, as `reconf check` says with exit 1, not malformed input."""
+
+
 def protected_connector(system: ir.System, server: ir.Component) -> tuple[ir.Connector, ir.PortRef]:
     """The connector that carries the server's replies: its first service, else its first topic."""
     for kind in ("service", "topic"):
@@ -81,7 +86,7 @@ def protected_connector(system: ir.System, server: ir.Component) -> tuple[ir.Con
                 if ref.component == server.name:
                     return conn, ref
     span = server.ftm.span if server.ftm is not None else server.span
-    raise DiagnosticError([error("RC407", f"'{server.name}' has an FTM but serves no service or topic to protect",
+    raise FtmRuleBroken([error("RC407", f"'{server.name}' has an FTM but serves no service or topic to protect",
                                  span, notes=("attach it as server: `service /name: Type { "
                                               f"{server.name}.port -> client.port }}`",))])
 

@@ -25,7 +25,7 @@ from .default import default_steps
 from .exhaustive import exhaustive_steps
 from .improve import cost, improve
 from .paper import paper_steps
-from .plan import Goal, NoSafePlan, Plan, Problem, settle, verify
+from .plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
 
 __all__ = ["STRATEGIES", "solve", "plan_replace", "plan_remove", "plan_add", "plan_migrate"]
 
@@ -143,11 +143,18 @@ def plan_replace(system: System, old: str, new: Union[str, Component], strategy:
             system = dc_replace(system, versions=system.versions + (new,))
         new = new.name
     start = _start(system, config)
+    if old not in start.components:
+        raise unknown("deployed component", old, start.components, system.name)
     comp = system.component(new)
     if comp is None:
-        raise NoSafePlan([f"no component {new} is declared"])
-    if old not in start.components:
-        raise NoSafePlan([f"{old} is not in the system"])
+        raise unknown("declared component", new, [c.name for c in system.versions], system.name)
+    if new == old:
+        raise BadRequest(f"{old} cannot replace itself: name a new version of it")
+    if new in start.components:
+        raise BadRequest(f"{new} is deployed already: a replacement is a new version of {old} "
+                         f"(declared `component {new} replaces {old}`, or taken from another file)")
+    if comp.replaces not in (None, old):
+        raise BadRequest(f"{new} is declared as a new version of {comp.replaces}, not of {old}")
     roles = {r for r in start.roles if r[1] != old}
     roles |= {(conn, new, port) for conn, c, port in start.roles if c == old and comp.port(port) is not None}
     goal = Goal((start.components - {old}) | {new}, frozenset(roles))
@@ -158,7 +165,7 @@ def plan_remove(system: System, component: str, strategy: str = "default",
                 config: Optional[Configuration] = None) -> Plan:
     start = _start(system, config)
     if component not in start.components:
-        raise NoSafePlan([f"{component} is not in the system"])
+        raise unknown("deployed component", component, start.components, system.name)
     goal = Goal(start.components - {component}, frozenset(r for r in start.roles if r[1] != component))
     return solve(Problem(system, start, goal, removed=[component]), strategy)
 
@@ -168,9 +175,9 @@ def plan_add(system: System, component: str, strategy: str = "default", *, sourc
     """Add `component` as `source` declares it, with its attachments there."""
     comp = source.component(component)
     if comp is None:
-        raise NoSafePlan([f"{component} is not declared in {source.name}"])
+        raise unknown("component", component, [c.name for c in source.components], source.name)
     if system.component(component) is not None:
-        raise NoSafePlan([f"{system.name} already declares a component {component}"])
+        raise BadRequest(f"{system.name} already declares a component {component}: add a new one, or replace it")
     roles = {(conn.name, r.component, r.port) for conn in source.connectors for r in conn.roles
              if r.component == component}
     missing = [dc_replace(conn, publishers=(), subscribers=()) for conn in source.connectors

@@ -9,9 +9,10 @@ degraded for k steps costs w·k, and the empty plan costs 0.
 """
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass, field
 from itertools import pairwise
-from typing import Any, Optional, Sequence
+from typing import Any, Iterable, Optional, Sequence
 
 from reconf_dsl.ir import System
 
@@ -21,9 +22,21 @@ from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
 from .states import States
 
-__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "settle", "disruption", "state_weight", "run_actions", "verify",
+__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
            "degradation"]
+
+
+class BadRequest(ValueError):
+    """The change asked for is ill-posed (a component that is not there, a replacement that is
+    not a new version): the user's mistake, reported as such, not as an unsafe change."""
+
+
+def unknown(kind: str, name: str, known: Iterable[str], where: str) -> BadRequest:
+    """`name` is not a `kind` of `where`, with the closest known names."""
+    close = difflib.get_close_matches(name, sorted(known), n=3)
+    hint = f" (did you mean {' or '.join(close)}?)" if close else ""
+    return BadRequest(f"{name} is not a {kind} of {where}{hint}")
 
 
 class NoSafePlan(Exception):
