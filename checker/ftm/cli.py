@@ -17,7 +17,7 @@ from reconf_dsl.diagnostics import error
 from reconf_dsl.loader import Sources, load
 
 from ..plan_options import with_common
-from ..report import OutputFormat
+from ..report import OutputFormat, plural
 from .expand import expand, to_text
 from .library import compose
 from .select import Candidate, profile, select
@@ -108,24 +108,39 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
     sys.exit(EXIT_OK if valid else EXIT_UNSAFE)
 
 
+def columns(rows: list[list[str]], right: frozenset[int] = frozenset()) -> list[str]:
+    """Rows of cells as lines whose columns line up (two spaces between; `right`: the columns
+    aligned on the right, numbers)."""
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    return ["  ".join(c.rjust(w) if i in right else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths))).rstrip()
+            for r in rows]
+
+
 def _show(component: str, prof: Any, cands: list[Candidate], attached: Optional[str], alloy: dict[str, Any]) -> None:
+    from rich.markup import escape
+
     out = console()
     said = lambda xs: ", ".join(sorted(xs)) or "none declared"  # noqa: E731
     out.print(f"[bold]{component}[/]: faults {said(prof.faults)}; application {said(prof.application)}; "
               f"bandwidth {prof.bandwidth or 'unconstrained'}; CPUs {prof.cpus if prof.cpus is not None else 'unconstrained'}")
     valid = [c for c in cands if c.valid]
     out.print(f"\n[bold]Valid[/] ({len(valid)}), cheapest first:" if valid else "\n[bold red]No valid FTM[/]")
-    for i, c in enumerate(valid, 1):
-        comp = c.composition
-        mark = "  [green](attached)[/]" if attached == str(comp) else ""
-        out.print(f"  {i:>2}. {str(comp):<14} covers {', '.join(sorted(comp.covers)):<34} "
-                  f"CPUs {comp.cpus}  bandwidth {comp.bandwidth:<6} {c.cost[2]:>2} nodes{mark}")
+    if valid:
+        rows = [["", "FTM", "covers", "CPUs", "bandwidth", "nodes"]]
+        rows += [[f"{i}.", str(c.composition), ", ".join(sorted(c.composition.covers)), str(c.composition.cpus),
+                  c.composition.bandwidth, str(c.cost[2])] for i, c in enumerate(valid, 1)]
+        lines = columns(rows, frozenset({0, 3, 5}))
+        out.print("  " + escape(lines[0]), style="dim")
+        for line, c in zip(lines[1:], valid):
+            mark = "  [green](attached)[/]" if attached == str(c.composition) else ""
+            out.print("  " + escape(line) + mark)
     out.print(f"\n[bold]Ruled out[/] ({len(cands) - len(valid)}):")
-    for c in cands:
-        if c.valid:
-            continue
-        mark = "  [red](attached)[/]" if attached == str(c.composition) else ""
-        out.print(f"  ✗ {str(c.composition):<14} {'; '.join(r.text for r in c.reasons)}{mark}", markup=True)
+    ruled = [c for c in cands if not c.valid]
+    if ruled:
+        lines = columns([["✗", str(c.composition), "; ".join(r.text for r in c.reasons)] for c in ruled])
+        for line, c in zip(lines, ruled):
+            mark = "  [red](attached)[/]" if attached == str(c.composition) else ""
+            out.print("  " + escape(line) + mark)
     if alloy:
         out.print(f"\n[bold]Verification:[/] [green]✓[/] Alloy agrees ({alloy['seconds']:.2f} s)")
 
@@ -157,7 +172,7 @@ def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str
     else:
         click.echo(text, nl=False)
     n = sum(len(i.components) for i in infos)
-    console().print(f"[green]✓[/] expanded {len(infos)} FTM{'s' if len(infos) != 1 else ''} into {n} components"
+    console().print(f"[green]✓[/] expanded {plural(len(infos), 'FTM')} into {plural(n, 'component')}"
                     + (f"; wrote {output}" if output else ""))
     sys.exit(EXIT_OK)
 
