@@ -6,6 +6,10 @@ needs the parser: whether a word is a keyword or a name. A keyword counts as a k
 where the parser state can accept it, so keywords stay usable as names everywhere else (as
 with Lark's contextual lexer). Lexing and parsing share one loop, which is what makes large
 files fast; comments are collected for the formatter.
+
+The loop keeps its own stacks, so no input makes it recurse; what is built from nested
+parentheses (FTM expressions like `SEC(PBR(TR))`) is recursive data, so their depth is
+bounded here: a `(` deeper than `MAX_NESTING` raises `TooDeep`.
 """
 from __future__ import annotations
 
@@ -31,6 +35,8 @@ MASTER = re.compile(r"""
 | (?P<PUNCT>[{}():,.=@])
 )""", re.VERBOSE)
 
+MAX_NESTING = 64  # parentheses open at once (RC018)
+
 NAMED_WORDS = {"normal": "MODE_KIND", "degraded": "MODE_KIND", "nothing": "NOTHING", "single": "SINGLE"}
 
 
@@ -41,6 +47,14 @@ def _token(kind: str, value: str, start: int, line: int, col: int, end_col: int,
     t.type, t.value, t.start_pos, t.line, t.column = kind, value, start, line, col
     t.end_line, t.end_column, t.end_pos = line, end_col, pos
     return t  # type: ignore[no-any-return]
+
+
+class TooDeep(Exception):
+    """A `(` opened more than `MAX_NESTING` parentheses deep."""
+
+    def __init__(self, token: Token) -> None:
+        self.token = token
+        super().__init__(f"more than {MAX_NESTING} nested parentheses at {token.line}:{token.column}")
 
 
 class Driver:
@@ -65,6 +79,7 @@ class Driver:
         state_stack: list[int] = [self.start]
         value_stack: list[Any] = []
         pos, line, line_start, end = 0, 1, 0, len(text)
+        depth = 0  # parentheses open
         last: Optional[Token] = None
         new_token = _token
         while True:
@@ -91,6 +106,12 @@ class Driver:
                     kind = self._word(value, states[state_stack[-1]])
                 elif kind == "PUNCT":
                     kind = literals[value]
+                    if value == "(":
+                        depth += 1
+                        if depth > MAX_NESTING:
+                            raise TooDeep(new_token(kind, value, start, line, col, col + 1, pos))
+                    elif value == ")":
+                        depth -= 1
                 token = new_token(kind, value, start, line, col, col + len(value), pos)
                 last = token
                 is_end = False

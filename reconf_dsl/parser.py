@@ -16,7 +16,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
 from .gcpause import gc_paused
-from .lexer import Driver
+from .lexer import MAX_NESTING, Driver, TooDeep
 from .span import Span
 
 TERMINAL_NAMES = {
@@ -342,6 +342,11 @@ class Parser:
                 items: list[Any] = self._driver.parse(text)
         except UnexpectedInput as e:
             raise DiagnosticError([syntax_diagnostic(e, text, file)]) from None
+        except TooDeep as e:
+            raise DiagnosticError([error("RC018", f"more than {MAX_NESTING} nested parentheses",
+                                         self._ir.tok(e.token),
+                                         notes=(f"expressions nest at most {MAX_NESTING} deep; "
+                                                "SEC(PBR(TR)) nests 2",))]) from None
         self._ir.sink.raise_if_errors()
         system: Optional[str] = None
         system_span = Span(file, 1, 1, 1, 1)
