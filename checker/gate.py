@@ -51,6 +51,7 @@ class _CatFile:
     """One `git cat-file --batch --follow-symlinks` process: objects by name, one at a time."""
 
     def __init__(self, top: str) -> None:
+        self.aborted = False
         try:
             self.proc = subprocess.Popen(["git", "cat-file", "--batch", "--follow-symlinks"], cwd=top,
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
@@ -75,9 +76,12 @@ class _CatFile:
         parts = header.split()
         if len(parts) == 3 and parts[2].isdigit() and parts[1] in (b"blob", b"tree", b"commit", b"tag"):
             kind, size = parts[1].decode(), int(parts[2])
-            if kind != "blob" or size > limit:
+            if kind == "blob" and size > limit:
+                self.abort()            # not read through: the process is stopped instead
+                return "large", None, size
+            if kind != "blob":
                 self._skip(stdout, size + 1)
-                return kind if kind != "blob" else "large", None, size
+                return kind, None, size
             data = self._exactly(stdout, size)
             self._skip(stdout, 1)
             return "blob", data, size
@@ -106,7 +110,18 @@ class _CatFile:
                 return
             n -= len(chunk)
 
+    def abort(self) -> None:
+        self.proc.kill()
+        self.proc.wait()
+        for stream in (self.proc.stdin, self.proc.stdout):
+            if stream:
+                with contextlib.suppress(OSError):
+                    stream.close()
+        self.aborted = True
+
     def close(self) -> None:
+        if self.aborted:
+            return
         if self.proc.stdin:
             with contextlib.suppress(OSError):
                 self.proc.stdin.close()
@@ -127,7 +142,6 @@ class Revisions:
 
     roots: dict[str, str] = field(default_factory=dict)        # commit → its temporary directory
     renames: dict[str, str] = field(default_factory=dict)      # shown prefix of a directory → the work tree's root
-    read: list[str] = field(default_factory=list)              # COMMIT:PATH of every file read, in order
     top: Optional[str] = None                                  # the repository's work tree
     _commits: dict[str, str] = field(default_factory=dict)     # ref → commit
     _cat: Optional[_CatFile] = None
@@ -209,8 +223,8 @@ class Revisions:
                 raise DiagnosticError([error("RC506", f"cannot read {rel!r} from git: a path with a line break",
                                              at or Span.unknown("<command line>"))])
             kind, data, size = self._cat.blob(f"{commit}:{rel}", MAX_FILE_BYTES)
-            self.read.append(f"{commit}:{rel}")
             if kind == "large":
+                self._cat = None
                 raise DiagnosticError([error("RC010", f"{rel} at {ref} is {size} bytes; the limit is {MAX_FILE_BYTES}",
                                              at or Span.unknown("<command line>"))])
             if data is None:

@@ -165,3 +165,24 @@ def test_policy_from_a_revision(repo) -> None:
     assert code == 2
     (d,) = json.loads(out)["diagnostics"]
     assert d["span"]["file"] == "reconf.toml" and "at HEAD" in d["message"]
+
+
+def test_a_file_over_the_limit_is_refused_unread(repo, monkeypatch) -> None:
+    import checker.gate
+    from reconf_dsl.diagnostics import DiagnosticError
+    monkeypatch.setattr(checker.gate, "MAX_FILE_BYTES", 1024 * 1024)
+    tracemalloc.start()
+    try:
+        with revisions() as revs, pytest.raises(DiagnosticError) as e:
+            resolve("git:HEAD:data/blob.bin", revs)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    (d,) = e.value.diagnostics
+    assert d.code == "RC010" and f"is {BIG} bytes" in d.message
+    assert peak < BIG // 8
+    # after a refusal, the revision's other files are still read (by a new git process)
+    with revisions() as revs:
+        with pytest.raises(DiagnosticError):
+            resolve("git:HEAD:data/blob.bin", revs)
+        assert Path(resolve("git:HEAD:sys/robot.arch", revs)).read_text(encoding="utf-8") == ROBOT
