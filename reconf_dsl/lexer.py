@@ -21,17 +21,20 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedToken
 from lark.lexer import PatternStr
 from lark.parsers.lalr_analysis import Shift
 
+# Every repetition of a group is possessive (`*+`) and the block comment repeats one character
+# class: a repeated group that may backtrack costs the regular expression engine memory for
+# each repetition, which a 64 MiB string or comment would exhaust.
 MASTER = re.compile(r"""
 [ \t\r\n\f\v]*
 (?:
   (?P<END>\Z)
 | (?P<LINE_COMMENT>(?://|\#)[^\n]*)
-| (?P<BLOCK_COMMENT>/\*(?:.|\n)*?\*/)
-| (?P<STRING>"(?:[^"\\\n]|\\[^\n])*")
+| (?P<BLOCK_COMMENT>/\*[\s\S]*?\*/)
+| (?P<STRING>"(?:[^"\\\n]|\\[^\n])*+")
 | (?P<ARROW>->)
-| (?P<ROS_NAME>~?/[^\W\d]\w*(?:/[^\W\d]\w*)*)
+| (?P<ROS_NAME>~?/[^\W\d]\w*(?:/[^\W\d]\w*)*+)
 | (?P<NUMBER>[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)
-| (?P<WORD>[^\W\d]\w*(?:/[^\W\d]\w*)*)
+| (?P<WORD>[^\W\d]\w*(?:/[^\W\d]\w*)*+)
 | (?P<PUNCT>[{}():,.=@])
 )""", re.VERBOSE)
 
