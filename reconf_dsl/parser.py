@@ -149,12 +149,10 @@ class _ToIR:
 
     def criticality(self, meta: Any, c: list[Token]) -> tuple[str, int]:
         tok = c[0]
-        try:
-            value = Fraction(str(tok))
-        except (ValueError, ZeroDivisionError):
-            value = Fraction(0)
-        if value.denominator != 1 or value < 0:
-            self.sink.add(error("RC119", f"criticality must be a whole number ≥ 0, not {tok}", self.tok(tok)))
+        value = number(str(tok))
+        if value is None or value.denominator != 1 or value < 0:
+            self.sink.add(error("RC119", f"criticality must be a whole number ≥ 0, not {shorten(str(tok))}",
+                                self.tok(tok), notes=(NUMBER_RANGE,) if value is None else ()))
             return ("criticality", 1)
         return ("criticality", int(value))
 
@@ -178,19 +176,19 @@ class _ToIR:
         return ir.Predicate(str(c[0]), rate, self.span_of(meta))
 
     def rate(self, meta: Any, c: list[Token]) -> Optional[ir.Rate]:
-        number, unit = c
+        digits, unit = c
         span = self.span_of(meta)
-        try:
-            value = Fraction(str(number))
-        except (ValueError, ZeroDivisionError):
-            self.sink.add(error("RC113", f"'{number}' is not a rate", self.tok(number)))
+        value = number(str(digits))
+        if value is None:
+            self.sink.add(error("RC113", f"'{shorten(str(digits))}' is not a rate", self.tok(digits),
+                                notes=(NUMBER_RANGE,)))
             return ir.Rate(Fraction(1), "Hz", span)
         if str(unit) not in ir.UNITS:
-            self.sink.add(error("RC114", f"unknown unit '{unit}'", self.tok(unit),
+            self.sink.add(error("RC114", f"unknown unit '{shorten(str(unit))}'", self.tok(unit),
                                 notes=("rates are in Hz, kHz or MHz, or a period in s, ms or us",)))
             return ir.Rate(value if value > 0 else Fraction(1), "Hz", span)
         if value <= 0:
-            self.sink.add(error("RC113", f"a rate must be positive, not {number} {unit}", self.tok(number)))
+            self.sink.add(error("RC113", f"a rate must be positive, not {digits} {unit}", self.tok(digits)))
             return ir.Rate(Fraction(1), str(unit), span)
         return ir.Rate(value, str(unit), span)
 
@@ -238,6 +236,29 @@ class _ToIR:
 
 
 _ESCAPES = {"n": "\n", "t": "\t", '"': '"', "\\": "\\"}
+
+MAX_NUMBER_CHARS = 32  # a number's text; longer ones are refused, not computed
+MAX_EXPONENT = 32      # |e| of 1e-9 or 2.5E3; Fraction would compute 10**e, however large
+NUMBER_RANGE = (f"a number has at most {MAX_NUMBER_CHARS} characters and an exponent between "
+                f"-{MAX_EXPONENT} and {MAX_EXPONENT}")
+
+
+def number(text: str) -> Optional[Fraction]:
+    """The value of a NUMBER token, or None when it is out of range or malformed."""
+    if len(text) > MAX_NUMBER_CHARS:
+        return None
+    _, e, exponent = text.lower().partition("e")
+    try:
+        if e and abs(int(exponent)) > MAX_EXPONENT:
+            return None
+        return Fraction(text)
+    except (ValueError, ZeroDivisionError):
+        return None
+
+
+def shorten(text: str, most: int = MAX_NUMBER_CHARS) -> str:
+    """A token as a message quotes it: at most `most` characters."""
+    return text if len(text) <= most else text[:most] + "…"
 
 
 # Terminals that carry meaning; every other token (keywords, punctuation) only marks position.

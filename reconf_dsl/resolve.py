@@ -14,6 +14,7 @@ KNOWN_FTMS = {"PBR", "LFR", "TR", "AD", "SEC"}
 KNOWN_FAULTS = {"crash", "transient", "permanent_value", "omission", "intrusion"}
 KNOWN_APPLICATION = {"deterministic", "non_deterministic", "state_access", "no_state_access"}
 KNOWN_RESOURCES = {"bandwidth": {"nil", "low", "medium", "high"}, "cpus": None, "memory": None}
+MAX_RESOURCE_DIGITS = 18  # a whole number, so that reading it (int) is never the slow or failing part
 
 T = TypeVar("T")
 
@@ -96,8 +97,10 @@ def _check_resources(sink: DiagnosticSink, settings: Iterable[ir.ResourceSetting
                            notes=("known resources: " + ", ".join(sorted(KNOWN_RESOURCES)),)))
             continue
         allowed = KNOWN_RESOURCES[r.name]
-        if allowed is None and not r.value.isdigit():
-            sink.add(error("RC125", f"resource '{r.name}' takes a whole number, not '{r.value}'", r.span))
+        if allowed is None and not (r.value.isdigit() and len(r.value) <= MAX_RESOURCE_DIGITS):
+            shown = r.value if len(r.value) <= MAX_RESOURCE_DIGITS else r.value[:MAX_RESOURCE_DIGITS] + "…"
+            sink.add(error("RC125", f"resource '{r.name}' takes a whole number of at most {MAX_RESOURCE_DIGITS} "
+                                    f"digits, not '{shown}'", r.span))
         elif allowed is not None and r.value not in allowed:
             sink.add(error("RC125", f"resource '{r.name}' is one of {', '.join(sorted(allowed))}, not '{r.value}'",
                            r.span))
