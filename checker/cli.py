@@ -125,13 +125,18 @@ files_argument = click.argument("files", nargs=-1, required=True, type=click.Pat
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="reconf")
-def main() -> None:
+@click.option("--allow-includes-outside", is_flag=True, envvar="RECONF_ALLOW_INCLUDES_OUTSIDE",
+              help="follow includes that lead outside the directory tree of the file named "
+                   "(env RECONF_ALLOW_INCLUDES_OUTSIDE=1)")
+def main(allow_includes_outside: bool) -> None:
     """reconf: check ROS 2 architectures and plan safe run-time reconfigurations.
 
     \b
     Exit codes: 0 safe or done, 1 unsafe or no safe plan,
                 2 bad input, usage, missing dependency or internal error.
     """
+    from reconf_dsl import loader
+    loader.settings.allow_includes_outside = allow_includes_outside
 
 
 engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
