@@ -4,6 +4,11 @@ from __future__ import annotations
 RULES: dict[str, tuple[str, str]] = {
     "RC000": ("internal-error", "reconf failed unexpectedly"),
     "RC011": ("tool-missing", "An external program reconf needs is not installed"),
+    "RC014": ("not-a-regular-file", "A device, FIFO or socket was named where an architecture file was expected"),
+    "RC015": ("input-too-large", "The files of one system are larger together than reconf reads"),
+    "RC016": ("include-outside-tree", "An include leads outside the directory tree of the file named"),
+    "RC017": ("includes-too-deep", "Includes are nested deeper than reconf follows"),
+    "RC018": ("nesting-too-deep", "Parentheses are nested deeper than reconf reads"),
     "RC201": ("assumption-not-satisfied", "An assumption of a functionality does not hold in the architecture"),
     "RC300": ("engines-disagree", "The Python engine and the Alloy Analyzer disagree"),
     "RC301": ("alloy-unavailable", "Java or the Alloy jar is missing"),
@@ -23,6 +28,10 @@ RULES: dict[str, tuple[str, str]] = {
     "RC505": ("invalid-policy", "The gate's policy cannot be read"),
     "RC506": ("unreadable-revision", "An architecture cannot be read from the git repository"),
     "RC507": ("unsafe-architecture", "The new architecture is not safe, so no migration to it is planned"),
+    "RC508": ("policy-name-unknown", "A name in the gate's policy names nothing in the architectures"),
+    "RC509": ("unsafe-base", "The base architecture is not safe, so no plan from it exists"),
+    "RC510": ("unsafe-base-allowed", "The base is not safe; the safe head passes alone, to be deployed by other means"),
+    "RC511": ("report-not-written", "A report file of the gate cannot be written"),
 }
 
 _RANGES: list[tuple[str, str, str]] = [
