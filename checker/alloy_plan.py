@@ -10,6 +10,7 @@ from codegen.alloy import TERNARY_ATOMS
 
 from .alloy.errors import AlloyError
 from .planning import Plan
+from .report import plural
 
 
 # states x components of a plan module past which it is not run (about a minute of work here)
@@ -70,7 +71,8 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     # slices are proved; from the first that is not, one at a time as below
     windows, too_big = _windows(plan, slicer)
     if progress is not None:
-        progress(f"verifying {len(plan.steps)} steps in {len(windows)} windows in the Alloy Analyzer…")
+        progress(f"verifying {plural(len(plan.steps), 'step')} in {plural(len(windows), 'window')} in the Alloy "
+                 "Analyzer…")
     proved = 0
     for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows, solver)):
         if not ok:

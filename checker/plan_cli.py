@@ -26,7 +26,7 @@ from .plan_options import with_common, with_plan_options
 from .progress import status
 from .planning import NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from .planning.plan import BadRequest, degradation, unknown
-from .report import OutputFormat
+from .report import OutputFormat, agree
 
 
 
@@ -173,7 +173,7 @@ def alloy_planned(p: Plan, max_steps: int) -> Plan:
     with status("planning in the Alloy Analyzer…"):
         planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
     planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
-                         f"in {len(p.steps)} steps")
+                         f"in {plural(len(p.steps), 'step')}")
     return planned
 
 
@@ -190,7 +190,7 @@ def plan_document(label: str, system: System, p: Plan, evidence: dict[str, Any],
 
 def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -> None:
     out = console()
-    out.print(f"reconf will {label} in {len(p.steps)} steps (strategy [bold]{p.strategy}[/]):\n")
+    out.print(f"reconf will {label} in {plural(len(p.steps), 'step')} (strategy [bold]{p.strategy}[/]):\n")
     styles = {"create": "green", "remove": "red", "attach": "cyan", "detach": "magenta", "degrade": "yellow",
               "upgrade": "blue"}
     for i, a in enumerate(p.steps, 1):
@@ -206,22 +206,27 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
               + (f" ({deg['longest_functionality']})" if deg["longest_functionality"] else "") + ".")
     out.print(f"[bold]Disruption:[/] {p.disruption} (Σ criticality × steps degraded)")
     py = evidence["python"]
-    out.print(f"[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, all {py['states']} "
-              "states valid")
+    states = py["states"]
+    out.print("[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, "
+              + (f"all {states} states valid" if states != 1 else "the 1 state is valid"))
     al = evidence.get("alloy")
     if al:
-        out.print(f"              [green]✓[/] Alloy: {al['states']} states valid, {al['transitions']} transitions "
-                  f"are instances of their actions ({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
+        out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "
+                  f"{plural(al['transitions'], 'transition')} "
+                  f"{agree(al['transitions'], 'is an instance of its action', 'are instances of their actions')} "
+                  f"({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
         if al.get("slice"):
             sl = al["slice"]
+            once = sl["judged_once"]
             if sl.get("windows", 1) > 1:
                 where = (f"in {sl['windows']} windows of consecutive steps, each on the components it can "
                          f"affect (at most {sl['components']})")
-                reads = "read nothing the first window changes"
+                reads = f"{agree(once, 'reads', 'read')} nothing the first window changes"
             else:
                 where, reads = f"on the {plural(sl['components'], 'component')} the plan can affect", \
-                    "read nothing it changes"
-            out.print(f"                ({where}; the other {sl['judged_once']} {reads} and were judged once)")
+                    f"{agree(once, 'reads', 'read')} nothing it changes"
+            out.print(f"                ({where}; {agree(once, 'the 1 other', f'the other {once}')} {reads} and "
+                      f"{agree(once, 'was', 'were')} judged once)")
         if al.get("lossless"):
             out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
     else:

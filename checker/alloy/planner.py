@@ -37,6 +37,7 @@ from typing import Any, Iterable, Optional
 from ..actions import Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue
 from ..config import Configuration
 from ..planning.plan import Goal, NoSafePlan, Plan, Problem, verify
+from ..report import plural
 from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from .errors import AlloyError
 
@@ -252,8 +253,8 @@ class AlloySearch:
         return sum(s.seconds for s in self.solves)
 
     def note(self) -> str:
-        scope = f"among plans of at most {self.max_steps} steps"
-        return (f"alloy: least disruptive {scope}, then fewest steps ({len(self.solves)} solves, "
+        scope = f"among plans of at most {plural(self.max_steps, 'step')}"
+        return (f"alloy: least disruptive {scope}, then fewest steps ({plural(len(self.solves), 'solve')}, "
                 f"{self.seconds:.1f} s)")
 
 
@@ -302,7 +303,7 @@ def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SO
             break
         bound = cost - 1
     if best is None:
-        raise NoSafePlan([f"alloy: no safe plan of at most {max_steps} steps reaches the goal"])
+        raise NoSafePlan([f"alloy: no safe plan of at most {plural(max_steps, 'step')} reaches the goal"])
     return AlloySearch(best, best_cost, max_steps, minimise, solves)
 
 

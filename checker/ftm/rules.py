@@ -67,9 +67,9 @@ def _component_findings(system: ir.System, c: ir.Component) -> list[Diagnostic]:
         notes = (f"`reconf ftm select {c.name}` lists the mechanisms valid here",)
         out.append(error(r.code, f"{r.text} ('{c.name}')", span, related=related, notes=notes))
     if comp.duplex is not None and len(set(c.ftm.hosts)) < 2:
-        out.append(warning("RC406", f"{comp.duplex.name} replicates '{c.name}' on two hosts, but "
-                                    f"{len(set(c.ftm.hosts)) or 'no'} distinct host"
-                                    f"{'' if len(set(c.ftm.hosts)) == 1 else 's'} are given", c.ftm.span,
+        given = "1 distinct host is given" if set(c.ftm.hosts) else "no distinct hosts are given"
+        out.append(warning("RC406", f"{comp.duplex.name} replicates '{c.name}' on two hosts, but {given}",
+                           c.ftm.span,
                            notes=(f"write `ftm {expr} on host_a, host_b`",)))
     try:
         protected_connector(system, c)

@@ -21,6 +21,7 @@ from ..actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalo
 from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
 from .states import States
+from ..report import plural
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
@@ -185,7 +186,7 @@ class Plan:
         left = ""
         if self.goal.degraded:
             left = "; left degraded: " + ", ".join(f"{c}.{f}" for c, f in sorted(self.goal.degraded))
-        return f"{len(self.steps)} steps ({parts}); disruption {self.disruption}; strategy {self.strategy}{left}"
+        return f"{plural(len(self.steps), 'step')} ({parts}); disruption {self.disruption}; strategy {self.strategy}{left}"
 
     def to_dict(self) -> dict[str, Any]:
         """The plan as data: its first state in full and, per step, what the step changed (states
@@ -296,7 +297,7 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
         raise NoSafePlan([f"{strategy}: the plan does not reach the goal"])
     notes = goal.residual_notes()
     if not full:
-        notes.append(f"verification: the last state judged in full; the {len(steps) - 1} intermediate states "
+        notes.append(f"verification: the last state judged in full; the {plural(len(steps) - 1, 'intermediate state')} "
                      "re-checked where each step can change them (a full re-evaluation of every state is "
                      f"beyond {FULL_CHECK_LIMIT:,} states × components)")
     return Plan(system, list(steps), States(system, start, steps, kept), strategy, total, goal, dict(renames or {}),

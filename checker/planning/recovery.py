@@ -36,6 +36,7 @@ def plan_recovery(system: System, observed: Configuration, target: Configuration
         return plan
     steps = list(emergency) + plan.steps
     all_states = States(base, observed, steps)
-    notes = [f"the observed configuration is not valid: steps 1-{len(emergency)} degrade what fails in it"] + plan.notes
+    first = "step 1 degrades" if len(emergency) == 1 else f"steps 1-{len(emergency)} degrade"
+    notes = [f"the observed configuration is not valid: {first} what fails in it"] + plan.notes
     return Plan(base, steps, all_states, plan.strategy, disruption(base, all_states, steps), plan.goal,
                 plan.renames, notes, plan.verification)

@@ -56,6 +56,11 @@ def join_list(items: Iterable[str]) -> str:
     return ",".join(sorted(items))
 
 
+def plural(n: int, word: str, many: str = "") -> str:
+    """A count and its noun in agreement: `1 step`, `3 steps`."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
 def split_list(text: str) -> list[str]:
     return [x for x in text.split(",") if x]
 
@@ -336,7 +341,8 @@ def replay(doc: dict[str, Any], out: Any) -> bool:
         print(f"dry run: UNSAFE after {where}", file=out)
         ok = False
     if ok:
-        print(f"dry run: all {len(rows)} states are safe", file=out)
+        print("dry run: " + (f"all {len(rows)} states are safe" if len(rows) != 1 else "the 1 state is safe"),
+              file=out)
     return ok
 
 
@@ -761,8 +767,8 @@ class Executor:
                                             wait):
                         st = self.rt.status(self.fqn(reader)) or {}
                         raise StepFailed(f"{reader}.{port} is matched with {st.get(f'in.{port}@{k}.publishers', 'no')} "
-                                         f"of the {matched} publisher(s) of {k}; taking {comp}'s away could leave it "
-                                         "without one")
+                                         f"of the {plural(matched, 'publisher')} of {k}; taking {comp}'s away "
+                                         "could leave it without one")
                     continue
                 if not self.wait_status(reader, lambda st: bool(names & set(split_list(st.get(f"in.{port}.fresh", "")))),
                                         wait):
@@ -786,13 +792,14 @@ class Executor:
         if kind == "output" and subs:
             if not self.wait_status(comp, lambda st: int(st.get(f"out.{port}@{k}.subscribers", "0")) >= len(subs),
                                     wait):
-                raise StepFailed(f"{comp}.{port} is not matched with the {len(subs)} subscriber(s) of {k} "
+                raise StepFailed(f"{comp}.{port} is not matched with the {plural(len(subs), 'subscriber')} of {k} "
                                  f"within {wait} s")
         readers = subs if kind == "output" else [(comp, port)]
         for c, p in readers:
             if pubs and not self.wait_status(c, lambda st: int(st.get(f"in.{p}@{k}.publishers", "0")) >= len(pubs),
                                              wait):
-                raise StepFailed(f"{c}.{p} is not matched with the {len(pubs)} publisher(s) of {k} within {wait} s")
+                raise StepFailed(f"{c}.{p} is not matched with the {plural(len(pubs), 'publisher')} of {k} "
+                                 f"within {wait} s")
         if kind == "output" and self.publishes(comp, port, after):
             # Matched counts can be stale (a publisher just gone still counted): the data decides.
             me = f"in.{{}}.from.{self.node_name(comp)}"
@@ -1057,7 +1064,7 @@ class Executor:
         self.touched = {s["component"] for s in self.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         self.say(f"the live system matches the plan's state before step {first} "
-                 f"({len(hood)} components checked in {check_at - t0:.2f} s)")
+                 f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
         for i in range(first, last + 1):
             step, before, after = self.steps[i - 1], self.states[i - 1], self.states[i]
             self.say(f"{label(i, step)} ...")
@@ -1087,19 +1094,24 @@ class Executor:
                     if after_violations.get(c, n) > n}
         total = time.monotonic() - t0
         upto = "" if last == len(self.steps) else f"; stopped after step {last} as asked (--to-step)"
-        self.say(f"all {last - first + 1} steps done in {total:.2f} s "
+        done = last - first + 1
+        self.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {total:.2f} s "
                  f"(checking the live system {check_at - t0:.2f} s, steps "
                  f"{sum(t['seconds'] for t in self.timings):.2f} s){upto}")
         if unmet or seen_bad:
             if unmet:
                 print(f"but on the wire, the assumptions of {', '.join(unmet)} are not met", file=self.err)
             for c, n in sorted(seen_bad.items()):
-                print(f"but the monitor of {c} saw {n} violation(s) of a normal mode's assumption during the run",
+                print(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
+                      "during the run",
                       file=self.err)
             self.report("violated", first, observed=final)
             return EXIT_FAILED
-        self.say("on the wire: every functionality the plan touched meets its assumptions, and none of the "
-                 f"{len(before_violations)} monitors heard from saw a normal mode's assumption violated during the run")
+        heard = len(before_violations)
+        self.say("on the wire: every functionality the plan touched meets its assumptions, and "
+                 + (f"none of the {heard} monitors heard from saw" if heard != 1 else
+                    "the 1 monitor heard from did not see")
+                 + " a normal mode's assumption violated during the run")
         self.report("done", first, observed=final)
         return EXIT_OK
 
@@ -1302,7 +1314,8 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     args = parse(doc, argv)
     plan = doc["plan"]
     steps = plan["steps"]
-    print(f"plan for {doc['system']} ({doc['fingerprint']}): {len(steps)} steps, strategy {plan.get('strategy')}, "
+    print(f"plan for {doc['system']} ({doc['fingerprint']}): {plural(len(steps), 'step')}, "
+          f"strategy {plan.get('strategy')}, "
           f"disruption {plan.get('disruption')}")
     for key, value in sorted(doc.get("evidence", {}).items()):
         print(f"evidence: {key}: {json.dumps(value, sort_keys=True)}")
