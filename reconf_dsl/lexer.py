@@ -41,6 +41,58 @@ MASTER = re.compile(r"""
 MAX_NESTING = 64  # parentheses open at once (RC018)
 
 NAMED_WORDS = {"normal": "MODE_KIND", "degraded": "MODE_KIND", "nothing": "NOTHING", "single": "SINGLE"}
+_SPACE = re.compile(r"[ \t\r\n\f\v]*")
+
+
+class Comment(tuple[int, int, str]):
+    """A comment as `Document.comments` holds it, (first line, last line, text), with what the
+    formatter needs to keep it in place: its first and (exclusive) last column; `trailing`, a token
+    is before it on its first line; `glued`, it starts on the line the comment before it ends on,
+    with no token between; `blank_before` / `blank_after`, an empty line separates it from what is
+    before / after it; `next`, the line, column and text of the token after it (None at the end)."""
+
+    col: int
+    end_col: int
+    trailing: bool
+    glued: bool
+    blank_before: bool
+    blank_after: bool
+    next: Optional[tuple[int, int, str]]
+
+    def __new__(cls, text: str, line: int, col: int, end_line: int, end_col: int, *, trailing: bool = False,
+                glued: bool = False, blank_before: bool = False, blank_after: bool = False) -> "Comment":
+        self = super().__new__(cls, (line, end_line, text))
+        self.col, self.end_col = col, end_col
+        self.trailing, self.glued, self.blank_before, self.blank_after = trailing, glued, blank_before, blank_after
+        self.next = None
+        return self
+
+    @property
+    def text(self) -> str:
+        return self[2]
+
+    @property
+    def start(self) -> tuple[int, int]:
+        return (self[0], self.col)
+
+    @property
+    def end(self) -> tuple[int, int]:
+        return (self[1], self.end_col)
+
+
+def _comment(text: str, value: str, line: int, col: int, pos: int, newlines_before: int, last: Optional[Token],
+             earlier: list[Comment]) -> Comment:
+    """The comment `value` at `line`:`col` of `text`, ending at offset `pos`, after `newlines_before`
+    line breaks of white space, the token `last` and the comments `earlier`."""
+    nl = value.count("\n")
+    end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
+    prev = earlier[-1] if earlier else None
+    glued = prev is not None and prev[1] == line and (last is None or prev.start > (last.line, last.column))
+    after = _SPACE.match(text, pos)
+    blank_after = after is not None and after.end() < len(text) and after.group().count("\n") >= 2
+    return Comment(value, line, col, line + nl, end_col, trailing=last is not None and last.line == line,
+                   glued=glued, blank_before=newlines_before >= 2 and (last is not None or prev is not None),
+                   blank_after=blank_after)
 
 
 def _token(kind: str, value: str, start: int, line: int, col: int, end_col: int, pos: int,
@@ -73,7 +125,7 @@ class Driver:
         self.callbacks: dict[Any, Any] = lalr.callbacks
         self.literals: dict[str, str] = {t.pattern.value: t.name for t in lark.terminals
                                          if isinstance(t.pattern, PatternStr)}
-        self.comments: list[Token] = []
+        self.comments: list[Comment] = []
 
     def parse(self, text: str) -> Any:
         states, callbacks, literals = self.states, self.callbacks, self.literals
@@ -85,6 +137,7 @@ class Driver:
         depth = 0  # parentheses open
         last: Optional[Token] = None
         new_token = _token
+        waiting = 0  # comments since the last token, which do not know the token after them yet
         while True:
             m = match(text, pos) if pos < end else None
             if m is not None and m.lastgroup != "END":
@@ -98,9 +151,9 @@ class Driver:
                 pos = m.end()
                 col = start - line_start + 1
                 if kind == "BLOCK_COMMENT" or kind == "LINE_COMMENT":
+                    comments.append(_comment(text, value, line, col, pos, nl, last, comments))
+                    waiting += 1
                     nl = value.count("\n")
-                    end_col = (len(value) - value.rfind("\n")) if nl else col + len(value)
-                    comments.append(Token(kind, value, start, line, col, line + nl, end_col, pos))
                     if nl:
                         line += nl
                         line_start = start + value.rfind("\n") + 1
@@ -117,6 +170,10 @@ class Driver:
                         depth -= 1
                 token = new_token(kind, value, start, line, col, col + len(value), pos)
                 last = token
+                if waiting:
+                    for c in comments[-waiting:]:
+                        c.next = (line, col, value)
+                    waiting = 0
                 is_end = False
             elif m is None and pos < end:
                 rest = text[pos:]

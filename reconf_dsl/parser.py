@@ -16,8 +16,8 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
 from .gcpause import gc_paused
-from .lexer import MAX_NESTING, Driver, TooDeep
-from .span import Span
+from .lexer import MAX_NESTING, Comment, Driver, TooDeep
+from .span import NO_SPAN, Span
 
 TERMINAL_NAMES = {
     "NAME": "a name", "ROS_NAME": "a ROS name like /ns/topic", "ROS_TYPE": "a message type like std_msgs/msg/String",
@@ -26,6 +26,31 @@ TERMINAL_NAMES = {
     "ARROW": "'->'", "MODE_KIND": "'normal' or 'degraded'", "NOTHING": "'nothing'", "SINGLE": "'single'",
     "$END": "end of file",
 }
+
+
+class Located(str):
+    """A string the IR keeps without a node of its own (a component's `run` command or `host`),
+    with the span of the statement that gave it, for the formatter to keep comments beside it.
+    It is equal to the plain string, as spans take no part in equality."""
+
+    span: Span
+
+    def __new__(cls, value: str, span: Span = NO_SPAN) -> "Located":
+        self = super().__new__(cls, value)
+        self.span = span
+        return self
+
+
+class LocatedTuple(tuple[Any, ...]):
+    """`Located` for a tuple: a component's `faults`, `application` or `resources`, with the span of
+    the (first) statement that gave it."""
+
+    span: Span
+
+    def __new__(cls, items: Any = (), span: Span = NO_SPAN) -> "LocatedTuple":
+        self = super().__new__(cls, items)
+        self.span = span
+        return self
 
 
 def _describe(terminal: str) -> str:
@@ -79,16 +104,16 @@ class _ToIR:
 
     def component_decl(self, meta: Any, c: list[Any]) -> ir.Component:
         name = str(c[0])
-        fields: dict[str, Any] = {"ports": [], "functionalities": [], "resources": []}
+        fields: dict[str, Any] = {"ports": [], "functionalities": []}
         for stmt in c[1:]:
             kind, value = stmt
-            if kind in ("ports", "functionalities", "resources"):
-                fields[kind].extend(value if isinstance(value, list) else [value])
-            elif kind in ("faults", "application"):
-                fields[kind] = tuple(fields.get(kind, ())) + tuple(value)
+            if kind in ("ports", "functionalities"):
+                fields[kind].append(value)
+            elif kind in ("faults", "application", "resources") and kind in fields:
+                fields[kind] = LocatedTuple(fields[kind] + value, fields[kind].span)  # where the first one was
             else:
                 fields[kind] = value
-        for key in ("ports", "functionalities", "resources"):
+        for key in ("ports", "functionalities"):
             fields[key] = tuple(fields[key])
         return ir.Component(name=name, span=self.span_of(meta), **fields)
 
@@ -96,10 +121,10 @@ class _ToIR:
         return ("replaces", str(c[0]))
 
     def run_stmt(self, meta: Any, c: list[Token]) -> tuple[str, str]:
-        return ("run", unquote(c[0]))
+        return ("run", Located(unquote(c[0]), self.span_of(meta)))
 
     def host_stmt(self, meta: Any, c: list[Token]) -> tuple[str, str]:
-        return ("host", str(c[0]))
+        return ("host", Located(str(c[0]), self.span_of(meta)))
 
     def input_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.Port]:
         pred: ir.Predicate = c[1]
@@ -109,13 +134,13 @@ class _ToIR:
         return ("ports", ir.Port(str(c[0]), "output", str(c[1]), None, self.span_of(meta)))
 
     def faults_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[str, ...]]:
-        return ("faults", c[0])
+        return ("faults", LocatedTuple(c[0], self.span_of(meta)))
 
     def application_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[str, ...]]:
-        return ("application", c[0])
+        return ("application", LocatedTuple(c[0], self.span_of(meta)))
 
-    def resources_stmt(self, meta: Any, c: list[Any]) -> tuple[str, list[ir.ResourceSetting]]:
-        return ("resources", list(c))
+    def resources_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[ir.ResourceSetting, ...]]:
+        return ("resources", LocatedTuple(c, self.span_of(meta)))
 
     def ftm_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.FtmDecl]:
         hosts = c[1] if len(c) > 1 else ()
@@ -351,7 +376,7 @@ class Parser:
         self._ir = _ToIR()
         lark = Lark(grammar, parser="lalr", lexer="basic", keep_all_tokens=True, transformer=_Callbacks(self._ir))
         self._driver = Driver(lark)
-        self._comments: list[Token] = self._driver.comments
+        self._comments: list[Comment] = self._driver.comments
 
     def parse(self, text: str, file: str) -> ir.Document:
         """Parse one file. Raises DiagnosticError on any error."""
@@ -382,8 +407,7 @@ class Parser:
             else:
                 body.append(item)
         sink.raise_if_errors()
-        comments = tuple((t.line or 1, t.end_line or 1, str(t)) for t in self._comments)
-        return ir.Document(file, system, tuple(body), system_span, comments)
+        return ir.Document(file, system, tuple(body), system_span, tuple(self._comments))
 
 
 def _rel(span: Span, msg: str) -> Related:
