@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import sys
 from typing import Any, Callable, Optional
 
@@ -15,6 +16,7 @@ import click
 
 from reconf_dsl.diagnostics import error
 from reconf_dsl.loader import Sources, load
+from reconf_dsl.span import Span
 
 from ..plan_options import with_common
 from ..report import OutputFormat, plural
@@ -147,17 +149,19 @@ def _show(component: str, prof: Any, cands: list[Candidate], attached: Optional[
 
 @ftm_group.command("expand")
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--format", "picture_format", type=click.Choice(["dsl", "dot", "both"]), default="both",
-              show_default=True, help="the expanded architecture as DSL text, as DOT, or both (DSL first)")
+@click.option("--format", "picture_format", type=click.Choice(["dsl", "dot", "both"]), default=None,
+              help="the expanded architecture as DSL text, as DOT, or both (DSL first)  "
+                   "[default: what -o's extension says (.arch, .dot/.gv), else both]")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to a file instead of stdout")
 @guarded("ftm expand")
-def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str], sources: Sources,
+def expand_cmd(files: tuple[str, ...], picture_format: Optional[str], output: Optional[str], sources: Sources,
                output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Print FILES with every FTM expanded into its computation graph (Proxy, Protocol, Before,
     Proceed, After, crash detectors, Recovery, CA) as DSL text that re-parses, and as DOT."""
     from codegen.graph import to_dot
 
     from ..pictures import picture
+    picture_format = _expand_format(picture_format, output)
     system = load(list(files), sources)
     expanded, infos = expand(system)
     parts = []
@@ -175,6 +179,26 @@ def expand_cmd(files: tuple[str, ...], picture_format: str, output: Optional[str
     console().print(f"[green]✓[/] expanded {plural(len(infos), 'FTM')} into {plural(n, 'component')}"
                     + (f"; wrote {output}" if output else ""))
     sys.exit(EXIT_OK)
+
+
+EXPAND_EXTENSIONS = {".arch": "dsl", ".dot": "dot", ".gv": "dot"}
+_EXPAND_SAYS = {"dsl": "DSL text", "dot": "Graphviz DOT source", "both": "DSL text and DOT"}
+
+
+def _expand_format(given: Optional[str], output: Optional[str]) -> str:
+    """--format, or what -o's extension says (else both); a contradiction is RC013: DOT after the
+    DSL in an .arch file would not parse back."""
+    stem, ext = os.path.splitext(output or "")
+    said = EXPAND_EXTENSIONS.get(ext.lower())
+    if given is None:
+        return said or "both"
+    if said is not None and said != given:
+        right = {"dsl": f"name the file {stem}.arch", "dot": f"name the file {stem}.dot",
+                 "both": "name the file without .arch or .dot"}[given]
+        raise _failure([error("RC013", f"-o {output} says {_EXPAND_SAYS[said]}, but --format {given} writes "
+                                       f"{_EXPAND_SAYS[given]}; {right}, or leave out --format to write "
+                                       f"{_EXPAND_SAYS[said]}", Span.unknown("<command line>"))])
+    return given
 
 
 @click.command("transition")
