@@ -195,7 +195,7 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
         line = f"{system.name} — {summary}, all hold{how}{ftm_note}{timing}"
         human = f"[bold green]✓ safe[/]: {line}"
     else:
-        held = f"{bad} do not hold" if bad else "all hold"
+        held = f"{bad} {report.agree(bad, 'does', 'do')} not hold" if bad else "all hold"
         line = f"{system.name} — {summary}, {held}{how}{ftm_note}{timing}"
         human = f"[bold red]✗ unsafe[/]: {line}"
     rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")

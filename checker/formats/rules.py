@@ -4,6 +4,8 @@ from __future__ import annotations
 RULES: dict[str, tuple[str, str]] = {
     "RC000": ("internal-error", "reconf failed unexpectedly"),
     "RC011": ("tool-missing", "An external program reconf needs is not installed"),
+    "RC012": ("picture-too-large", "A picture is too large for Graphviz to lay out in reasonable time"),
+    "RC013": ("output-format-mismatch", "The output file's extension contradicts the format asked for"),
     "RC014": ("not-a-regular-file", "A device, FIFO or socket was named where an architecture file was expected"),
     "RC015": ("input-too-large", "The files of one system are larger together than reconf reads"),
     "RC016": ("include-outside-tree", "An include leads outside the directory tree of the file named"),
