@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 5 steps, strategy default.
 
-Architecture fingerprint: sha256:65cacd404aaae5dfbdea0860f9b19833de27f51dc2572e027463f265e287fb6e
+Architecture fingerprint: sha256:5bc97ad99df9fe1a7fed734cb36636cc7ccf3a42921b5ff81f085136b36ad5b5
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
     python3 this_file.py               apply the plan to the running system (needs rclpy)
@@ -1347,7 +1347,7 @@ DOC = json.loads(r"""{
  "evidence": {
   "python_engine": "all 6 states valid"
  },
- "fingerprint": "sha256:65cacd404aaae5dfbdea0860f9b19833de27f51dc2572e027463f265e287fb6e",
+ "fingerprint": "sha256:5bc97ad99df9fe1a7fed734cb36636cc7ccf3a42921b5ff81f085136b36ad5b5",
  "format_version": 2,
  "model": {
   "components": [
