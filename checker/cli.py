@@ -8,9 +8,9 @@ from __future__ import annotations
 import difflib
 import functools
 import os
+import secrets
 import sys
 import time
-import tempfile
 from typing import Any, Callable, Optional, TypeVar
 
 import click
@@ -260,12 +260,14 @@ def fmt(files: tuple[str, ...], check_only: bool, diff: bool, to_stdout: bool, s
 plural = report.plural   # `1 assumption`, `3 assumptions`: for every command's counts
 
 
-def write_atomically(path: str, text: str) -> None:
-    """Write next to the target, then rename: never a half-written file."""
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".reconf-", dir=directory)
+def write_atomically(path: str, text: str, newline: str = "\n") -> None:
+    """Write next to the target, then rename: never a half-written file. Each "\\n" of `text` is
+    written as `newline`. A symbolic link is written through (the link stays a link); a new file
+    gets the mode the umask leaves of 0o666, an existing one keeps its mode."""
+    path = os.path.realpath(path)
+    fd, tmp = _create_beside(path)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+        with os.fdopen(fd, "w", encoding="utf-8", newline=newline) as f:
             f.write(text)
         if os.path.exists(path):
             os.chmod(tmp, os.stat(path).st_mode & 0o777)
@@ -274,6 +276,18 @@ def write_atomically(path: str, text: str) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _create_beside(path: str) -> tuple[int, str]:
+    """A new empty file next to `path`, made as open(2) makes files: mode 0o666 less the umask
+    (tempfile.mkstemp would make it 0o600 whatever the umask)."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+    while True:
+        tmp = os.path.join(os.path.dirname(path), f".reconf-{secrets.token_hex(8)}")
+        try:
+            return os.open(tmp, flags, 0o666), tmp
+        except FileExistsError:
+            continue
 
 
 PICTURE_FORMATS = ["dot", "svg", "mermaid", "markdown"]
