@@ -5,7 +5,6 @@ resource failure or internal error; with `--detailed-exitcode`, `plan` and `gate
 change that has steps (0 then means nothing to do). See docs/exit-codes.md."""
 from __future__ import annotations
 
-import difflib
 import functools
 import os
 import secrets
@@ -17,9 +16,7 @@ import click
 from rich.console import Console
 
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
-from reconf_dsl.formatter import format_document
-from reconf_dsl.loader import Sources, load, read_source
-from reconf_dsl.parser import parse_text
+from reconf_dsl.loader import Sources, load
 from reconf_dsl.span import Span
 
 from . import formats, report
@@ -28,6 +25,7 @@ from .alloy.errors import AlloyUnavailable
 from .engines import EngineUnavailable, EnginesDisagree
 from .ftm.expand import FtmRuleBroken
 from .planning.plan import BadRequest
+from .inputs import exclude_option, expand, nothing_left, paths_argument
 from .progress import status
 from .report import OutputFormat, ReportFormat
 from .semantics import evaluate
@@ -142,6 +140,7 @@ def main(allow_includes_outside: bool) -> None:
 engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
                              show_default=True,
                              help="both: Alloy proves, Python explains, and they must agree")
+
 from .alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES  # noqa: E402 - the one table of solvers
 
 solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
@@ -151,13 +150,16 @@ solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_se
 
 
 @main.command()
-@files_argument
+@paths_argument
+@exclude_option
 @format_option
 @engine_option
 @solver_option
 @guarded("check")
-def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str, sources: Sources) -> None:
-    """Prove that every functionality's assumptions hold in FILES (one system; includes followed).
+def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str,
+          sources: Sources) -> None:
+    """Prove that every functionality's assumptions hold in PATHs (one system; includes followed;
+    a directory stands for the .arch files under it).
 
     Lists each assumption that does not hold with its chain: functionality → assumption →
     input → connector → each attached output and why it falls short.
@@ -166,7 +168,7 @@ def check(files: tuple[str, ...], output_format: ReportFormat, engine: str, solv
 
     age = report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
-    system = load(list(files), sources)
+    system = load(expand(files, exclude) or nothing_left(files), sources)
     parsed = time.perf_counter() - started - age
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         judged = judge(system, Configuration.initial(system), engine, solver)
@@ -222,39 +224,6 @@ def alloy_cmd(files: tuple[str, ...], output: Optional[str], sources: Sources,
         console().print(f"wrote {output}: `run Verdict` shows the configuration and what fails")
     else:
         click.echo(text, nl=False)
-
-
-@main.command()
-@files_argument
-@click.option("--check", "check_only", is_flag=True, help="change nothing; exit 1 if a file is not formatted")
-@click.option("--diff", is_flag=True, help="print what would change as a unified diff")
-@click.option("--stdout", "to_stdout", is_flag=True, help="print the formatted text instead of writing the file")
-@guarded("fmt")
-def fmt(files: tuple[str, ...], check_only: bool, diff: bool, to_stdout: bool, sources: Sources,
-        output_format: OutputFormat = OutputFormat.TEXT) -> None:
-    """Rewrite FILES in the canonical layout (comments kept). Includes are not followed."""
-    unformatted = []
-    for path in files:
-        text = read_source(path, sources)
-        shown = next(reversed(sources.texts))
-        formatted = format_document(parse_text(text, shown))
-        if to_stdout:
-            click.echo(formatted, nl=False)
-            continue
-        if formatted == text:
-            continue
-        unformatted.append(shown)
-        if diff:
-            click.echo("".join(difflib.unified_diff(text.splitlines(True), formatted.splitlines(True),
-                                                    shown, shown + " (formatted)")), nl=False)
-        if not check_only and not diff:
-            write_atomically(path, formatted)
-            console().print(f"formatted {shown}")
-    if check_only or diff:
-        for f in unformatted:
-            console().print(f"[yellow]would reformat[/] {f}")
-        if unformatted:
-            sys.exit(EXIT_UNSAFE)
 
 
 plural = report.plural   # `1 assumption`, `3 assumptions`: for every command's counts
@@ -427,6 +396,7 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
 
 
 def _register() -> None:
+    from .fmt_cli import fmt_cmd
     from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
     from .plan_cli import plan
@@ -436,6 +406,7 @@ def _register() -> None:
     main.add_command(recover_cmd)
     main.add_command(gate_cmd)
     main.add_command(ftm_group)
+    main.add_command(fmt_cmd)
     try:
         from .verify_model import verify_model_cmd
     except ImportError:  # pragma: no cover - the Alloy side is part of the package

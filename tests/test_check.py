@@ -154,3 +154,31 @@ def test_the_summary_says_where_the_time_went() -> None:
     assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d, parsing \d+\.\d\d, Python engine \d+\.\d\d, "
                      r"Alloy start \d+\.\d\d, rendering \d+\.\d\d, Alloy \d+\.\d\d \(1 module, front end \d+\.\d\d s, "
                      r"solving \d+\.\d\d s\)", text), text
+
+
+def test_check_takes_the_arch_files_under_a_directory(tmp_path: "object") -> None:
+    """A system split over files: the directory stands for all of them; --exclude leaves some out."""
+    import pathlib
+    root = pathlib.Path(str(tmp_path))
+    files = {"system.arch": "system s\ncomponent talker {\n  output out: M\n  functionality talk (out) {\n"
+                            "    normal { out: M @ 10 Hz }\n    degraded { out: nothing }\n  }\n}\n"
+                            "topic /t: M @ 10 Hz { talker.out -> }\n",
+             "types/messages.arch": "message M = std_msgs/msg/String\n",
+             "drafts/broken.arch": "component {\n",
+             ".old/broken.arch": "component {\n",
+             "README.txt": "not an architecture\n"}
+    for name, text in files.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+    r = CliRunner().invoke(main, ["check", "--engine", "python", str(root), "--exclude", "drafts"])
+    assert r.exit_code == 0, r.stderr
+    assert "safe" in r.stderr and "1 component" in r.stderr
+    r = CliRunner().invoke(main, ["check", "--engine", "python", str(root)])
+    assert r.exit_code == 2
+    assert re.search(r"drafts/broken\.arch:1:11: error\[RC001\]", r.stderr), r.stderr
+    assert ".old" not in r.stderr
+    r = CliRunner().invoke(main, ["check", "--engine", "python", str(root / "drafts"), "--exclude", "*.arch"])
+    assert r.exit_code == 2 and "error[RC007]" in r.stderr and "--exclude left out every file" in r.stderr
+    (root / "empty").mkdir()
+    r = CliRunner().invoke(main, ["check", "--engine", "python", str(root / "empty")])
+    assert r.exit_code == 2 and "error[RC007]: no .arch file under" in r.stderr

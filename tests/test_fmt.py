@@ -1,22 +1,29 @@
 """`reconf fmt`: canonical, idempotent, comment-preserving; IR → fmt → parse gives the same IR."""
 from __future__ import annotations
 
+import errno
 import itertools
 import os
+import re
 import shutil
+import stat
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from checker.cli import main
+from checker.cli import main, write_atomically
+from checker.inputs import expand
 from reconf_dsl import ir
 from reconf_dsl.formatter import format_document
 from reconf_dsl.lexer import MASTER
 from reconf_dsl.loader import load
 from reconf_dsl.parser import parse_text
-from tests.examples_table import EXAMPLES, Example
+from tests.examples_table import EXAMPLES, ROOT, Example
 from tests.strategies import documents
 
 
@@ -348,3 +355,169 @@ def test_formatting_with_comments_is_idempotent_and_keeps_them_in_order(
     assert again == parsed == doc
     assert _texts(again) == _texts(parsed)
     assert format_document(again) == out
+
+
+# --- the command line: files, links, line endings, directories, standard input ------------------
+
+MESSY = "system s\nmessage M=std_msgs/msg/String\n"
+TIDY = "system s\n\nmessage M = std_msgs/msg/String\n"
+
+
+def _write(path: Path, text: str | bytes) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if isinstance(text, str):
+        text = text.encode("utf-8")
+    path.write_bytes(text)
+    return path
+
+
+def _fmt_cli(*args: str, input: bytes | None = None) -> Result:
+    return CliRunner().invoke(main, ["fmt", *args], input=input)
+
+
+def test_cli_fmt_writes_through_a_symbolic_link(tmp_path: Path) -> None:
+    real = _write(tmp_path / "real" / "x.arch", MESSY)
+    link = tmp_path / "link.arch"
+    link.symlink_to(real)
+    r = _fmt_cli(str(link))
+    assert r.exit_code == 0, r.output
+    assert link.is_symlink() and os.readlink(link) == str(real)
+    assert real.read_text() == TIDY
+    assert sorted(os.listdir(tmp_path)) == ["link.arch", "real"] and os.listdir(real.parent) == ["x.arch"]
+
+
+@pytest.mark.parametrize("newline", ["\r\n", "\n"])
+def test_cli_fmt_keeps_line_endings(tmp_path: Path, newline: str) -> None:
+    src = _write(tmp_path / "x.arch", MESSY.replace("\n", newline))
+    assert _fmt_cli("--check", str(src)).exit_code == 1
+    assert _fmt_cli(str(src)).exit_code == 0
+    assert src.read_bytes() == TIDY.replace("\n", newline).encode()
+    r = _fmt_cli("--check", str(src))
+    assert r.exit_code == 0, r.output  # a formatted CRLF file (an autocrlf checkout) passes the check
+
+
+def test_cli_fmt_mixed_line_endings_take_the_first_lines(tmp_path: Path) -> None:
+    src = _write(tmp_path / "x.arch", TIDY.replace("\n", "\r\n", 1))
+    assert _fmt_cli("--check", str(src)).exit_code == 1
+    assert _fmt_cli(str(src)).exit_code == 0
+    assert src.read_bytes() == TIDY.replace("\n", "\r\n").encode()
+
+
+def test_cli_fmt_keeps_a_byte_order_mark(tmp_path: Path) -> None:
+    src = _write(tmp_path / "x.arch", "\ufeff" + MESSY)
+    assert _fmt_cli(str(src)).exit_code == 0
+    assert src.read_bytes() == ("\ufeff" + TIDY).encode("utf-8")
+    assert _fmt_cli("--check", str(src)).exit_code == 0
+
+
+def test_cli_fmt_goes_on_after_a_file_it_cannot_parse(tmp_path: Path) -> None:
+    bad1 = _write(tmp_path / "a_bad.arch", "system s\nmessage M std\n")
+    good = _write(tmp_path / "b_good.arch", MESSY)
+    bad2 = _write(tmp_path / "c_bad.arch", b"system s\n\xff\n")
+    r = _fmt_cli("--check", str(bad1), str(good), str(bad2))
+    assert r.exit_code == 2  # bad input wins over "would reformat"
+    assert "would reformat" in r.stderr and "b_good.arch" in r.stderr
+    r = _fmt_cli(str(bad1), str(good), str(bad2))
+    assert r.exit_code == 2
+    assert good.read_text() == TIDY
+    assert bad1.read_text() == "system s\nmessage M std\n"
+    assert re.search(r"a_bad\.arch:2:11: error\[RC001\]", r.stderr), r.stderr
+    assert re.search(r"c_bad\.arch:2:1: error\[RC005\]", r.stderr), r.stderr
+    assert "Traceback" not in r.output
+    assert sorted(os.listdir(tmp_path)) == ["a_bad.arch", "b_good.arch", "c_bad.arch"]
+
+
+def test_cli_fmt_a_directory_and_excludes(tmp_path: Path) -> None:
+    files = [_write(tmp_path / name, MESSY) for name in
+             ("a.arch", "sub/b.arch", "sub/deeper/c.arch", "gen/d.arch", ".hidden/e.arch", "sub/.f.arch",
+              "notes.txt")]
+    r = _fmt_cli("--check", str(tmp_path))
+    assert r.exit_code == 1
+    shown = re.findall(r"would reformat (\S+)", r.stderr)
+    assert [os.path.relpath(s, tmp_path) for s in shown] == ["a.arch", "gen/d.arch", "sub/b.arch",
+                                                             "sub/deeper/c.arch"]
+    r = _fmt_cli(str(tmp_path), "--exclude", "gen", "--exclude", "deeper/*.arch")
+    assert r.exit_code == 0, r.output
+    assert [f.read_text() == TIDY for f in files] == [True, True, False, False, False, False, False]
+    r = _fmt_cli("--check", str(tmp_path / "sub"), "--exclude", "*.arch")
+    assert r.exit_code == 0 and "nothing to format" in r.stderr
+
+
+def test_cli_fmt_a_directory_without_arch_files_is_bad_input(tmp_path: Path) -> None:
+    _write(tmp_path / "notes.txt", "x")
+    r = _fmt_cli(str(tmp_path))
+    assert r.exit_code == 2 and "error[RC007]" in r.stderr and "no .arch file under" in r.stderr
+
+
+def test_cli_fmt_standard_input() -> None:
+    r = _fmt_cli("-", input=MESSY.encode())
+    assert r.exit_code == 0 and r.stdout == TIDY
+    r = _fmt_cli("-", input=MESSY.replace("\n", "\r\n").encode())
+    assert r.exit_code == 0 and r.stdout_bytes == TIDY.replace("\n", "\r\n").encode()
+    r = _fmt_cli("--check", "-", input=MESSY.encode())
+    assert r.exit_code == 1 and r.stdout == "" and "would reformat <stdin>" in r.stderr
+    assert _fmt_cli("--check", "-", input=TIDY.encode()).exit_code == 0
+    r = _fmt_cli("-", input=b"system s s\n")
+    assert r.exit_code == 2 and "error[RC001]" in r.stderr and r.stdout == ""
+
+
+def test_cli_fmt_standard_input_in_a_process_of_its_own() -> None:
+    r = subprocess.run([sys.executable, "-m", "checker", "fmt", "-"], input=MESSY.replace("\n", "\r\n").encode(),
+                       capture_output=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == TIDY.replace("\n", "\r\n").encode()
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere")
+def test_cli_fmt_a_file_it_cannot_write_is_bad_input(tmp_path: Path) -> None:
+    src = _write(tmp_path / "ro" / "x.arch", MESSY)
+    src.parent.chmod(0o555)
+    try:
+        r = _fmt_cli(str(src))
+    finally:
+        src.parent.chmod(0o755)
+    assert r.exit_code == 2 and "error[RC007]: cannot write" in r.stderr
+
+
+def test_cli_fmt_a_write_that_fails_is_bad_input(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """As root can write anywhere, the failure is made to happen: a read-only file system."""
+    import checker.fmt_cli
+
+    def refuse(path: str, text: str, newline: str = "\n") -> None:
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), path)
+    monkeypatch.setattr(checker.fmt_cli, "write_atomically", refuse)
+    src = _write(tmp_path / "x.arch", MESSY)
+    other = _write(tmp_path / "y.arch", "system s\nmessage M std\n")
+    r = _fmt_cli(str(src), str(other))
+    assert r.exit_code == 2
+    assert re.search(r"x\.arch:1:1: error\[RC007\]: cannot write \S*x\.arch: Read-only file system", r.stderr)
+    assert "y.arch:2:11: error[RC001]" in r.stderr
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o002, 0o077])
+def test_written_files_respect_the_umask(tmp_path: Path, umask: int) -> None:
+    old = os.umask(umask)
+    try:
+        write_atomically(str(tmp_path / "new.txt"), "x\n")
+        r = CliRunner().invoke(main, ["graph", EXAMPLES[0].file, "-o", str(tmp_path / "g.dot")])
+    finally:
+        os.umask(old)
+    assert r.exit_code == 0, r.output
+    assert stat.S_IMODE((tmp_path / "new.txt").stat().st_mode) == 0o666 & ~umask
+    assert stat.S_IMODE((tmp_path / "g.dot").stat().st_mode) == 0o666 & ~umask
+
+
+def test_written_files_keep_their_mode_and_line_endings(tmp_path: Path) -> None:
+    target = _write(tmp_path / "x.txt", "old\n")
+    target.chmod(0o640)
+    write_atomically(str(target), "a\nb\n", newline="\r\n")
+    assert stat.S_IMODE(target.stat().st_mode) == 0o640
+    assert target.read_bytes() == b"a\r\nb\r\n"
+
+
+def test_the_bundled_examples_are_formatted() -> None:
+    found = [os.path.relpath(p, ROOT) for p in expand([os.path.join(ROOT, "examples")])]
+    assert {"examples/chatter.arch", "examples/common/messages.arch",
+            "examples/ftm/client_server_pbr.arch"} <= set(found)
+    r = CliRunner().invoke(main, ["fmt", "--check", os.path.join(ROOT, "examples")])
+    assert r.exit_code == 0, r.stderr
