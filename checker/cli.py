@@ -229,22 +229,30 @@ def alloy_cmd(files: tuple[str, ...], output: Optional[str], sources: Sources,
 plural = report.plural   # `1 assumption`, `3 assumptions`: for every command's counts
 
 
+class CannotWrite(Failure):
+    """An output that cannot be written: RC007 at the path the user gave, exit 2."""
+
+
 def write_atomically(path: str, text: str, newline: str = "\n") -> None:
     """Write next to the target, then rename: never a half-written file. Each "\\n" of `text` is
     written as `newline`. A symbolic link is written through (the link stays a link); a new file
-    gets the mode the umask leaves of 0o666, an existing one keeps its mode."""
-    path = os.path.realpath(path)
-    fd, tmp = _create_beside(path)
+    gets the mode the umask leaves of 0o666, an existing one keeps its mode. A failure is
+    `CannotWrite`, naming `path` (not the temporary file)."""
+    given, path = path, os.path.realpath(path)
+    tmp = ""
     try:
+        fd, tmp = _create_beside(path)
         with os.fdopen(fd, "w", encoding="utf-8", newline=newline) as f:
             f.write(text)
         if os.path.exists(path):
             os.chmod(tmp, os.stat(path).st_mode & 0o777)
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+    except OSError as e:
+        raise CannotWrite([Diagnostic("RC007", Severity.ERROR, f"cannot write {given}: {e.strerror or e}",
+                                      Span.unknown(given))]) from None
+    finally:
+        if tmp and os.path.exists(tmp):
             os.unlink(tmp)
-        raise
 
 
 def _create_beside(path: str) -> tuple[int, str]:

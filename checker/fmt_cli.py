@@ -23,7 +23,7 @@ from reconf_dsl.loader import STDIN, Sources, display_path, read_source
 from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 
-from .cli import EXIT_BAD_INPUT, EXIT_UNSAFE, Failure, console, guarded, write_atomically
+from .cli import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
 from .inputs import exclude_option, expand, paths_argument
 from .report import OutputFormat
 
@@ -107,8 +107,8 @@ def fmt_cmd(files: tuple[str, ...], exclude: tuple[str, ...], check_only: bool, 
         elif not check_only:
             try:
                 write_atomically(path, (BOM if src.bom else "") + formatted, newline=src.newline)
-            except OSError as e:
-                failed.append(error("RC007", f"cannot write {src.shown}: {e.strerror}", Span(src.shown, 1, 1, 1, 1)))
+            except CannotWrite as e:
+                failed.extend(e.diagnostics)
                 continue
             console().print(f"formatted {src.shown}")
     if check_only or diff:

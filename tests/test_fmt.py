@@ -481,11 +481,11 @@ def test_cli_fmt_a_file_it_cannot_write_is_bad_input(tmp_path: Path) -> None:
 
 def test_cli_fmt_a_write_that_fails_is_bad_input(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """As root can write anywhere, the failure is made to happen: a read-only file system."""
-    import checker.fmt_cli
+    import checker.cli
 
-    def refuse(path: str, text: str, newline: str = "\n") -> None:
+    def refuse(path: str) -> tuple[int, str]:
         raise OSError(errno.EROFS, os.strerror(errno.EROFS), path)
-    monkeypatch.setattr(checker.fmt_cli, "write_atomically", refuse)
+    monkeypatch.setattr(checker.cli, "_create_beside", refuse)
     src = _write(tmp_path / "x.arch", MESSY)
     other = _write(tmp_path / "y.arch", "system s\nmessage M std\n")
     r = _fmt_cli(str(src), str(other))

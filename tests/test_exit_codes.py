@@ -1,0 +1,141 @@
+"""The exit-code contract of docs/exit-codes.md, command by command, under each class of failure:
+a missing file, a file that does not parse, an unknown option, an unsafe architecture, an output
+that cannot be written, and a JVM that cannot start (a heap too small), in machine formats too."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from checker.cli import main
+from tests.examples_table import BY_NAME
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+CHATTER = BY_NAME["chatter"].file
+SLOW = os.path.join(ROOT, "examples", "chatter_slow.arch")
+MIGRATED = os.path.join(ROOT, "examples", "chatter_migrated.arch")
+FTM = os.path.join(ROOT, "examples", "ftm", "client_server_pbr.arch")
+BROKEN = os.path.join(HERE, "bad_inputs", "unterminated_string.arch")
+MISSING = os.path.join(HERE, "no_such_file.arch")
+
+# every command, with {f} where its architecture goes (and {g} a second one)
+COMMANDS: dict[str, list[str]] = {
+    "check": ["check", "--engine", "python", "{f}"],
+    "alloy": ["alloy", "{f}"],
+    "fmt": ["fmt", "--check", "{f}"],
+    "graph": ["graph", "--format", "mermaid", "{f}"],
+    "graph-plan": ["graph-plan", "--format", "mermaid", "{f}", "{g}"],
+    "plan replace": ["plan", "replace", "talker", "-f", "{f}", "--no-alloy"],
+    "plan remove": ["plan", "remove", "talker", "-f", "{f}", "--no-alloy"],
+    "plan migrate": ["plan", "migrate", "{f}", "{g}", "--no-alloy"],
+    "gate": ["gate", "--base", "{f}", "--head", "{g}"],
+    "ftm expand": ["ftm", "expand", "{f}"],
+    "ftm select": ["ftm", "select", "server", "-f", "{f}", "--no-alloy"],
+}
+JSON = {"check", "plan replace", "plan remove", "plan migrate", "ftm select"}
+
+
+def args(name: str, f: str, g: str = MIGRATED) -> list[str]:
+    return [a.format(f=f, g=g) for a in COMMANDS[name]]
+
+
+def invoke(argv: list[str]):  # type: ignore[no-untyped-def]
+    return CliRunner().invoke(main, argv)
+
+
+def assert_clean(r, code: int) -> None:  # type: ignore[no-untyped-def]
+    text = r.stdout + r.stderr
+    assert r.exit_code == code, text
+    assert "Traceback" not in text and "RC000" not in text, text
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_a_missing_file_is_2(name: str) -> None:
+    r = invoke(args(name, MISSING, MISSING))
+    assert_clean(r, 2)
+    assert "no_such_file.arch" in r.stderr
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_a_file_that_does_not_parse_is_2(name: str) -> None:
+    r = invoke(args(name, BROKEN, BROKEN))
+    assert_clean(r, 2)
+    assert "unterminated_string.arch:" in r.stderr and "RC003" in r.stderr
+
+
+@pytest.mark.parametrize("name", sorted(JSON))
+def test_bad_input_in_json_is_an_error_document(name: str) -> None:
+    r = invoke(args(name, BROKEN, BROKEN) + ["--output-format", "json"])
+    assert_clean(r, 2)
+    doc = json.loads(r.stdout)
+    assert doc["verdict"] == "error" and doc["diagnostics"][0]["code"] == "RC003"
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_an_unknown_option_is_2(name: str) -> None:
+    r = invoke(args(name, CHATTER, CHATTER) + ["--no-such-option"])
+    assert_clean(r, 2)
+    assert "No such option" in r.stderr and not r.stdout
+
+
+@pytest.mark.parametrize("argv", [
+    ["check", "--engine", "python", SLOW],
+    ["plan", "remove", "talker", "-f", SLOW, "--no-alloy"],
+    ["gate", "--base", CHATTER, "--head", SLOW],
+], ids=["check", "plan", "gate"])
+def test_unsafe_is_1(argv: list[str]) -> None:
+    assert_clean(invoke(argv), 1)
+
+
+def test_a_file_to_reformat_is_1_for_fmt_check(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "chatter.arch"
+    with open(CHATTER, encoding="utf-8") as f:
+        path.write_text(f.read().replace("\n", "\n\n\n", 3), encoding="utf-8")
+    assert_clean(invoke(["fmt", "--check", str(path)]), 1)
+
+
+@pytest.mark.parametrize("argv", [
+    ["alloy", CHATTER, "-o", "{out}"],
+    ["graph", CHATTER, "--format", "dot", "-o", "{out}"],
+    ["plan", "replace", "talker", "-f", CHATTER, "--no-alloy", "-o", "{out}"],
+    ["ftm", "expand", FTM, "-o", "{out}"],
+], ids=["alloy", "graph", "plan", "ftm-expand"])
+@pytest.mark.parametrize("where", ["missing-dir", "parent-is-a-file"])
+def test_an_output_that_cannot_be_written_is_2_and_names_it(argv: list[str], where: str, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    if where == "missing-dir":
+        out = str(tmp_path / "no" / "such" / "dir" / "out.txt")
+    else:                                   # fails for root too, unlike a read-only directory
+        (tmp_path / "file").write_text("x")
+        out = str(tmp_path / "file" / "out.txt")
+    ext = {"alloy": ".als", "graph": ".dot", "plan": ".py", "ftm": ".arch"}[argv[0]]
+    out = out.replace(".txt", ext)
+    r = invoke([a.format(out=out) for a in argv])
+    assert_clean(r, 2)
+    assert out in r.stderr and ".reconf-" not in r.stderr, r.stderr
+    assert not os.path.exists(out)
+
+
+@pytest.mark.parametrize("argv, json_out", [
+    (["check", CHATTER, "--output-format", "sarif"], True),
+    (["check", CHATTER, "--output-format", "json"], True),
+    (["plan", "replace", "talker", "-f", CHATTER, "--output-format", "json"], True),
+    (["gate", "--base", CHATTER, "--head", MIGRATED], False),
+    (["verify-model", "--output-format", "json"], True),
+], ids=["check-sarif", "check-json", "plan-json", "gate", "verify-model"])
+def test_a_jvm_that_cannot_start_is_2_with_valid_output(argv: list[str], json_out: bool) -> None:
+    """A heap the JVM would die of (it ends the process as it starts, exit 1, nothing written)."""
+    env = dict(os.environ, RECONF_ALLOY_XMX="1k")
+    env.pop("RECONF_DEBUG", None)
+    reconf = os.path.join(os.path.dirname(sys.executable), "reconf")
+    r = subprocess.run([reconf, *argv], env=env, capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "RECONF_ALLOY_XMX=1k" in r.stdout + r.stderr and "RC301" in r.stdout + r.stderr
+    assert "Traceback" not in r.stderr and "RC000" not in r.stdout + r.stderr
+    if json_out:
+        json.loads(r.stdout)                                # SARIF and JSON both parse as JSON
