@@ -34,8 +34,8 @@ from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 
 from . import formats, report
-from .cli import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, emit_report, engine_option, format_option, guarded,
-                  plural, solver_option, write_atomically)
+from .cli import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, CannotWrite, Failure, emit_report, engine_option,
+                  format_option, guarded, plural, solver_option, write_atomically)
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree
 from .policy import Policy, check_names, covered, coverage, ftm_names, load_policy
@@ -530,8 +530,9 @@ def write_reports(reports: list[tuple[str, str]], render: Callable[[str], str]) 
     for fmt, path in reports:
         try:
             write_atomically(path, render(fmt))
-        except OSError as e:
-            failed.append(error("RC511", f"cannot write the {fmt} report {path}: {e.strerror or e}",
+        except CannotWrite as e:
+            why = e.diagnostics[0].message.removeprefix(f"cannot write {path}: ")
+            failed.append(error("RC511", f"cannot write the {fmt} report {path}: {why}",
                                 Span.unknown("<command line>")))
     return failed
 
