@@ -18,7 +18,9 @@ from rich.markup import escape
 
 from reconf_dsl.ir import System
 from codegen.ros2 import FORMAT_VERSION
+from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.loader import Sources, load
+from reconf_dsl.span import Span
 
 from . import report
 from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
@@ -147,10 +149,11 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
         from .alloy_plan import alloy_evidence
         with status(f"verifying the plan in the Alloy Analyzer ({len(p.states)} states)…") as say:
             evidence["alloy"] = alloy_evidence(p, progress=say)
-        if evidence["alloy"].get("verdict") == "not run":
-            return no_plan(label, [f"Alloy could not verify the plan: {evidence['alloy']['reason']}; "
-                                   "`--no-alloy` relies on the Python engine's step-by-step verification alone"],
-                           fmt, p, evidence)
+        if evidence["alloy"].get("verdict") == "not run":      # not answered: not "unsafe" (docs/exit-codes.md)
+            raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
+                                      f"{evidence['alloy']['reason']}", Span.unknown("<alloy>"),
+                                      notes=("`--no-alloy` relies on the Python engine's step-by-step "
+                                             "verification alone",))])
         if not evidence["alloy"].get("valid", False):
             return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
                            p, evidence)

@@ -76,8 +76,9 @@ def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "o
         f.write(generate("dag", 30, 0, version=True))
     hub = hub_component("dag", 30)
     result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path])
-    assert result.exit_code == 1, result.output
-    assert "Alloy could not verify the plan" in result.output and "--no-alloy" in result.output
+    assert result.exit_code == 2, result.output       # not answered, so not "unsafe" (docs/exit-codes.md)
+    assert "RC303" in result.output and "Alloy could not verify the plan" in result.output
+    assert "--no-alloy" in result.output
     result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path, "--no-alloy"])
     assert result.exit_code == 0, result.output
 
