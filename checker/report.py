@@ -74,7 +74,8 @@ def snippet(sources: Sources, span: Span, gutter: int) -> list[str]:
 def render_text(diags: list[Diagnostic], sources: Sources, out: TextIO) -> None:
     for d in diags:
         gutter = max(len(str(d.span.line)), 2)
-        where = "reconf" if d.span.file.startswith("<") else str(d.span)
+        # a pseudo-file ("<alloy>") has no position, but standard input ("<stdin>") was read and has
+        where = "reconf" if d.span.file.startswith("<") and d.span.file not in sources.texts else str(d.span)
         out.write(f"{where}: {d.severity.value}[{d.code}]: {d.message}\n")
         for line in snippet(sources, d.span, gutter):
             out.write(line + "\n")

@@ -33,11 +33,15 @@ COMMANDS: dict[str, list[str]] = {
     "plan replace": ["plan", "replace", "talker", "-f", "{f}", "--no-alloy"],
     "plan remove": ["plan", "remove", "talker", "-f", "{f}", "--no-alloy"],
     "plan migrate": ["plan", "migrate", "{f}", "{g}", "--no-alloy"],
+    "plan add": ["plan", "add", "logger", "--from", "{g}", "-f", "{f}", "--no-alloy"],
+    "plan transition": ["plan", "transition", "server", "PBR", "-f", "{f}", "--no-alloy"],
     "gate": ["gate", "--base", "{f}", "--head", "{g}"],
     "ftm expand": ["ftm", "expand", "{f}"],
     "ftm select": ["ftm", "select", "server", "-f", "{f}", "--no-alloy"],
 }
-JSON = {"check", "plan replace", "plan remove", "plan migrate", "ftm select"}
+JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "ftm select"}
+# commands that take no architecture: only the failures that apply to them
+OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"]}
 
 
 def args(name: str, f: str, g: str = MIGRATED) -> list[str]:
@@ -77,11 +81,19 @@ def test_bad_input_in_json_is_an_error_document(name: str) -> None:
     assert doc["verdict"] == "error" and doc["diagnostics"][0]["code"] == "RC003"
 
 
-@pytest.mark.parametrize("name", sorted(COMMANDS))
+@pytest.mark.parametrize("name", sorted(COMMANDS) + sorted(OTHERS))
 def test_an_unknown_option_is_2(name: str) -> None:
-    r = invoke(args(name, CHATTER, CHATTER) + ["--no-such-option"])
+    argv = args(name, CHATTER, CHATTER) if name in COMMANDS else [a.format(f=CHATTER) for a in OTHERS[name]]
+    r = invoke(argv + ["--no-such-option"])
     assert_clean(r, 2)
     assert "No such option" in r.stderr and not r.stdout
+
+
+@pytest.mark.parametrize("path, said", [(MISSING, "does not exist"), (CHATTER, "cannot read it as a run report")])
+def test_recover_without_a_run_report_is_2(path: str, said: str) -> None:
+    r = invoke(["recover", path])
+    assert_clean(r, 2)
+    assert said in r.stderr
 
 
 @pytest.mark.parametrize("argv", [

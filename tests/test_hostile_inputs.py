@@ -256,6 +256,8 @@ def test_stdin_diagnostics_name_stdin() -> None:
     refused(proc, "RC001")
     span = json.loads(proc.stdout)["diagnostics"][0]["span"]
     assert (span["file"], span["line"], span["column"]) == ("<stdin>", 2, 15)
+    text = check("-", input="system s\ncomponent c { x }\n")             # people see the position too
+    assert "<stdin>:2:15: error[RC001]" in text.stderr and "component c { x }" in text.stderr, text.stderr
 
 
 def test_stdin_includes_stay_in_the_current_directory(tmp_path: Path) -> None:
