@@ -67,8 +67,18 @@ def snippet(sources: Sources, span: Span, gutter: int) -> list[str]:
         width = len(line[span.col - 1: span.end_col - 1].expandtabs(4))
     else:
         width = max(1, len(shown) - start)
+    if len(shown) > SNIPPET_WIDTH:          # a long line: the part around the caret, not all of it
+        lo = max(0, min(start - SNIPPET_WIDTH // 4, len(shown) - SNIPPET_WIDTH))
+        hi = lo + SNIPPET_WIDTH
+        before, after = ("…" if lo > 0 else ""), ("…" if hi < len(shown) else "")
+        shown = before + shown[lo:hi] + after
+        start, width = start - lo + len(before), max(1, min(width, hi - start))
     pad = " " * gutter
     return [f"{span.line:>{gutter}} | {shown}", f"{pad} | {' ' * start}{'^' * max(1, width)}"]
+
+
+SNIPPET_WIDTH = 160
+"""Characters of a source line a snippet shows at most (a minified or hostile file has lines of megabytes)."""
 
 
 def render_text(diags: list[Diagnostic], sources: Sources, out: TextIO) -> None:

@@ -437,7 +437,8 @@ def syntax_diagnostic(e: UnexpectedInput, text: str, file: str) -> Diagnostic:
                          notes=(f"expected {_one_of(expected)}",) if expected else ())
         span = Span(file, tok.line or line, tok.column or col, tok.end_line or line,
                     tok.end_column or col + 1)
-        return error("RC001", f"unexpected {str(tok)!r}", span,
+        text = str(tok) if len(str(tok)) <= 60 else str(tok)[:60] + "…"    # a token may be megabytes long
+        return error("RC001", f"unexpected {text!r}", span,
                      notes=(f"expected {_one_of(expected)}",) if expected else ())
     if isinstance(e, UnexpectedEOF):
         end = _end_position(text)

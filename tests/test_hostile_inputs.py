@@ -275,3 +275,11 @@ def test_stdin_has_the_same_budget() -> None:
 
 def test_empty_stdin() -> None:
     refused(check("-", input=""), "RC006")
+
+
+def test_a_megabyte_line_is_shown_around_the_caret(tmp_path: Path) -> None:
+    """Neither the snippet nor the message echoes a whole line or token of a megabyte."""
+    path = tmp_path / "long.arch"
+    path.write_text("system s\ncomponent c { " + "x" * 1_000_000 + " }\n", encoding="utf-8")
+    out = refused(check(str(path)), "RC001")
+    assert len(out) < 2_000 and "long.arch:2:15: error[RC001]: unexpected 'xxx" in out and "…" in out
