@@ -56,7 +56,7 @@ def guarded(command: str) -> Callable[[F], F]:
             try:
                 return fn(*args, **kwargs)
             except FtmRuleBroken as e:          # an unsafe architecture, as `check` judges it
-                emit_failure(command, e.diagnostics, fmt, sources)
+                emit_failure(command, e.diagnostics, fmt, sources, verdict="unsafe")
                 sys.exit(EXIT_UNSAFE)
             except DiagnosticError as e:
                 emit_failure(command, e.diagnostics, fmt, sources)
@@ -89,14 +89,15 @@ def guarded(command: str) -> Callable[[F], F]:
 
 
 def emit_failure(command: str, diags: list[Diagnostic], fmt: OutputFormat | ReportFormat,
-                 sources: Sources) -> None:
+                 sources: Sources, verdict: str = "error") -> None:
+    """The diagnostics of a command that stopped: `verdict` is "error" (exit 2) or "unsafe" (exit 1)."""
     if fmt.value == "json":
-        click.echo(report.document(command, "error", diags))
+        click.echo(report.document(command, verdict, diags))
         return
     n = sum(1 for d in diags if d.is_error)
     summary = f"{n} error{'s' if n != 1 else ''}"
     if fmt.value != "text":
-        rep = formats.Report(command, "error", diags, formats.failure_cases(command, diags), summary)
+        rep = formats.Report(command, verdict, diags, formats.failure_cases(command, diags), summary)
         click.echo(formats.render(rep, fmt.value), nl=False)
     report.render_text(diags, sources, sys.stderr)
     console().print(f"[bold red]✗[/] {summary}")

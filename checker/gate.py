@@ -400,10 +400,14 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
         evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
         if use_alloy:
             evidence["alloy"] = alloy_evidence(p, solver)
+    if use_alloy and evidence["alloy"].get("verdict") == "not run":     # not answered: exit 2, as `plan` does
+        raise DiagnosticError([error("RC303", f"Alloy could not verify the migration plan: "
+                                              f"{evidence['alloy'].get('reason', 'unknown')}", new.span,
+                                     notes=("`--engine python` relies on the Python engine's step-by-step "
+                                            "verification alone",))])
     if use_alloy and not evidence["alloy"].get("valid", False):
-        said = "could not verify" if evidence["alloy"].get("verdict") == "not run" else "refuted"
         out.fail("gate.policy", "a verified migration plan exists", error(
-            "RC501", f"Alloy {said} the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
+            "RC501", f"Alloy refuted the migration plan: {evidence['alloy'].get('reason', 'unknown')}", new.span))
         return
     out.plan = p
     out.plan_doc = plan_document("migrate", old, p, evidence, new)

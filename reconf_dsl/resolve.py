@@ -97,7 +97,8 @@ def _check_resources(sink: DiagnosticSink, settings: Iterable[ir.ResourceSetting
                            notes=("known resources: " + ", ".join(sorted(KNOWN_RESOURCES)),)))
             continue
         allowed = KNOWN_RESOURCES[r.name]
-        if allowed is None and not (r.value.isdigit() and len(r.value) <= MAX_RESOURCE_DIGITS):
+        digits = r.value.isascii() and r.value.isdigit()        # not `²`, which isdigit() accepts
+        if allowed is None and not (digits and len(r.value) <= MAX_RESOURCE_DIGITS):
             shown = r.value if len(r.value) <= MAX_RESOURCE_DIGITS else r.value[:MAX_RESOURCE_DIGITS] + "…"
             sink.add(error("RC125", f"resource '{r.name}' takes a whole number of at most {MAX_RESOURCE_DIGITS} "
                                     f"digits, not '{shown}'", r.span))

@@ -151,3 +151,18 @@ def test_a_jvm_that_cannot_start_is_2_with_valid_output(argv: list[str], json_ou
     assert "Traceback" not in r.stderr and "RC000" not in r.stdout + r.stderr
     if json_out:
         json.loads(r.stdout)                                # SARIF and JSON both parse as JSON
+
+
+def test_unsafe_machine_output_says_so(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Exit 1 and the document's verdict agree: never an "error" verdict with the unsafe exit."""
+    unprotected = tmp_path / "unprotected.arch"
+    with open(FTM, encoding="utf-8") as f:
+        text = f.read()
+    unprotected.write_text(text[:text.index("\nservice ")] + "\n", encoding="utf-8")   # its one service, the last item
+    cases = [(["check", "--engine", "python", SLOW], "unsafe"),
+             (["plan", "remove", "talker", "-f", SLOW, "--no-alloy"], "no-plan"),
+             (["plan", "migrate", FTM, str(unprotected), "--no-alloy"], "unsafe")]       # RC407: nothing to protect
+    for argv, verdict in cases:
+        r = invoke(argv + ["--output-format", "json"])
+        assert_clean(r, 1)
+        assert json.loads(r.stdout)["verdict"] == verdict, (argv, r.stdout)

@@ -283,3 +283,10 @@ def test_a_megabyte_line_is_shown_around_the_caret(tmp_path: Path) -> None:
     path.write_text("system s\ncomponent c { " + "x" * 1_000_000 + " }\n", encoding="utf-8")
     out = refused(check(str(path)), "RC001")
     assert len(out) < 2_000 and "long.arch:2:15: error[RC001]: unexpected 'xxx" in out and "…" in out
+
+
+def test_a_resource_of_other_digits_is_refused(tmp_path: Path) -> None:
+    """`²` is a digit to str.isdigit() but not to int(): RC125, not an internal error."""
+    path = tmp_path / "sup.arch"
+    path.write_text("system s\nhost h { cpus: ² }\n", encoding="utf-8")
+    refused(check(str(path)), "RC125")

@@ -3,6 +3,8 @@ the lean slice, the full slice and the whole architecture give the same verdict,
 plans and on broken ones; a plan too large for the analyzer is not shown as verified."""
 from __future__ import annotations
 
+import json
+
 from dataclasses import replace as dc_replace
 
 import pytest
@@ -81,6 +83,16 @@ def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "o
     assert "--no-alloy" in result.output
     result = CliRunner().invoke(main, ["plan", "replace", hub, "--with", hub + "_v2", "-f", path, "--no-alloy"])
     assert result.exit_code == 0, result.output
+    # the gate does not call a plan it could not verify unsafe either: the hub's new run line is a new version
+    old, new = (os.path.join(str(tmp_path), name) for name in ("old.arch", "new.arch"))
+    text = generate("dag", 30, 0)
+    with open(old, "w") as f:
+        f.write(text)
+    with open(new, "w") as f:
+        f.write(text.replace(f"-r __node:={hub}\"", f"-r __node:={hub} --v2\""))
+    result = CliRunner().invoke(main, ["gate", "--base", old, "--head", new, "--output-format", "json"])
+    assert result.exit_code == 2, result.output
+    assert json.loads(result.stdout)["diagnostics"][0]["code"] == "RC303"
 
 
 def test_a_long_plan_is_verified_in_windows_with_the_whole_verdict(monkeypatch: pytest.MonkeyPatch,
