@@ -34,7 +34,7 @@ from typing import Any, Optional
 
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error
 from reconf_dsl.ir import Component, FtmExpr, System
-from reconf_dsl.loader import Sources, display_path
+from reconf_dsl.loader import Sources, display_path, read_source
 from reconf_dsl.span import Span
 
 COVERAGE: dict[str, frozenset[str]] = {
@@ -270,18 +270,17 @@ def load_policy(path: Optional[str] = None, shown: Optional[str] = None, origin:
     if path is None:
         return Policy()
     shown = shown or display_path(path)
+    if not os.path.exists(path):
+        raise DiagnosticError([error("RC505", f"no such policy file: {shown}", Span(shown, 1, 1, 1, 1))])
     try:
-        with open(path, "rb") as f:
-            raw = f.read()
-        text = raw.decode("utf-8")
+        text = read_source(path, Sources())             # bounded as an architecture is: /dev/zero is refused
         if sources is not None:
             sources.texts[shown] = text
         data = tomllib.loads(text)
-    except FileNotFoundError:
-        raise DiagnosticError([error("RC505", f"no such policy file: {shown}", Span(shown, 1, 1, 1, 1))]) from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise DiagnosticError([error("RC505", f"cannot read the policy {shown}: {e}", Span(shown, 1, 1, 1, 1))]) \
-            from None
+    except DiagnosticError as e:
+        d = e.diagnostics[0]
+        raise DiagnosticError([error("RC505", f"cannot read the policy {shown}: {d.message}", Span(shown, 1, 1, 1, 1),
+                                     notes=d.notes)]) from None
     except tomllib.TOMLDecodeError as e:
         line = int(m.group(1)) if (m := re.search(r"line (\d+)", str(e))) else 1
         col = int(m.group(1)) if (m := re.search(r"column (\d+)", str(e))) else 1

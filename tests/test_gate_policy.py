@@ -157,3 +157,10 @@ def test_locate_strings_with_escapes_comments_and_several_lines() -> None:
     assert [(s.line, s.col, s.end_col) for s in nd.entries] == [(2, 19, 25), (3, 3, 8), (4, 3, 10)]
     assert (nd.value.line, nd.value.col, nd.value.end_line, nd.value.end_col) == (2, 17, 4, 12)
     assert (where["keep-ftm"].value.col, where["keep-ftm"].value.end_col) == (12, 16)
+
+
+def test_a_policy_that_is_a_device_is_refused_unread() -> None:
+    """/dev/zero as the policy: bad input (RC505, why in the loader's words), not a read without end."""
+    chatter = BY_NAME["chatter"].file
+    r = CliRunner().invoke(main, ["gate", "--base", chatter, "--head", chatter, "--policy", "/dev/zero"])
+    assert r.exit_code == 2 and "RC505" in r.stderr and "not a regular file" in r.stderr, r.output
