@@ -18,6 +18,8 @@ from typing import Any, Optional
 from codegen.graph import Picture, to_mermaid
 from reconf_dsl.diagnostics import Diagnostic
 
+from .report import plural
+
 MERMAID_LIMIT = 50_000          # Mermaid's default maxTextSize: over it, nothing is drawn
 COMMENT_LIMIT = 65_536          # GitHub's limit on the body of a comment
 _SPECIAL = re.compile(r"([\\`*_\[\]<>|#~])")
@@ -130,17 +132,29 @@ def comment(*, verdict: str, base: str, head: str, diagnostics: list[Diagnostic]
             parts.append("**Plan**: nothing to do: the head is the deployed configuration.\n")
         else:
             steps = plan.describe()
-            listed = steps[:300]
-            parts.append(f"**Plan**: {escape(plan.summary())}\n\n<details><summary>{len(steps)} steps</summary>\n\n"
+            listed, size = [], 0
+            for line in steps[:300]:                # at most 300 steps and a third of the comment
+                size += len(line) + 1
+                if size > COMMENT_LIMIT // 3:
+                    break
+                listed.append(line)
+            said = escape(plan.summary())
+            said = said if len(said) <= 2_000 else said[:2_000] + "…"   # it names every functionality left degraded
+            parts.append(f"**Plan**: {said}\n\n<details><summary>{plural(len(steps), 'step')}</summary>\n\n"
                          "```text\n" + "\n".join(listed) + "\n"
-                         + (f"… {len(steps) - len(listed)} more steps\n" if len(steps) > len(listed) else "")
+                         + (f"… {plural(len(steps) - len(listed), 'more step')}\n" if len(steps) > len(listed)
+                            else "")
                          + "```\n\n</details>\n\n")
             used = sum(len(p) for p in parts)
             parts.append(_picture(plan, COMMENT_LIMIT - used - 1_000))
-    return "".join(parts)
+    text = "".join(parts)
+    if len(text) > COMMENT_LIMIT:               # many notes or findings: cut, and say so, rather than be refused
+        cut = "\n\n… (cut at GitHub's limit of 65,536 characters; the JSON report has everything)\n"
+        text = text[:COMMENT_LIMIT - len(cut)] + cut
+    return text
 
 
 def failure_comment(base: str, head: str, diagnostics: list[Diagnostic], summary: Optional[str] = None) -> str:
     n = sum(1 for d in diagnostics if d.is_error)
     return comment(verdict="error", base=base, head=head, diagnostics=diagnostics,
-                   summary=summary or f"{n} error{'s' if n != 1 else ''}: nothing was judged")
+                   summary=summary or f"{plural(n, 'error')}: nothing was judged")

@@ -183,3 +183,13 @@ def test_neighbourhood_keeps_changed_components_their_topics_and_the_components_
     part = gate_comment.neighbourhood(pic)
     assert [n.id for n in part.nodes] == ["c:a", "c:b", "t:x"]
     assert [(e.source, e.target) for e in part.edges] == [("c:a", "t:x"), ("t:x", "c:b")]
+
+
+def test_the_comment_stays_under_githubs_limit_whatever_it_holds() -> None:
+    from checker.gate_comment import COMMENT_LIMIT, comment, failure_comment
+    from reconf_dsl.diagnostics import error
+    from reconf_dsl.span import Span
+    many = [error("RC201", "x" * 200, Span("a.arch", i + 1, 1, i + 1, 2)) for i in range(2_000)]
+    text = comment(verdict="fail", base="a", head="b", diagnostics=many, summary="s", notes=("n" * 70_000,))
+    assert len(text) <= COMMENT_LIMIT and "cut at GitHub's limit" in text
+    assert "1 error: nothing was judged" in failure_comment("a", "b", many[:1])
