@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from codegen.ros2 import plan_states
+from reconf_ros.executor import PlanStates
 from reconf_ros.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -55,8 +55,7 @@ def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, 
         final = (report.get("observed") or {}).get("components", [])
         statuses = live.settle_status(final)
     doc = report.get("plan_document", {})
-    states = ([{"components": sorted(c), "degraded": [list(d) for d in g]}
-               for c, g, _ in plan_states(doc["plan"])] if doc.get("plan") else [])
+    states = [st.to_doc() for st in PlanStates(doc["plan"])] if doc.get("plan") else []
     created = {s["component"] for s in doc.get("plan", {}).get("steps", []) if s["action"] == "create"}
     renames = doc.get("plan", {}).get("renames", {})
     created = {renames.get(c, c) for c in created}

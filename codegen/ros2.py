@@ -7,8 +7,9 @@ The caller decides everything and hands over a plan document, a JSON-able dict:
 
 The plan holds its first state in full (`start`) and, per step, what the step changed
 (`changes`: `add` and `drop`, each with `components`, `degraded` and `roles`), so a document
-grows with the plan's length; `plan_states` and `state_at` give the states back. Version 1
-held every state in full (`states`); both are read.
+grows with the plan's length; `state_at` gives a state back (the executor's `PlanStates`, all
+of them). Version 1 held every state in full (`states`): those are still read, but only version
+2 is written.
 
 `render_plan_script` embeds it as a JSON literal in `templates/plan_ros2.py.j2`, together with
 the text of the plan executor, `reconf_ros/executor.py` (read as package data: the executor
@@ -25,12 +26,13 @@ from __future__ import annotations
 
 import json
 from importlib import resources
-from typing import Any, Iterator, Optional
+from typing import Any, Optional
 
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
+from reconf_ros.executor import PlanStates
 
 __all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script", "system_at", "system_from_model_data",
-           "plan_states", "state_at"]
+           "state_at"]
 
 FORMAT_VERSION = 2
 _KEYS = ("format_version", "system", "fingerprint", "evidence", "plan", "model")
@@ -127,42 +129,10 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
                   steps=len(plan.get("steps", [])))
 
 
-_Parts = tuple[set[Any], set[Any], set[Any]]
-
-
-def plan_states(plan: dict[str, Any]) -> Iterator[_Parts]:
-    """Each state of a document's `plan` in order, as (components, degraded, roles) sets. The
-    same sets are changed in place from one state to the next: copy what you keep."""
-    recorded = plan.get("states")
-    first = recorded[0] if recorded is not None else plan["start"]
-    parts: _Parts = (set(first["components"]), {tuple(d) for d in first["degraded"]},
-                     {tuple(r) for r in first["roles"]})
-    yield parts
-    if recorded is not None:
-        for st in recorded[1:]:
-            for part, key in zip(parts, ("components", "degraded", "roles")):
-                part.clear()
-                part.update(x if isinstance(x, str) else tuple(x) for x in st[key])
-            yield parts
-        return
-    for change in plan["changes"]:
-        for part, key in zip(parts, ("components", "degraded", "roles")):
-            part.difference_update(x if isinstance(x, str) else tuple(x) for x in change.get("drop", {}).get(key, ()))
-            part.update(x if isinstance(x, str) else tuple(x) for x in change.get("add", {}).get(key, ()))
-        yield parts
-
-
 def state_at(plan: dict[str, Any], index: int = -1) -> dict[str, list[Any]]:
-    """State `index` of a document's `plan` (negative counts from the end), each part sorted."""
-    n = len(plan["steps"]) + 1
-    i = index + n if index < 0 else index
-    if not 0 <= i < n:
-        raise IndexError(f"state {index} of a plan with {n} states")
-    for k, (comps, degraded, roles) in enumerate(plan_states(plan)):
-        if k == i:
-            return {"components": sorted(comps), "degraded": [list(d) for d in sorted(degraded)],
-                    "roles": [list(r) for r in sorted(roles)]}
-    raise IndexError(f"state {index}: the plan has fewer changes than steps")
+    """State `index` of a document's `plan` (negative counts from the end), each part sorted; read
+    by the executor's own reader (`reconf_ros.executor.PlanStates`, standard library only)."""
+    return PlanStates(plan)[index].to_doc()
 
 
 def system_at(plan_doc: dict[str, Any], index: int = -1) -> System:

@@ -30,7 +30,7 @@ import subprocess
 import sys
 import time
 from fractions import Fraction
-from typing import Any, Callable, Iterable, Optional
+from typing import Any, Callable, Iterable, Iterator, Optional
 
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
@@ -72,31 +72,23 @@ class State:
     (connector, component, port)."""
 
     def __init__(self, components: Iterable[str], degraded: Iterable[Any], roles: Iterable[Any]) -> None:
-        self.components = frozenset(components)
-        self.degraded = frozenset((d[0], d[1]) for d in degraded)
-        self.roles = frozenset((r[0], r[1], r[2]) for r in roles)
+        # frozensets are taken as they are (a state derived from another shares its unchanged parts)
+        self.components = components if isinstance(components, frozenset) else frozenset(components)
+        self.degraded = degraded if isinstance(degraded, frozenset) else frozenset((d[0], d[1]) for d in degraded)
+        self.roles = roles if isinstance(roles, frozenset) else frozenset((r[0], r[1], r[2]) for r in roles)
 
     @staticmethod
     def from_doc(d: dict[str, Any]) -> "State":
         return State(d["components"], d["degraded"], d["roles"])
 
-    @staticmethod
-    def all_of(plan: dict[str, Any]) -> list["State"]:
-        """Every state of a plan document's plan: its first state and each step's change (format 2),
-        or every state recorded in full (format 1)."""
-        if "states" in plan:
-            return [State.from_doc(s) for s in plan["states"]]
-        if "start" not in plan:
-            return []
-        states = [State.from_doc(plan["start"])]
-        for change in plan.get("changes", []):
-            parts: list[frozenset[Any]] = []
-            for key, now in zip(("components", "degraded", "roles"), states[-1].key()):
-                add, drop = ({x if isinstance(x, str) else tuple(x) for x in change.get(side, {}).get(key, ())}
-                             for side in ("add", "drop"))
-                parts.append((now - drop) | add if add or drop else now)
-            states.append(State(parts[0], parts[1], parts[2]))
-        return states
+    def changed(self, change: dict[str, Any]) -> "State":
+        """This state with a plan document's change of one step applied (format 2: `add`, `drop`)."""
+        parts: list[frozenset[Any]] = []
+        for key, now in zip(("components", "degraded", "roles"), self.key()):
+            add, drop = ({x if isinstance(x, str) else tuple(x) for x in change.get(side, {}).get(key, ())}
+                         for side in ("add", "drop"))
+            parts.append((now - drop) | add if add or drop else now)
+        return State(parts[0], parts[1], parts[2])
 
     def to_doc(self) -> dict[str, Any]:
         return {"components": sorted(self.components), "degraded": [list(d) for d in sorted(self.degraded)],
@@ -115,6 +107,61 @@ class State:
         degraded = ", ".join(f"{c}.{f}" for c, f in sorted(self.degraded) if c in self.components) or "-"
         roles = ", ".join(f"{c}.{p}@{n}" for n, c, p in sorted(self.roles)) or "-"
         return f"components: {comps}\n    degraded: {degraded}\n    attachments: {roles}"
+
+
+class PlanStates:
+    """The states of a plan document's plan: from its first state and each step's change
+    (format 2), one state in 64 kept and the others replayed, so a plan of n steps on m
+    components does not take n·m in memory; or every state as recorded (format 1)."""
+
+    EVERY = 64
+
+    def __init__(self, plan: dict[str, Any]) -> None:
+        self.changes: list[dict[str, Any]] = plan.get("changes", [])
+        self.kept: dict[int, State] = {}
+        if "states" in plan:
+            self.kept = {i: State.from_doc(st) for i, st in enumerate(plan["states"])}
+            self.n = len(self.kept)
+        elif "start" in plan:
+            state = State.from_doc(plan["start"])
+            self.kept[0], self.n = state, len(self.changes) + 1
+            for i, change in enumerate(self.changes, 1):
+                state = state.changed(change)
+                if i % self.EVERY == 0 or i == len(self.changes):
+                    self.kept[i] = state
+        else:
+            self.n = 0
+        self.last: tuple[int, Optional[State]] = (0, self.kept.get(0))
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __bool__(self) -> bool:
+        return self.n > 0
+
+    def __getitem__(self, index: int) -> State:
+        i = index + self.n if index < 0 else index
+        if not 0 <= i < self.n:
+            raise IndexError(f"state {index} of a plan with {self.n} states")
+        if i in self.kept:
+            return self.kept[i]
+        j, state = self.last
+        if state is None or not j <= i or i - j >= self.EVERY:
+            j = i - i % self.EVERY
+            state = self.kept[j]
+        for change in self.changes[j:i]:
+            state = state.changed(change)
+        self.last = (i, state)
+        return state
+
+    def __iter__(self) -> Iterator[State]:
+        if not self.n:
+            return
+        state = self.kept[0]
+        yield state
+        for i in range(1, self.n):
+            state = self.kept.get(i) or state.changed(self.changes[i - 1])
+            yield state
 
 
 def rate(p: Optional[dict[str, Any]]) -> Optional[Fraction]:
@@ -302,7 +349,7 @@ def label(i: int, step: dict[str, Any]) -> str:
 def replay(doc: dict[str, Any], out: Any) -> bool:
     """Replay the plan from its first state; print every state; True when all are safe."""
     model, plan = Model(doc["model"]), doc["plan"]
-    steps, recorded = plan["steps"], State.all_of(plan)
+    steps, recorded = plan["steps"], PlanStates(plan)
     state = recorded[0] if recorded else State([], [], [])
     ok, refused = True, None
     rows = [("  0.   initial state", state)]
@@ -581,7 +628,7 @@ class Executor:
         self.own_runtime = runtime is None      # a manager lends its long-lived one
         self.plan, self.model = doc["plan"], Model(doc["model"])
         self.steps = self.plan["steps"]
-        self.states = State.all_of(self.plan)
+        self.states = PlanStates(self.plan)
         self.renames: dict[str, str] = self.plan.get("renames", {})
         self.placed: dict[str, str] = {}        # component -> its node's name, where not its own (see `locate`)
         self.runs = {c["name"]: c.get("run") for c in doc["model"]["components"]}

@@ -113,11 +113,13 @@ def plan_target(path: str) -> tuple["System", dict[str, Any]]:
 def _from_plan(path: str, name: str) -> Component:
     """Component `name` (`X@new` or X) as the plan's target has it, or, for one the target no
     longer has, as the last state with it has it."""
-    from codegen.ros2 import plan_states, system_at
+    from codegen.ros2 import system_at
+
+    from .executor import PlanStates
     system, doc = plan_target(path)
     renames: dict[str, str] = doc["plan"].get("renames", {})
     if system.component(renames.get(name, name)) is None:
-        last = max((i for i, (comps, _, _) in enumerate(plan_states(doc["plan"])) if name in comps), default=None)
+        last = max((i for i, st in enumerate(PlanStates(doc["plan"])) if name in st.components), default=None)
         if last is None:
             raise click.UsageError(f"{path}: the plan has no component {name}")
         system = system_at(doc, last)

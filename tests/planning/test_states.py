@@ -13,8 +13,9 @@ from checker.planning import plan_replace
 from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning import states as states_module
 from checker.planning.states import States
-from codegen.ros2 import plan_states, state_at
+from codegen.ros2 import state_at
 from reconf_dsl.loader import load_text
+from reconf_ros.executor import PlanStates
 
 from bench.gen import generate
 
@@ -23,6 +24,7 @@ from bench.gen import generate
 def plan(monkeypatch: pytest.MonkeyPatch) -> Plan:
     """A plan several checkpoints long (one state in 4 kept): replacing the hub of a fan-in."""
     monkeypatch.setattr(states_module, "EVERY", 4)
+    monkeypatch.setattr(PlanStates, "EVERY", 4)
     system = load_text(generate("fanin", 300, seed=1, version=True), "fanin.arch")
     plan = plan_replace(system, "hub", "hub_v2", "default")
     assert len(plan.steps) > 3 * 4 and {a.kind for a in plan.steps} >= {"create", "remove", "attach", "detach"}
@@ -74,9 +76,12 @@ def test_the_document_holds_changes_that_give_every_state(plan: Plan) -> None:
     full = every_state(plan)
     assert "states" not in doc and len(doc["changes"]) == len(plan.steps)
     assert doc["changes"] == [state_change(a, b) for a, b in pairwise(full)]
-    for i, (comps, degraded, roles) in enumerate(plan_states(doc)):
-        assert (comps, degraded, roles) == (set(full[i].components), set(full[i].degraded), set(full[i].roles))
+    read = PlanStates(doc)
+    assert len(read) == len(full) and [st.key() for st in read] == [(s.components, s.degraded, s.roles) for s in full]
+    for i in (len(full) - 1, 3, 0, len(full) // 2, -2, 5, 4):        # out of order: replayed from checkpoints
+        assert read[i].key() == (full[i].components, full[i].degraded, full[i].roles)
     assert state_at(doc, -1) == state_dict(full[-1]) and state_at(doc, 3) == state_dict(full[3])
+    assert len(read.kept) <= len(full) // 4 + 2            # one state in EVERY (4 here) and the last
     # a version-1 document (every state in full) reads the same
     v1 = dict(doc, states=[state_dict(s) for s in full])
-    assert [tuple(map(frozenset, p)) for p in plan_states(v1)] == [tuple(map(frozenset, p)) for p in plan_states(doc)]
+    assert [st.key() for st in PlanStates(v1)] == [st.key() for st in read]
