@@ -16,7 +16,7 @@ import click
 from rich.console import Console
 
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
-from reconf_dsl.loader import Sources, load
+from reconf_dsl.loader import ALLOW_OUTSIDE_ENV, Sources, load
 from reconf_dsl.span import Span
 
 from . import formats, report
@@ -24,11 +24,11 @@ from .config import Configuration
 from .alloy.errors import AlloyUnavailable
 from .engines import EngineUnavailable, EnginesDisagree
 from .ftm.expand import FtmRuleBroken
+from .planning import STRATEGIES
 from .planning.plan import BadRequest
 from .inputs import exclude_option, expand, nothing_left, paths_argument
 from .progress import status
 from .report import OutputFormat, ReportFormat
-from .semantics import evaluate
 
 EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_CHANGES = 3          # only with --detailed-exitcode: a safe plan with at least one step
@@ -124,15 +124,17 @@ files_argument = click.argument("files", nargs=-1, required=True, type=click.Pat
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="reconf")
-@click.option("--allow-includes-outside", is_flag=True, envvar="RECONF_ALLOW_INCLUDES_OUTSIDE",
+@click.option("--allow-includes-outside", is_flag=True, envvar=ALLOW_OUTSIDE_ENV,
               help="follow includes that lead outside the directory tree of the file named "
                    "(env RECONF_ALLOW_INCLUDES_OUTSIDE=1)")
 def main(allow_includes_outside: bool) -> None:
     """reconf: check ROS 2 architectures and plan safe run-time reconfigurations.
 
     \b
-    Exit codes: 0 safe or done, 1 unsafe or no safe plan,
-                2 bad input, usage, missing dependency or internal error.
+    Exit codes (docs/exit-codes.md): 0 safe or done, 1 unsafe or no safe plan,
+                2 not answered: bad input, usage, a missing dependency, an output
+                  that cannot be written, or an internal error,
+                3 with --detailed-exitcode: a safe change with steps.
     """
     from reconf_dsl import loader
     loader.settings.allow_includes_outside = allow_includes_outside
@@ -372,8 +374,7 @@ def graph(files: tuple[str, ...], picture_format: Optional[str], output: Optiona
 @picture_format_option
 @click.option("--steps", "each_step", is_flag=True,
               help="one picture per step instead of one annotated picture of the whole plan")
-@click.option("--strategy", type=click.Choice(["default", "paper", "exhaustive"]), default="default",
-              show_default=True)
+@click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="write to a file (with --steps and dot or svg: FILE-01.EXT, FILE-02.EXT, …, and the "
                    "numbered files of an earlier, longer plan removed)")

@@ -17,11 +17,10 @@ from dataclasses import dataclass
 
 import click
 
-from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, error
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
 from reconf_dsl.formatter import format_document
 from reconf_dsl.loader import STDIN, Sources, display_path, read_source
 from reconf_dsl.parser import parse_text
-from reconf_dsl.span import Span
 
 from .cli import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
 from .inputs import exclude_option, expand, paths_argument

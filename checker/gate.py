@@ -38,6 +38,7 @@ from .cli import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, CannotWrite, Failure, emit
                   format_option, guarded, plural, solver_option, write_atomically)
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree
+from .planning.plan import degraded_runs
 from .policy import Policy, check_names, covered, coverage, ftm_names, load_policy
 from .progress import status
 from .report import ReportFormat
@@ -367,12 +368,8 @@ def ftm_findings(old: System, new: System, policy: Policy, out: Outcome) -> None
 
 def degraded_steps(plan: Any) -> dict[tuple[str, str], list[int]]:
     """(component as NEW names it, functionality) → the steps after which it is degraded."""
-    out: dict[tuple[str, str], list[int]] = {}
-    for i, state in enumerate(plan.states[1:], 1):
-        for c, f in sorted(state.degraded):
-            if c in state.components:
-                out.setdefault((plan.renames.get(c, c), f), []).append(i)
-    return out
+    return {(plan.renames.get(c, c), f): [i for r in runs for i in r]
+            for (c, f), runs in sorted(degraded_runs(plan).items())}
 
 
 def func_span(systems: list[System], component: str, functionality: str) -> Optional[Span]:

@@ -37,6 +37,8 @@ from reconf_dsl.ir import Component, FtmExpr, System
 from reconf_dsl.loader import Sources, display_path, read_source
 from reconf_dsl.span import Span
 
+from .planning import STRATEGIES
+
 COVERAGE: dict[str, frozenset[str]] = {
     "PBR": frozenset({"crash"}),
     "LFR": frozenset({"crash"}),
@@ -45,7 +47,6 @@ COVERAGE: dict[str, frozenset[str]] = {
     "SEC": frozenset({"intrusion"}),
 }
 KEYS = ("max-disruption", "never-degrade", "keep-ftm", "strategy", "allow-unsafe-base")
-STRATEGIES = ("default", "paper", "exhaustive")
 TABLE = "tool.reconf"
 
 

@@ -25,7 +25,7 @@ from ..report import plural
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
-           "degradation"]
+           "degradation", "degraded_runs"]
 
 
 class BadRequest(ValueError):
@@ -218,35 +218,41 @@ def state_change(before: Configuration, after: Configuration) -> dict[str, dict[
     return change
 
 
-def degradation(plan: Plan) -> dict[str, Any]:
-    """Which functionalities were degraded, for how many steps, and the longest run: read from
-    the steps (a step changes the functionalities of one component), in time linear in the plan."""
+def degraded_runs(plan: Plan) -> dict[FuncId, list[range]]:
+    """Per functionality, the runs of states (indices 1…n, after each step) in which it is degraded
+    and its component present: read from the steps (a step changes the functionalities of one
+    component), in time linear in the plan."""
     comps = catalogue(plan.system).comps
-    steps: dict[str, int] = {}
-    longest: dict[str, int] = {}
-    since: dict[str, int] = {}          # degraded (and present) from this state on
+    runs: dict[FuncId, list[range]] = {}
+    since: dict[FuncId, int] = {}       # degraded (and present) from this state on
 
-    def close(name: str, i: int) -> None:
-        n = i - since.pop(name)
-        steps[name] = steps.get(name, 0) + n
-        longest[name] = max(longest.get(name, 0), n)
+    def close(fid: FuncId, i: int) -> None:
+        runs.setdefault(fid, []).append(range(since.pop(fid), i))
 
     first = plan.states[0]
-    since.update((f"{c}.{f}", 1) for c, f in first.degraded if c in first.components)
+    since.update(((c, f), 1) for c, f in first.degraded if c in first.components)
     for i, ((before, after), a) in enumerate(zip(pairwise(plan.states), plan.steps), 1):
         comp = comps.get(getattr(a, "component", ""))
         if comp is None or a.kind in ("attach", "detach"):
             continue
         for f in comp.functionalities:
-            fid, name = (comp.name, f.name), f"{comp.name}.{f.name}"
+            fid = (comp.name, f.name)
             was = fid in before.degraded and comp.name in before.components
             now = fid in after.degraded and comp.name in after.components
             if now and not was:
-                since[name] = i
+                since[fid] = i
             elif was and not now:
-                close(name, i)
-    for name in list(since):
-        close(name, len(plan.states))
+                close(fid, i)
+    for fid in list(since):
+        close(fid, len(plan.states))
+    return runs
+
+
+def degradation(plan: Plan) -> dict[str, Any]:
+    """Which functionalities were degraded, for how many steps, and the longest run."""
+    runs = {f"{c}.{f}": r for (c, f), r in degraded_runs(plan).items()}
+    steps = {name: sum(map(len, r)) for name, r in runs.items()}
+    longest = {name: max(map(len, r)) for name, r in runs.items()}
     return {"functionalities": dict(sorted(steps.items())), "longest": max(longest.values(), default=0),
             "longest_functionality": max(longest, key=lambda k: (longest[k], k)) if longest else None}
 
