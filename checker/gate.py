@@ -538,11 +538,14 @@ def write_reports(reports: list[tuple[str, str]], render: Callable[[str], str]) 
     return failed
 
 
+class ReportsNotWritten(Failure):
+    """Some `--report` files could not be written (RC511); the others hold the gate's verdict."""
+
+
 def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic], base: str, head: str) -> None:
     """Bad input: every report file still holds a valid document, which says why nothing was judged."""
     from .gate_comment import failure_comment
-    n = sum(1 for d in diags if d.is_error)
-    summary = f"{n} error{'s' if n != 1 else ''}"
+    summary = plural(sum(1 for d in diags if d.is_error), "error")
 
     def render(fmt: str) -> str:
         if fmt == "json":
@@ -596,6 +599,8 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     try:
         run_gate(base, head, policy_file, allow_unsafe_base, detailed_exitcode, reports, output_format, engine,
                  solver, sources)
+    except ReportsNotWritten:
+        raise                           # the reports that were written hold the verdict: keep them
     except (DiagnosticError, Failure) as e:
         write_failure_reports(reports, e.diagnostics, base, head)
         raise
@@ -664,7 +669,7 @@ def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
 
     failed = write_reports(reports, render)
     if failed:
-        raise DiagnosticError(failed)
+        raise ReportsNotWritten(failed)
     emit_report(rep, output_format, sources, json_doc, human)
     if not out.passed:
         sys.exit(EXIT_UNSAFE)

@@ -121,6 +121,14 @@ def test_a_report_that_cannot_be_written_is_bad_input(here) -> None:
     assert d["code"] == "RC511" and "no/such/dir/gate.sarif" in d["message"]
 
 
+def test_a_report_that_cannot_be_written_leaves_the_others_as_judged(here) -> None:
+    code, out, err = gate("--base", CHATTER, "--head", CHATTER, "--report", "json=ok.json",
+                          "--report", "sarif=no/such/dir/gate.sarif")
+    assert code == 2 and (out + err).count('"RC511"') == 1, out + err      # said once, not again by a fallback
+    with open(here / "ok.json", encoding="utf-8") as f:
+        assert json.load(f)["verdict"] == "pass"
+
+
 def test_a_bad_report_option_is_a_usage_error(here) -> None:
     code, _, err = gate("--base", CHATTER, "--head", CHATTER, "--report", "pdf=gate.pdf")
     assert code == 2 and "FORMAT=FILE" in err
