@@ -84,8 +84,16 @@ def fmt_cmd(files: tuple[str, ...], exclude: tuple[str, ...], check_only: bool, 
     """
     failed: list[Diagnostic] = []
     unformatted: list[str] = []
-    paths = expand(files, exclude)
-    if not paths:
+    paths: list[str] = []
+    for given in files:                 # a directory without .arch files is reported, and the rest formatted
+        try:
+            found = expand([given], exclude)
+        except DiagnosticError as e:
+            failed.extend(e.diagnostics)
+            continue
+        seen = set(paths)
+        paths += [p for p in found if p not in seen]
+    if not paths and not failed:
         console().print("[yellow]nothing to format[/]: --exclude left out every file given")
     for path in paths:
         try:

@@ -521,3 +521,11 @@ def test_the_bundled_examples_are_formatted() -> None:
             "examples/ftm/client_server_pbr.arch"} <= set(found)
     r = CliRunner().invoke(main, ["fmt", "--check", os.path.join(ROOT, "examples")])
     assert r.exit_code == 0, r.stderr
+
+
+def test_cli_fmt_goes_on_past_a_directory_without_arch_files(tmp_path: Path) -> None:
+    (tmp_path / "empty").mkdir()
+    src = _write(tmp_path / "x.arch", MESSY)
+    r = _fmt_cli(str(tmp_path / "empty"), str(src))
+    assert r.exit_code == 2 and "error[RC007]: no .arch file under" in r.stderr
+    assert _fmt_cli("--check", str(src)).exit_code == 0          # formatted all the same
