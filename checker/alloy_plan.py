@@ -208,7 +208,7 @@ def _whole(plan: Plan, solver: str) -> dict[str, Any]:
 def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
     from .alloy.bridge import AlloyBridge
 
-    used = getattr(AlloyBridge.get(), "last_solver", solver)
+    used = AlloyBridge.get().solver_used(solver)
     evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
                 "transitions": len(plan.steps), "solver": used, "seconds": round(seconds, 3),
                 "module_hash": "sha256:" + hashlib.sha256("\n".join(texts).encode("utf-8")).hexdigest()}

@@ -166,7 +166,7 @@ def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple
             "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
             notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
     from .alloy.bridge import AlloyBridge
-    used = getattr(AlloyBridge.get(), "last_solver", solver)
+    used = AlloyBridge.get().solver_used(solver)
     return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
                                                     "seconds": round(v.seconds, 4), "solver": used,
                                                     "timing": v.timing(),

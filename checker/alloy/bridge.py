@@ -261,6 +261,12 @@ class AlloyBridge:
                 self._usable[key] = self._probe(key)
             return key if self._usable[key] else FALLBACK_SOLVER
 
+    def solver_used(self, name: str) -> str:
+        """The table's name of the solver that runs when `name` is asked for: `name`, or the
+        fallback when its native library does not load here (what evidence must name)."""
+        key = self.usable_solver(name)
+        return next((s.name for s in SOLVER_TABLE if s.analyzer == key), key)
+
     def _probe(self, solver_id: str) -> bool:
         if solver_id == FALLBACK_SOLVER:
             return True
