@@ -5,33 +5,18 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
 
 import jsonschema
 import pytest
-from click.testing import CliRunner
 
-from checker.cli import main
 from checker.policy import coverage, load_policy
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import FtmExpr
 from tests.examples_table import BY_NAME, ROOT
+from tests.gatekit import gate, git
 from tests.test_formats import sarif_schema
 
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
-
-
-def gate(*args: str, fmt: str = "json", engine: str = "python") -> tuple[int, str, str]:
-    result = CliRunner().invoke(main, ["gate", *args, "--output-format", fmt, "--engine", engine])
-    return result.exit_code, result.stdout, result.stderr
-
-
-@pytest.fixture
-def here(tmp_path, monkeypatch):
-    """An empty working directory with no policy."""
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / ".git").mkdir()  # stops the policy search here
-    return tmp_path
 
 
 def test_safe_change_passes(here) -> None:
@@ -149,11 +134,6 @@ def test_coverage_table() -> None:
 def test_load_policy_errors(tmp_path) -> None:
     with pytest.raises(DiagnosticError):
         load_policy(str(tmp_path / "none.toml"))
-
-
-def git(cwd: str, *args: str) -> None:
-    subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false",
-                    *args], cwd=cwd, check=True, capture_output=True)
 
 
 @pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")

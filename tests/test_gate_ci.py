@@ -7,27 +7,15 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
 from bench.gen import generate
 from checker import gate_comment
-from checker.cli import EXIT_CHANGES, main
+from checker.cli import EXIT_CHANGES
 from tests.examples_table import BY_NAME
+from tests.gatekit import gate
 from tests.test_formats import validate_sarif
 
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
-
-
-def gate(*args: str, fmt: str = "json") -> tuple[int, str, str]:
-    result = CliRunner().invoke(main, ["gate", *args, "--output-format", fmt, "--engine", "python"])
-    return result.exit_code, result.stdout, result.stderr
-
-
-@pytest.fixture
-def here(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / ".git").mkdir()  # stops the policy search here
-    return tmp_path
 
 
 # ---------------------------------------------------------------- an unsafe base

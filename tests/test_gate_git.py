@@ -11,51 +11,14 @@ import tracemalloc
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from checker.cli import main
 from checker.gate import _CatFile, resolve, revisions
+from tests.gatekit import NODES, ROBOT, SPLIT, gate, git, write_tree
 from tests.test_formats import validate_sarif
 
 pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
 
 
-def gate(*args: str, fmt: str = "json") -> tuple[int, str, str]:
-    result = CliRunner().invoke(main, ["gate", *args, "--output-format", fmt, "--engine", "python"])
-    return result.exit_code, result.stdout, result.stderr
-
-
-def git(cwd: Path, *args: str) -> str:
-    return subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false",
-                           *args], cwd=cwd, check=True, capture_output=True, text=True).stdout
-
-
-MESSAGES = "message String = std_msgs/msg/String\n"
-NODES = """include "../common/messages.arch"
-
-component talker {
-  output out: String
-  functionality talk (out) {
-    normal { out: String @ RATE }
-    degraded { out: nothing }
-  }
-}
-
-component listener {
-  input in: String @ 10 Hz
-  functionality listen (in) {
-    normal { assume String @ 10 Hz }
-    degraded { }
-  }
-}
-"""
-ROBOT = """system chatter
-include "parts/nodes.arch"
-
-topic /chatter: String @ 10 Hz {
-  talker.out -> listener.in
-}
-"""
 BIG = 16 * 1024 * 1024
 
 
@@ -64,10 +27,7 @@ def repo(tmp_path, monkeypatch) -> Path:
     """sys/robot.arch includes sys/parts/nodes.arch, which includes sys/common/messages.arch; beside
     them, a big unrelated file and an unrelated .arch file. HEAD~1 is safe, HEAD's talker is too slow."""
     r = tmp_path / "repo"
-    for path, text in (("sys/robot.arch", ROBOT), ("sys/parts/nodes.arch", NODES.replace("RATE", "10 Hz")),
-                       ("sys/common/messages.arch", MESSAGES), ("other/unrelated.arch", "system other\n")):
-        (r / path).parent.mkdir(parents=True, exist_ok=True)
-        (r / path).write_text(text, encoding="utf-8")
+    write_tree(r, {**SPLIT, "other/unrelated.arch": "system other\n"})
     (r / "data").mkdir()
     (r / "data" / "blob.bin").write_bytes(os.urandom(BIG))
     git(r, "init", "-q")

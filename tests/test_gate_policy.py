@@ -13,21 +13,10 @@ from checker.cli import main
 from checker.policy import load_policy, locate
 from reconf_dsl.diagnostics import DiagnosticError
 from tests.examples_table import BY_NAME
+from tests.gatekit import gate
 from tests.test_formats import validate_sarif
 
 CHATTER, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["redundant"].file
-
-
-def gate(*args: str, fmt: str = "json") -> tuple[int, str, str]:
-    result = CliRunner().invoke(main, ["gate", *args, "--output-format", fmt, "--engine", "python"])
-    return result.exit_code, result.stdout, result.stderr
-
-
-@pytest.fixture
-def here(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / ".git").mkdir()  # stops the policy search here
-    return tmp_path
 
 
 def diagnostics(out: str) -> list[dict]:

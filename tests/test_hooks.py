@@ -16,35 +16,10 @@ from click.testing import CliRunner
 from checker.cli import main
 from checker.hooks import roots_of
 from tests.examples_table import ROOT
+from tests.gatekit import MESSAGES, NODES, SPLIT, git, write_tree
 
 pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
 
-MESSAGES = "message String = std_msgs/msg/String\n"
-NODES = """include "../common/messages.arch"
-
-component talker {
-  output out: String
-  functionality talk (out) {
-    normal { out: String @ RATE }
-    degraded { out: nothing }
-  }
-}
-
-component listener {
-  input in: String @ 10 Hz
-  functionality listen (in) {
-    normal { assume String @ 10 Hz }
-    degraded { }
-  }
-}
-"""
-ROBOT = """system chatter
-include "parts/nodes.arch"
-
-topic /chatter: String @ 10 Hz {
-  talker.out -> listener.in
-}
-"""
 SOLO = """system solo
 
 message String = std_msgs/msg/String
@@ -73,19 +48,10 @@ def run(repo: Path, hook_id: str, *args: str) -> subprocess.CompletedProcess[str
     return subprocess.run([*hook(hook_id), *args], cwd=repo, env=env, capture_output=True, text=True, check=False)
 
 
-def git(repo: Path, *args: str) -> None:
-    subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false",
-                    *args], cwd=repo, check=True, capture_output=True)
-
-
 @pytest.fixture
 def repo(tmp_path) -> Path:
     r = tmp_path / "repo"
-    for path, text in (("sys/robot.arch", ROBOT), ("sys/parts/nodes.arch", NODES.replace("RATE", "10 Hz")),
-                       ("sys/common/messages.arch", MESSAGES), ("other/solo.arch", SOLO),
-                       ("lib/orphan.arch", MESSAGES)):
-        (r / path).parent.mkdir(parents=True, exist_ok=True)
-        (r / path).write_text(text, encoding="utf-8")
+    write_tree(r, {**SPLIT, "other/solo.arch": SOLO, "lib/orphan.arch": MESSAGES})
     git(r, "init", "-q")
     git(r, "add", ".")
     git(r, "commit", "-q", "-m", "systems")
