@@ -32,7 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from typing import Optional
+from typing import Iterator, Optional
 
 from checker.planning import NoSafePlan, Plan, plan_replace
 from checker.planning.exhaustive import SearchTooLarge
@@ -60,6 +60,16 @@ def _try(system: System, shape: str, n: int, strategy: str) -> Optional[Plan]:
         return None
 
 
+def _systems(shapes: list[str], sizes: list[int], seed: int, tmp: str) -> Iterator[tuple[str, int, str]]:
+    """Each shape at each size, with a new version of its hub declared, written to a file in `tmp`."""
+    for shape in shapes:
+        for n in sizes:
+            path = os.path.join(tmp, f"{shape}_{n}.arch")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(generate(shape, n, seed, version=True))
+            yield shape, n, path
+
+
 def time_table(shapes: list[str], sizes: list[int], seed: int) -> bool:
     header = (f"{'shape':<6} {'N':>6} {'parse s':>8} {'plan s':>8} {'steps':>6} {'disruption':>11} "
               f"{'verify':>7} {'full s':>8} {'target':>6}")
@@ -68,38 +78,34 @@ def time_table(shapes: list[str], sizes: list[int], seed: int) -> bool:
     print("-" * len(header))
     ok_all = True
     with tempfile.TemporaryDirectory() as tmp:
-        for shape in shapes:
-            for n in sizes:
-                path = os.path.join(tmp, f"{shape}_{n}.arch")
-                with open(path, "w", encoding="utf-8") as f:
-                    f.write(generate(shape, n, seed, version=True))
-                t0 = time.perf_counter()
-                system = load([path])
-                t1 = time.perf_counter()
-                hub = hub_component(shape, n)
-                try:
-                    plan: Optional[Plan] = plan_replace(system, hub, hub + "_v2")
-                except NoSafePlan as e:
-                    plan = None
-                    reason = e.reasons[0]
-                t2 = time.perf_counter()
-                if plan is None:
-                    print(f"{shape:<6} {n:>6} {t1 - t0:>8.3f} {t2 - t1:>8.3f}  no safe plan: {reason}")
-                    continue
-                work = len(plan.states) * len(system.components)
-                if work <= FULL_MEASURED:
-                    t3 = time.perf_counter()
-                    verify(system, plan.states[0], plan.steps, plan.goal, "default", full=True)
-                    full = f"{time.perf_counter() - t3:.2f}"
-                else:
-                    t3 = time.perf_counter()
-                    evaluate(system, plan.states[-1], explain=False)
-                    full = f"~{(time.perf_counter() - t3) * len(plan.steps):.0f}"
-                ok = t2 - t1 < 2 if n == 1000 else True
-                ok_all &= ok
-                print(f"{shape:<6} {n:>6} {t1 - t0:>8.3f} {t2 - t1:>8.3f} {len(plan.steps):>6} "
-                      f"{plan.disruption:>11} {plan.verification:>7} {full:>8} {'ok' if ok else 'MISS':>6}",
-                      flush=True)
+        for shape, n, path in _systems(shapes, sizes, seed, tmp):
+            t0 = time.perf_counter()
+            system = load([path])
+            t1 = time.perf_counter()
+            hub = hub_component(shape, n)
+            try:
+                plan: Optional[Plan] = plan_replace(system, hub, hub + "_v2")
+            except NoSafePlan as e:
+                plan = None
+                reason = e.reasons[0]
+            t2 = time.perf_counter()
+            if plan is None:
+                print(f"{shape:<6} {n:>6} {t1 - t0:>8.3f} {t2 - t1:>8.3f}  no safe plan: {reason}")
+                continue
+            work = len(plan.states) * len(system.components)
+            if work <= FULL_MEASURED:
+                t3 = time.perf_counter()
+                verify(system, plan.states[0], plan.steps, plan.goal, "default", full=True)
+                full = f"{time.perf_counter() - t3:.2f}"
+            else:
+                t3 = time.perf_counter()
+                evaluate(system, plan.states[-1], explain=False)
+                full = f"~{(time.perf_counter() - t3) * len(plan.steps):.0f}"
+            ok = t2 - t1 < 2 if n == 1000 else True
+            ok_all &= ok
+            print(f"{shape:<6} {n:>6} {t1 - t0:>8.3f} {t2 - t1:>8.3f} {len(plan.steps):>6} "
+                  f"{plan.disruption:>11} {plan.verification:>7} {full:>8} {'ok' if ok else 'MISS':>6}",
+                  flush=True)
     return ok_all
 
 
@@ -122,21 +128,17 @@ def command_table(shapes: list[str], sizes: list[int], seed: int) -> bool:
     print("-" * len(header))
     ok_all = True
     with tempfile.TemporaryDirectory() as tmp:
-        for shape in shapes:
-            for n in sizes:
-                path = os.path.join(tmp, f"{shape}_{n}.arch")
-                with open(path, "w", encoding="utf-8") as f:
-                    f.write(generate(shape, n, seed, version=True))
-                base = ["plan", "replace", hub_component(shape, n), "-f", path, "--no-alloy"]
-                text_s, text_mb, code = _command(base, os.devnull)
-                doc = os.path.join(tmp, "plan.json")
-                json_s, json_mb, _ = _command(base + ["--output-format", "json"], doc)
-                with open(doc, encoding="utf-8") as f:
-                    steps = len(json.load(f).get("plan", {}).get("steps", [])) if code == 0 else 0
-                ok = code == 0 and (n < 10_000 or max(text_s, json_s) < 60 and max(text_mb, json_mb) < 1024)
-                ok_all &= ok
-                print(f"{shape:<6} {n:>6} {steps:>6} {text_s:>7.1f} {text_mb:>8.0f} {json_s:>7.1f} {json_mb:>8.0f} "
-                      f"{os.path.getsize(doc) / 1024:>8.0f} {'ok' if ok else 'MISS':>6}", flush=True)
+        for shape, n, path in _systems(shapes, sizes, seed, tmp):
+            base = ["plan", "replace", hub_component(shape, n), "-f", path, "--no-alloy"]
+            text_s, text_mb, code = _command(base, os.devnull)
+            doc = os.path.join(tmp, "plan.json")
+            json_s, json_mb, _ = _command(base + ["--output-format", "json"], doc)
+            with open(doc, encoding="utf-8") as f:
+                steps = len(json.load(f).get("plan", {}).get("steps", [])) if code == 0 else 0
+            ok = code == 0 and (n < 10_000 or max(text_s, json_s) < 60 and max(text_mb, json_mb) < 1024)
+            ok_all &= ok
+            print(f"{shape:<6} {n:>6} {steps:>6} {text_s:>7.1f} {text_mb:>8.0f} {json_s:>7.1f} {json_mb:>8.0f} "
+                  f"{os.path.getsize(doc) / 1024:>8.0f} {'ok' if ok else 'MISS':>6}", flush=True)
     return ok_all
 
 
