@@ -66,3 +66,8 @@ class DiagnosticSink:
     def raise_if_errors(self) -> None:
         if self.has_errors:
             raise DiagnosticError(sorted(self.items, key=lambda d: (d.span.file, d.span.line, d.span.col)))
+
+
+def shorten(text: str, most: int) -> str:
+    """A token or value as a message quotes it: at most `most` characters (an input may hold megabytes)."""
+    return text if len(text) <= most else text[:most] + "…"

@@ -14,7 +14,7 @@ from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from . import ir
-from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error
+from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error, shorten
 from .gcpause import gc_paused
 from .lexer import MAX_NESTING, Comment, Driver, TooDeep
 from .span import NO_SPAN, Span
@@ -176,7 +176,8 @@ class _ToIR:
         tok = c[0]
         value = number(str(tok))
         if value is None or value.denominator != 1 or value < 0:
-            self.sink.add(error("RC119", f"criticality must be a whole number ≥ 0, not {shorten(str(tok))}",
+            shown = shorten(str(tok), MAX_NUMBER_CHARS)
+            self.sink.add(error("RC119", f"criticality must be a whole number ≥ 0, not {shown}",
                                 self.tok(tok), notes=(NUMBER_RANGE,) if value is None else ()))
             return ("criticality", 1)
         return ("criticality", int(value))
@@ -205,11 +206,11 @@ class _ToIR:
         span = self.span_of(meta)
         value = number(str(digits))
         if value is None:
-            self.sink.add(error("RC113", f"'{shorten(str(digits))}' is not a rate", self.tok(digits),
+            self.sink.add(error("RC113", f"'{shorten(str(digits), MAX_NUMBER_CHARS)}' is not a rate", self.tok(digits),
                                 notes=(NUMBER_RANGE,)))
             return ir.Rate(Fraction(1), "Hz", span)
         if str(unit) not in ir.UNITS:
-            self.sink.add(error("RC114", f"unknown unit '{shorten(str(unit))}'", self.tok(unit),
+            self.sink.add(error("RC114", f"unknown unit '{shorten(str(unit), MAX_NUMBER_CHARS)}'", self.tok(unit),
                                 notes=("rates are in Hz, kHz or MHz, or a period in s, ms or us",)))
             return ir.Rate(value if value > 0 else Fraction(1), "Hz", span)
         if value <= 0:
@@ -279,11 +280,6 @@ def number(text: str) -> Optional[Fraction]:
         return Fraction(text)
     except (ValueError, ZeroDivisionError):
         return None
-
-
-def shorten(text: str, most: int = MAX_NUMBER_CHARS) -> str:
-    """A token as a message quotes it: at most `most` characters."""
-    return text if len(text) <= most else text[:most] + "…"
 
 
 # Terminals that carry meaning; every other token (keywords, punctuation) only marks position.
@@ -437,8 +433,7 @@ def syntax_diagnostic(e: UnexpectedInput, text: str, file: str) -> Diagnostic:
                          notes=(f"expected {_one_of(expected)}",) if expected else ())
         span = Span(file, tok.line or line, tok.column or col, tok.end_line or line,
                     tok.end_column or col + 1)
-        text = str(tok) if len(str(tok)) <= 60 else str(tok)[:60] + "…"    # a token may be megabytes long
-        return error("RC001", f"unexpected {text!r}", span,
+        return error("RC001", f"unexpected {shorten(str(tok), 60)!r}", span,      # a token may be megabytes long
                      notes=(f"expected {_one_of(expected)}",) if expected else ())
     if isinstance(e, UnexpectedEOF):
         end = _end_position(text)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Iterable, Optional, TypeVar
 
 from . import ir
-from .diagnostics import DiagnosticError, DiagnosticSink, Related, error
+from .diagnostics import DiagnosticError, DiagnosticSink, Related, error, shorten
 from .span import Span
 
 KNOWN_FTMS = {"PBR", "LFR", "TR", "AD", "SEC"}
@@ -99,7 +99,7 @@ def _check_resources(sink: DiagnosticSink, settings: Iterable[ir.ResourceSetting
         allowed = KNOWN_RESOURCES[r.name]
         digits = r.value.isascii() and r.value.isdigit()        # not `²`, which isdigit() accepts
         if allowed is None and not (digits and len(r.value) <= MAX_RESOURCE_DIGITS):
-            shown = r.value if len(r.value) <= MAX_RESOURCE_DIGITS else r.value[:MAX_RESOURCE_DIGITS] + "…"
+            shown = shorten(r.value, MAX_RESOURCE_DIGITS)
             sink.add(error("RC125", f"resource '{r.name}' takes a whole number of at most {MAX_RESOURCE_DIGITS} "
                                     f"digits, not '{shown}'", r.span))
         elif allowed is not None and r.value not in allowed:
