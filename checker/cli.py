@@ -21,6 +21,7 @@ from reconf_dsl.span import Span
 
 from . import formats, report
 from .config import Configuration
+from .alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES   # the one table of solvers
 from .alloy.errors import AlloyUnavailable
 from .engines import EngineUnavailable, EnginesDisagree
 from .ftm.expand import FtmRuleBroken
@@ -143,8 +144,6 @@ def main(allow_includes_outside: bool) -> None:
 engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
                              show_default=True,
                              help="both: Alloy proves, Python explains, and they must agree")
-
-from .alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES  # noqa: E402 - the one table of solvers
 
 solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
                              default=DEFAULT_SOLVER, show_default=True,

@@ -24,7 +24,7 @@ from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.parser import parse_text
 
-from .cli import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, main as reconf
+from .cli import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, main as reconf, solver_option
 
 
 def repository_files(start: str) -> list[str]:
@@ -127,8 +127,8 @@ def hooks() -> None:
 
 @hooks.command("check")
 @click.argument("files", nargs=-1)
-@click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both", show_default=True)
-@click.option("--solver", default="glucose", show_default=True)
+@engine_option
+@solver_option
 def check_hook(files: tuple[str, ...], engine: str, solver: str) -> None:
     """Check every system the staged FILES belong to."""
     staged = [f for f in files if f.endswith(".arch")]
