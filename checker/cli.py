@@ -96,7 +96,7 @@ def emit_failure(command: str, diags: list[Diagnostic], fmt: OutputFormat | Repo
         click.echo(report.document(command, verdict, diags))
         return
     n = sum(1 for d in diags if d.is_error)
-    summary = f"{n} error{'s' if n != 1 else ''}"
+    summary = report.plural(n, "error")
     if fmt.value != "text":
         rep = formats.Report(command, verdict, diags, formats.failure_cases(command, diags), summary)
         click.echo(formats.render(rep, fmt.value), nl=False)

@@ -358,7 +358,7 @@ def ftm_findings(old: System, new: System, policy: Policy, out: Outcome) -> None
         was = str(c.ftm.expr) if c.ftm else "none"
         now = str(n.ftm.expr) if n.ftm else "no FTM"
         out.fail("gate.policy", name, error(
-            "RC504", f"{c.name}: {', '.join(lost)} fault{'s' if len(lost) > 1 else ''} no longer covered "
+            "RC504", f"{c.name}: {', '.join(lost)} {report.agree(len(lost), 'fault', 'faults')} no longer covered "
             f"({was} → {now}); keep-ftm in {policy.where} forbids weakening it",
             n.ftm.span if n.ftm else n.span,
             related=(Related(c.ftm.span if c.ftm else c.span, f"covered by {was} in the base"),
@@ -465,7 +465,7 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
     if allowed is None:
         out.fail("gate.policy", UNSAFE_BASE_CASE, error(
             "RC509", f"the base {old.name} is not safe ({plural(len(failing), 'assumption')} "
-            f"{'does' if len(failing) == 1 else 'do'} not hold), so no safe migration from the deployed "
+            f"{report.agree(len(failing), 'does', 'do')} not hold), so no safe migration from the deployed "
             f"configuration exists; {new.name} is safe", old.span, related=related,
             notes=(*reasons, "if this change fixes the base, let it through with --allow-unsafe-base or "
                    "allow-unsafe-base = true in the policy: the gate then judges the head alone, and the change "
@@ -473,7 +473,7 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
         return
     out.diagnostics.append(warning(
         "RC510", f"the base {old.name} is not safe ({plural(len(failing), 'assumption')} "
-        f"{'does' if len(failing) == 1 else 'do'} not hold): {new.name} was judged alone and is safe; "
+        f"{report.agree(len(failing), 'does', 'do')} not hold): {new.name} was judged alone and is safe; "
         f"{allowed} lets it through, but no safe plan from the deployed configuration exists: deploy it by "
         "other means", old.span, related=related,
         notes=(*reasons, "the change must be " + deploy,
@@ -497,7 +497,7 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
     if not judged.valid:
         d = error("RC507", f"{new.name} is not safe: no migration to it is planned", new.span,
                   notes=(f"{plural(len(judged.python.unsatisfied), 'assumption')} "
-                         f"{'does' if len(judged.python.unsatisfied) == 1 else 'do'} not hold; see above",)
+                         f"{report.agree(len(judged.python.unsatisfied), 'does', 'do')} not hold; see above",)
                   + ((f"the base {old.name} is not safe either",) if base_failing else ()))
         out.fail("gate.policy", "a verified migration plan exists", d)
         return out

@@ -25,6 +25,7 @@ from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.parser import parse_text
 
 from .cli import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, main as reconf, solver_option
+from .report import plural
 
 
 def repository_files(start: str) -> list[str]:
@@ -169,7 +170,7 @@ def fmt_hook(files: tuple[str, ...]) -> None:
     if code != EXIT_OK:
         sys.exit(code)
     if changed:
-        console().print(f"reconf-fmt: reformatted {len(changed)} file{'s' if len(changed) != 1 else ''}; "
+        console().print(f"reconf-fmt: reformatted {plural(len(changed), 'file')}; "
                         "stage the changes and commit again")
         sys.exit(EXIT_UNSAFE)
     sys.exit(EXIT_OK)

@@ -12,6 +12,7 @@ from codegen.graph import GraphEdge, GraphNode, Picture
 from reconf_dsl.ir import System
 
 from .config import Configuration, Role
+from .report import agree
 
 
 # Graphviz `dot` takes time that grows steeply with a picture's nodes (components, connectors,
@@ -167,7 +168,7 @@ def plan_picture(plan: Any, title: Optional[str] = None) -> Picture:
                 steps.setdefault(d, []).append(i)
     notes: dict[str, str] = {}
     for (c, f), ss in sorted(steps.items()):
-        line = f"↓ {f}: step{'s' if len(ss) > 1 else ''} {_ranges(ss)}"
+        line = f"↓ {f}: {agree(len(ss), 'step', 'steps')} {_ranges(ss)}"
         notes[c] = notes[c] + "\n" + line if c in notes else line
     degraded = frozenset(steps) | last.degraded
     shown = Configuration(frozenset(last.components), degraded, frozenset(last.roles))
