@@ -31,13 +31,13 @@ class States(Sequence[Configuration]):
         self.system, self.steps = system, list(steps)
         self._kept: dict[int, Configuration] = {0: start}
         if checkpoints is not None:
-            self._kept.update((i, s) for i, s in checkpoints.items() if i % EVERY == 0 or i == len(self.steps))
+            self._kept.update((i, s) for i, s in checkpoints.items() if self.keep(i, len(self.steps)))
         self._last: tuple[int, Configuration] = (0, start)
         if len(self.steps) not in self._kept:          # replay once: every checkpoint and the last state
             state = start
             for i, a in enumerate(self.steps, 1):
                 state = effect(system, state, a)
-                if i % EVERY == 0 or i == len(self.steps):
+                if self.keep(i, len(self.steps)):
                     self._kept[i] = state
 
     @staticmethod
