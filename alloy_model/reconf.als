@@ -38,10 +38,7 @@ one sig Sem {
   sat: Data -> Data
 }
 fact satisfaction {
-  Sem.sat = {p, q: Data |
-    (p = Nothing and q = Nothing)
-    or
-    (p + q in Msg and p.mtype = q.mtype and (no q.rate or (some p.rate and p.rate in q.rate.*rate_next)))}
+  Sem.sat = {p, q: Msg | p.mtype = q.mtype and (no q.rate or (some p.rate and p.rate in q.rate.*rate_next))}
 }
 
 -- Architecture (static) --------------------------------------------------------------
@@ -108,8 +105,9 @@ fact derived {
 
 -- Semantics (shared with instance modules) -------------------------------------------
 
--- p satisfies q: both nothing, or the same message type and (q has no rate, or p has a
--- rate at least q's). `(Sem.sat)` relates every such (p, q) (see satisfy_def).
+-- p satisfies q: two messages of the same type, and q has no rate or p has a rate at
+-- least q's. Nothing satisfies nothing, not even nothing: a degraded mode that publishes
+-- nothing promises nothing. `(Sem.sat)` relates every such (p, q) (see satisfy_def).
 pred satisfy[p, q: Data] {
   q in p.(Sem.sat)
 }
@@ -195,40 +193,66 @@ pred input_satisfied[s: System, i: Input] {
   i in (s.isat)
 }
 
--- Assumption a of f holds without the inputs no_i: by an associated satisfied input
--- whose assumption satisfies a, or by an environment guarantee.
-pred asm_holds_no_input[s: System, f: Functionality, a: Data, no_i: set Input] {
-  (some i: f.assoc_in - no_i | satisfy[i.iasm, a] and input_satisfied[s, i])
+-- Assumption a of f holds: by an associated satisfied input whose assumption satisfies
+-- a, or by an environment guarantee.
+pred asm_holds[s: System, f: Functionality, a: Data] {
+  (some i: f.assoc_in | satisfy[i.iasm, a] and input_satisfied[s, i])
   or
   (some g: envg | satisfy[g, a])
 }
 
-pred asm_holds[s: System, f: Functionality, a: Data] {
-  asm_holds_no_input[s, f, a, none]
+-- What a precondition asks of the readers an action may cut off: they stay safe without
+-- the attachments no_r (Connector -> Input). An input keeps what its other attachments
+-- give it: "without" is about attachments, not whole inputs (docs/soundness.md, "One
+-- semantics").
+pred input_satisfied_no_role[s: System, i: Input, no_r: Connector -> Input] {
+  some k: ((s.roles) - no_r).i & (s.csat) | satisfy[k.cguar, i.iasm]
 }
 
--- Component c stays safe without the inputs no_i.
-pred safe_no_input_q[s: System, c: Component, no_i: set Input] {
-  all f: c.funcs, a: cur_asms[s, f] | asm_holds_no_input[s, f, a, no_i]
+pred asm_holds_no_role[s: System, f: Functionality, a: Data, no_r: Connector -> Input] {
+  (some i: f.assoc_in | satisfy[i.iasm, a] and input_satisfied_no_role[s, i, no_r])
+  or
+  (some g: envg | satisfy[g, a])
 }
 
-pred safe_no_input_j[s: System, c: Component, no_i: set Input] {
-  no failing_no_input[s, c.funcs, no_i]
+-- The functionalities fs stay safe without the attachments no_r.
+pred safe_no_role_q[s: System, fs: set Functionality, no_r: Connector -> Input] {
+  all f: fs, a: cur_asms[s, f] | asm_holds_no_role[s, f, a, no_r]
 }
 
-pred safe_no_input[s: System, c: Component, no_i: set Input] {
-  safe_no_input_q[s, c, no_i]
+pred safe_no_role_j[s: System, fs: set Functionality, no_r: Connector -> Input] {
+  no failing_no_role[s, fs, no_r]
 }
 
--- What holds for f without the inputs no_i, as a join: f -> every datum that some
--- associated, satisfied input's assumption or some environment guarantee satisfies.
-fun holds_no_input[s: System, no_i: set Input]: Functionality -> Data {
-  (assoc_in & (Functionality -> ((s.isat) - no_i))).iasm.(Sem.sat) + Functionality -> envg.(Sem.sat)
+pred safe_no_role[s: System, fs: set Functionality, no_r: Connector -> Input] {
+  safe_no_role_q[s, fs, no_r]
 }
 
--- The current assumptions of the functionalities fs that do not hold without no_i.
-fun failing_no_input[s: System, fs: set Functionality, no_i: set Input]: Functionality -> Data {
-  (nasms & ((fs - (s.degraded)) -> Data)) - holds_no_input[s, no_i]
+-- The satisfied inputs without the attachments no_r, as a join.
+fun sat_inputs_no_role[s: System, no_r: Connector -> Input]: set Input {
+  (iasm & (~(((s.roles) - no_r) & ((s.csat) -> Port))).cguar.(Sem.sat)).Data
+}
+
+-- What holds for each functionality when the inputs ins are its satisfied ones: f -> every
+-- datum that an associated input of ins, by its assumption, or an environment guarantee
+-- satisfies.
+fun holds_with[ins: set Input]: Functionality -> Data {
+  (assoc_in & (Functionality -> ins)).iasm.(Sem.sat) + Functionality -> envg.(Sem.sat)
+}
+
+-- The current assumptions of the functionalities fs that do not hold when ins are the
+-- satisfied inputs.
+fun failing_with[s: System, fs: set Functionality, ins: set Input]: Functionality -> Data {
+  (nasms & ((fs - (s.degraded)) -> Data)) - holds_with[ins]
+}
+
+-- ... with the satisfied inputs of the configuration, or without the attachments no_r.
+fun failing[s: System, fs: set Functionality]: Functionality -> Data {
+  failing_with[s, fs, (s.isat)]
+}
+
+fun failing_no_role[s: System, fs: set Functionality, no_r: Connector -> Input]: Functionality -> Data {
+  failing_with[s, fs, sat_inputs_no_role[s, no_r]]
 }
 
 -- The safety property: every assumption of every present functionality's current mode holds.
@@ -237,7 +261,7 @@ pred valid_q[s: System] {
 }
 
 pred valid_j[s: System] {
-  no failing_no_input[s, present_funcs[s], none]
+  no failing[s, present_funcs[s]]
 }
 
 pred valid[s: System] {
@@ -248,21 +272,22 @@ pred valid[s: System] {
 
 -- The preconditions that quantify, in their two encodings (see above).
 
--- Detaching input p leaves its component safe without it.
-pred detach_input_safe_q[s: System, p: Input] {
-  some c: s.comps & inputs.p | safe_no_input[s, c, p]
+-- Detaching input p from k leaves its component safe without that attachment (p keeps
+-- what its other attachments give it).
+pred detach_input_safe_q[s: System, k: Connector, p: Input] {
+  some c: s.comps & inputs.p | safe_no_role[s, c.funcs, k -> p]
 }
-pred detach_input_safe_j[s: System, p: Input] {
+pred detach_input_safe_j[s: System, k: Connector, p: Input] {
   some s.comps & inputs.p
-  no failing_no_input[s, (s.comps & inputs.p).funcs, p]
+  no failing_no_role[s, (s.comps & inputs.p).funcs, k -> p]
 }
 
--- Every present reader of connector k is safe without its inputs on k.
+-- Every present reader of connector k is safe without its attachments to k.
 pred detach_output_safe_q[s: System, k: Connector] {
-  all c: s.comps & inputs.(k.(s.roles)) | safe_no_input[s, c, k.(s.roles) & Input]
+  safe_no_role[s, (s.comps & inputs.(k.(s.roles))).funcs, k -> Input]
 }
 pred detach_output_safe_j[s: System, k: Connector] {
-  no failing_no_input[s, (s.comps & inputs.(k.(s.roles))).funcs, k.(s.roles) & Input]
+  no failing_no_role[s, (s.comps & inputs.(k.(s.roles))).funcs, k -> Input]
 }
 
 -- Output p, of a present functionality, guarantees in its current mode what k requires.
@@ -275,18 +300,19 @@ pred attach_output_ok_j[s: System, k: Connector, p: Port] {
 
 -- The connectors that degrading f leaves unsatisfied: attached to f's outputs, satisfied
 -- by no other attached output, nor by f's degraded guarantees. Their present readers
--- must stay safe without them.
+-- must stay safe without their attachments to them; f itself is exempt, as its degraded
+-- mode assumes nothing (else a functionality reading its own output could never degrade).
 fun degrade_aff[s: System, f: Functionality]: set Connector {
   { k: (s.roles).(f.assoc_out) | not conn_satisfied_no_out[s, k, f.assoc_out]
       and no o: f.assoc_out | o in k.(s.roles) and satisfy[o.(dguar_of[f]), k.cguar] }
 }
 pred degrade_safe_q[s: System, f: Functionality] {
   let aff = degrade_aff[s, f] |
-    all c: s.comps & inputs.(aff.(s.roles)) | safe_no_input[s, c, aff.(s.roles) & Input]
+    safe_no_role[s, (s.comps & inputs.(aff.(s.roles))).funcs - f, aff -> Input]
 }
 pred degrade_safe_j[s: System, f: Functionality] {
   let aff = degrade_aff[s, f] |
-    no failing_no_input[s, (s.comps & inputs.(aff.(s.roles))).funcs, aff.(s.roles) & Input]
+    no failing_no_role[s, (s.comps & inputs.(aff.(s.roles))).funcs - f, aff -> Input]
 }
 
 -- Every assumption of f's normal mode holds.
@@ -320,7 +346,7 @@ pred create[s, s2: System, c: Component] {
 -- Detach port p from connector k.
 pred detach[s, s2: System, k: Connector, p: Port] {
   p in k.(s.roles)                                         --@pre detach.attached
-  p in Input implies detach_input_safe_q[s, p]           --@pre detach.input
+  p in Input implies detach_input_safe_q[s, k, p]         --@pre detach.input
   (p in Output and not conn_satisfied_no_out[s, k, p]) implies detach_output_safe_q[s, k]  --@pre detach.output
   s2.comps = s.comps
   s2.degraded = s.degraded
@@ -394,25 +420,41 @@ assert ConnectorEncodingsAgree {
 
 -- The joins that instance and plan modules use for satisfaction, the satisfied connectors and inputs,
 -- validity and safety without inputs agree with the quantified definitions.
-assert SatEncodingsAgree { Sem.sat = Nothing -> Nothing + (mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~(rate.*rate_next))) }
+assert SatEncodingsAgree { Sem.sat = mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~(rate.*rate_next)) }
 -- (with ConnectorEncodingsAgree, sat_conns_j = sat_conns_q)
 assert ConnectorsEncodingsAgree { sat_conns_j[Pre] = {k: Connector | conn_satisfied_no_out_j[Pre, k, none]} }
 assert InputsEncodingsAgree { sat_inputs_q[Pre] = sat_inputs_j[Pre] }
 assert ValidEncodingsAgree { valid_q[Pre] iff valid_j[Pre] }
 assert SafetyEncodingsAgree {
-  all c: Component, no_i: set Input | safe_no_input_q[Pre, c, no_i] iff safe_no_input_j[Pre, c, no_i]
+  all fs: set Functionality, no_r: Connector -> Input |
+    safe_no_role_q[Pre, fs, no_r] iff safe_no_role_j[Pre, fs, no_r]
 }
 
 -- The two encodings of the actions' preconditions that quantify agree: plan modules use the
 -- joins, and the Safe* assertions above are proved over the quantifiers. (One assertion
 -- each: their conjunction is one SAT problem that takes the solver a minute at scope 5.)
-assert DetachInputEncodingsAgree { all p: Input | detach_input_safe_q[Pre, p] iff detach_input_safe_j[Pre, p] }
+assert DetachInputEncodingsAgree {
+  all k: Connector, p: Input | detach_input_safe_q[Pre, k, p] iff detach_input_safe_j[Pre, k, p]
+}
 assert DetachOutputEncodingsAgree { all k: Connector | detach_output_safe_q[Pre, k] iff detach_output_safe_j[Pre, k] }
 assert AttachOutputEncodingsAgree {
   all k: Connector, p: Port | attach_output_ok_q[Pre, k, p] iff attach_output_ok_j[Pre, k, p]
 }
 assert DegradeEncodingsAgree { all f: Functionality | degrade_safe_q[Pre, f] iff degrade_safe_j[Pre, f] }
 assert UpgradeEncodingsAgree { all f: Functionality | upgrade_holds_q[Pre, f] iff upgrade_holds_j[Pre, f] }
+
+-- The satisfaction rule itself. The Safe assertions hold for any relation `sat`, so they say
+-- nothing about this one; these pin it: nothing satisfies nothing, the type must match, a
+-- rate is needed when one is asked for, and a rate satisfies exactly the rates up to it.
+assert SatisfactionRule {
+  no Nothing.(Sem.sat) and no (Sem.sat).Nothing
+  all p, q: Msg {
+    p.mtype != q.mtype implies not satisfy[p, q]
+    p.mtype = q.mtype and no q.rate implies satisfy[p, q]
+    p.mtype = q.mtype and some q.rate implies
+      (satisfy[p, q] iff (some p.rate and ro/gte[p.rate, q.rate]))
+  }
+}
 
 check SafeRemove  for 5 expect 0
 check SafeCreate  for 5 expect 0
@@ -433,6 +475,7 @@ check DetachOutputEncodingsAgree for 5 expect 0
 check AttachOutputEncodingsAgree for 5 expect 0
 check DegradeEncodingsAgree for 5 expect 0
 check UpgradeEncodingsAgree for 5 expect 0
+check SatisfactionRule for 5 expect 0
 
 -- Each action's preconditions can hold between two valid configurations.
 run Remove  { some c: Component | valid[Pre] and remove[Pre, Post, c] and valid[Post] } for 3 expect 1
@@ -441,3 +484,49 @@ run Detach  { some k: Connector, p: Port | valid[Pre] and detach[Pre, Post, k, p
 run Attach  { some k: Connector, p: Port | valid[Pre] and attach[Pre, Post, k, p] and valid[Post] } for 3 expect 1
 run Degrade { some f: Functionality | valid[Pre] and degrade[Pre, Post, f] and valid[Post] } for 3 expect 1
 run Upgrade { some f: Functionality | valid[Pre] and upgrade[Pre, Post, f] and valid[Post] } for 3 expect 1
+
+-- Non-vacuity: the shapes users write appear in a valid step. A fact that empties part of
+-- the instance space (as "nothing satisfies nothing" once did for every silent degraded
+-- mode) would leave the checks above passing; it fails one of these runs instead.
+
+-- A degraded mode that publishes nothing, while the normal mode publishes a message.
+run SilentDegraded {
+  some f: Functionality, o: f.assoc_out |
+    o.(f.dguar) = Nothing and o.(f.nguar) in Msg and valid[Pre] and degrade[Pre, Post, f] and valid[Post]
+} for 3 expect 1
+-- The paper's talker and listener: the talker assumes nothing and publishes a message it
+-- does not publish degraded; the listener, normal, assumes it through the connector alone.
+run TalkerListener {
+  no envg
+  some disj t, l: Component, ft: t.funcs, fl: l.funcs, o: ft.assoc_out, i: fl.assoc_in, k: Connector {
+    no ft.nasms and some fl.nasms and o.(ft.dguar) = Nothing and o.(ft.nguar) in Msg
+    k -> o + k -> i in Pre.roles and Pre.comps = t + l and no (ft + fl) & Pre.degraded
+    valid[Pre]
+  }
+} for 3 expect 1
+-- A connector that asks for no rate stays satisfied when its publisher degrades to the
+-- type without the rate, and is left unsatisfied when it degrades to nothing.
+run RatelessConnectorKept {
+  some f: Functionality, k: Connector |
+    k.cguar in Msg and no k.cguar.rate and k in Pre.csat & Post.csat and some k.(Pre.roles) & f.assoc_out
+    and no (k.(Pre.roles) & Output) - f.assoc_out and valid[Pre] and degrade[Pre, Post, f] and valid[Post]
+} for 3 expect 1
+run RatelessConnectorBroken {
+  some f: Functionality, k: Connector |
+    k.cguar in Msg and no k.cguar.rate and k in Pre.csat - Post.csat
+    and valid[Pre] and degrade[Pre, Post, f] and valid[Post]
+} for 3 expect 1
+-- Two publishers on one connector: either may leave while the other keeps it satisfied.
+run RedundantPublishers {
+  some k: Connector, disj o1, o2: Output |
+    k -> o1 + k -> o2 in Pre.roles and outputs.o1 != outputs.o2 and valid[Pre]
+    and detach[Pre, Post, k, o1] and k in Post.csat and valid[Post]
+} for 3 expect 1
+-- An input on two connectors, the only source of a normal assumption: it may leave one
+-- connector while the other still satisfies it.
+run PortOnTwoConnectors {
+  no envg
+  some i: Input, disj k1, k2: Connector, f: Functionality |
+    k1 -> i + k2 -> i in Pre.roles and i in f.assoc_in and f in present_funcs[Pre] - Pre.degraded
+    and one f.assoc_in and some f.nasms and valid[Pre] and detach[Pre, Post, k1, i] and valid[Post]
+} for 3 expect 1

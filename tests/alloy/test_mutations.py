@@ -67,13 +67,13 @@ def test_degraded_mode_rule_is_needed(bridge: AlloyBridge) -> None:
 # A plausible slip in each join encoding of a quantified precondition (plan modules use the
 # joins): the assertion that it agrees with the quantifiers finds it.
 ENCODING_SLIPS = [
-    ("DetachInputEncodingsAgree", "no failing_no_input[s, (s.comps & inputs.p).funcs, p]",
-     "no failing_no_input[s, (s.comps & inputs.p).funcs, none]"),
-    ("DetachOutputEncodingsAgree", "(s.comps & inputs.(k.(s.roles))).funcs, k.(s.roles) & Input]",
-     "(s.comps & inputs.(k.(s.roles))).funcs, none]"),
+    ("DetachInputEncodingsAgree", "no failing_no_role[s, (s.comps & inputs.p).funcs, k -> p]",
+     "no failing_no_role[s, (s.comps & inputs.p).funcs, k -> Input]"),
+    ("DetachOutputEncodingsAgree", "no failing_no_role[s, (s.comps & inputs.(k.(s.roles))).funcs, k -> Input]",
+     "no failing_no_role[s, (s.comps & inputs.(k.(s.roles))).funcs, none -> none]"),
     ("AttachOutputEncodingsAgree", "k.cguar in p.(out_guar[s]).(Sem.sat)", "k.cguar in p.(Functionality.nguar)"),
-    ("DegradeEncodingsAgree", "(s.comps & inputs.(aff.(s.roles))).funcs, aff.(s.roles) & Input]",
-     "(s.comps & inputs.(aff.(s.roles))).funcs, none]"),
+    ("DegradeEncodingsAgree", "no failing_no_role[s, (s.comps & inputs.(aff.(s.roles))).funcs - f, aff -> Input]",
+     "no failing_no_role[s, (s.comps & inputs.(aff.(s.roles))).funcs, aff -> Input]"),
     ("UpgradeEncodingsAgree", "f.nasms in (f.assoc_in & (s.isat)).iasm.(Sem.sat) + envg.(Sem.sat)",
      "f.nasms in f.assoc_in.iasm.(Sem.sat) + envg.(Sem.sat)"),
 ]

@@ -55,7 +55,7 @@ def test_plan_module_shares_the_actions_and_semantics() -> None:
     # and the actions call the join encodings of their preconditions that quantify; the
     # definitions of both encodings are the meta-model's
     for decl in ("pred detach[", "pred attach[", "pred degrade[", "pred upgrade[", "pred step[", "pred valid_q[",
-                 "pred valid_j[", "pred safe_no_input_q[", "pred safe_no_input_j[", "fun failing_no_input[",
+                 "pred valid_j[", "pred safe_no_role_q[", "pred safe_no_role_j[", "fun failing_no_role[",
                  "fun degrade_aff[", "pred degrade_safe_q[", "pred degrade_safe_j[", "pred upgrade_holds_q["):
         block = meta[meta.index(decl):meta.index("\n}\n", meta.index(decl))]
         assert re.sub(r"_q\[s,", "_j[s,", block) in text, decl
