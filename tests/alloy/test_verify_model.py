@@ -96,3 +96,26 @@ def test_one_process_and_two_agree(monkeypatch: object) -> None:
     one = verify_model(3)
     assert one.processes == 1 and two.processes == (2 if (os.cpu_count() or 1) >= 2 else 1)
     assert [(r.command, r.outcome, r.bounds) for r in one.rows] == [(r.command, r.outcome, r.bounds) for r in two.rows]
+
+
+# A fact that empties part of the instance space leaves every check passing; the
+# non-vacuity runs (the shapes users write, each expected to have an instance) fail instead.
+NOTHING_SATISFIES_NOTHING = ("fact satisfaction {\n  Sem.sat = {p, q: Msg |",
+                             "fact satisfaction {\n  Sem.sat = Nothing -> Nothing + {p, q: Msg |")
+PLANTED = [
+    (NOTHING_SATISFIES_NOTHING, {"SilentDegraded", "TalkerListener", "RatelessConnectorBroken",
+                                 "SatEncodingsAgree", "SatisfactionRule"}),
+    (("-- Configurations ---", "fact { all f: Functionality | no f.nasms }\n-- Configurations ---"),
+     {"TalkerListener", "PortOnTwoConnectors"}),
+]
+
+
+def test_planted_facts_fail_the_non_vacuity_runs() -> None:
+    text = metamodel_modules(3)[MAIN]
+    for (right, planted), failing in PLANTED:
+        assert text.count(right) == 1, right
+        report = verify_model(3, modules={MAIN: text.replace(right, planted)})
+        assert not report.ok
+        assert {r.command for r in report.rows if r.as_expected is False} == failing
+        # the six Safe checks pass all the same: they are what a vacuous fact hides from
+        assert all(r.as_expected for r in report.rows if r.command.startswith("Safe"))
