@@ -502,8 +502,11 @@ def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> list[str]:
                                    for conn in st.by_port.get((a.component, port), [])):
         if st.is_output(comp, port):
             want = st.cat.conns[conn].guarantee
-            if (not satisfies(f.normal.guarantee(port), want) and st.conn_sat(conn)
-                    and not st.conn_sat(conn, [(comp, port)])):
+            # broken: satisfied now, and by no other output, nor by this one once f is normal
+            # (another functionality of the port may still satisfy it)
+            after = [satisfies(_mode(g, comp, st.config).guarantee(port) if g is not f else f.normal.guarantee(port),
+                               want) for g in st.cat.comps[comp].functionalities if port in g.ports]
+            if not any(after) and st.conn_sat(conn) and not st.conn_sat(conn, [(comp, port)]):
                 problems.append(f"the normal guarantee of {comp}.{port} does not satisfy {conn}, which only its "
                                 f"degraded guarantee satisfies (rule iii on modes is violated)")
     return problems

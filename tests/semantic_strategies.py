@@ -7,6 +7,7 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
+from checker.actions import Upgrade, effect, preconditions
 from checker.config import Configuration
 from reconf_dsl import ir
 
@@ -77,3 +78,59 @@ def configured(draw: st.DrawFn, max_components: int = 5) -> tuple[ir.System, Con
     degraded = frozenset(f for f in funcs if draw(st.integers(0, 3)) == 0)
     roles = frozenset(r for r in sorted(init.roles) if r[1] in present and draw(st.integers(0, 5)) > 0)
     return system, Configuration(present, degraded, roles)
+
+
+@st.composite
+def dense(draw: st.DrawFn) -> tuple[ir.System, Configuration]:
+    """A small, densely wired system in a valid configuration: one or two types, ports on
+    several connectors, components reading their own outputs, functionalities sharing a
+    port. This is where readings of the actions' preconditions part (tests/alloy/
+    test_one_semantics.py)."""
+    types = ["M"] if draw(st.integers(0, 2)) else ["M", "N"]
+    rates = [None, None, ir.Rate(Fraction(1), "Hz"), ir.Rate(Fraction(10), "Hz")]
+
+    def data() -> ir.Predicate:
+        return ir.Predicate(draw(st.sampled_from(types)), draw(st.sampled_from(rates)))
+
+    comps = []
+    for i in range(draw(st.integers(1, 3))):
+        ports = [ir.Port(f"i{j}", "input", a.message or "", a) for j, a in
+                 enumerate(data() for _ in range(draw(st.integers(0, 2))))]
+        ports += [ir.Port(f"o{j}", "output", draw(st.sampled_from(types))) for j in range(draw(st.integers(0, 2)))]
+        funcs = []
+        for k in range(draw(st.integers(1, 2))):
+            every = draw(st.booleans())     # a functionality on all its component's ports often reads itself
+            fports = tuple(p.name for p in ports if every or draw(st.booleans()))
+            normal = [ir.Guarantee(p.name, ir.NOTHING if draw(st.integers(0, 4)) == 0 else
+                                   ir.Predicate(p.message, draw(st.sampled_from(rates))))
+                      for p in ports if p.kind == "output" and p.name in fports]
+            degraded = [ir.Guarantee(g.port, ir.NOTHING if g.predicate.is_nothing or draw(st.booleans())
+                                     else ir.Predicate(g.predicate.message, None)) for g in normal]
+            asms = tuple(data() for _ in range(draw(st.integers(0, 2))))
+            funcs.append(ir.Functionality(f"f{k}", fports, ir.Mode("normal", asms, tuple(normal)),
+                                          ir.Mode("degraded", (), tuple(degraded)), draw(st.integers(0, 3))))
+        comps.append(ir.Component(f"c{i}", tuple(ports), tuple(funcs)))
+    conns = []
+    for t in range(draw(st.integers(1, 3))):
+        g = data()
+        ends = [ir.PortRef(c.name, p.name) for c in comps for p in c.ports if p.message == g.message]
+        conns.append(ir.Connector(f"/t{t}", "topic", g, False,
+                                  tuple(r for r in ends if comps[int(r.component[1:])].port(r.port).kind == "output"),
+                                  tuple(r for r in ends if comps[int(r.component[1:])].port(r.port).kind == "input")))
+    env = (ir.EnvGuarantee("e0", data()),) if draw(st.integers(0, 3)) == 0 else ()
+    system = ir.System("dense", tuple(ir.MessageType(m, f"pkg/msg/{m}") for m in types), env, tuple(comps), (),
+                       tuple(conns))
+    present = frozenset(c.name for c in comps if draw(st.integers(0, 4)) > 0)
+    roles = frozenset((k.name, r.component, r.port) for k in conns for r in k.roles
+                      if r.component in present and draw(st.integers(0, 3)) > 0)
+    # every functionality degraded (valid), then upgraded while its assumptions hold: each
+    # upgrade only adds satisfaction (rule iii), so the state stays valid
+    config = Configuration(present, frozenset((c.name, f.name) for c in comps if c.name in present
+                                              for f in c.functionalities), roles)
+    grown = True
+    while grown:
+        grown = False
+        for c, f in sorted(config.degraded):
+            if not preconditions(system, config, Upgrade(c, f)) and draw(st.integers(0, 5)) > 0:
+                config, grown = effect(system, config, Upgrade(c, f)), True
+    return system, config
