@@ -22,6 +22,7 @@ from reconf_dsl.ir import Component, Connector, System
 from ..actions import Action, catalogue, failing_assumptions, satisfies
 from ..config import Configuration, Role
 from .default import default_steps
+from .environment import missing_environment
 from .exhaustive import exhaustive_steps
 from .improve import cost, improve
 from .paper import paper_steps
@@ -190,7 +191,10 @@ def plan_add(system: System, component: str, strategy: str = "default", *, sourc
 
 def plan_migrate(old: System, new: System, strategy: str = "default",
                  config: Optional[Configuration] = None) -> Plan:
-    """From the deployed `old` architecture to the deployed `new` one."""
+    """From the deployed `old` architecture to the deployed `new` one, in `old`'s environment."""
+    needs = missing_environment(old, new, old.name, new.name)
+    if needs:
+        raise NoSafePlan(needs)
     olds = {c.name: c for c in old.components}
     news = {c.name: c for c in new.components}
     taken = {c.name for c in old.components + old.versions}
