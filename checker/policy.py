@@ -37,25 +37,18 @@ from reconf_dsl.ir import Component, FtmExpr, System
 from reconf_dsl.loader import Sources, display_path, read_source
 from reconf_dsl.span import Span
 
+from .ftm.library import LIBRARY, layers
 from .planning import STRATEGIES
 
-COVERAGE: dict[str, frozenset[str]] = {
-    "PBR": frozenset({"crash"}),
-    "LFR": frozenset({"crash"}),
-    "TR": frozenset({"transient"}),
-    "AD": frozenset({"crash", "transient"}),
-    "SEC": frozenset({"intrusion"}),
-}
+# What each FTM covers: the library's Table I, read once (never written out again here).
+COVERAGE: dict[str, frozenset[str]] = {name: m.covers for name, m in LIBRARY.items()}
 KEYS = ("max-disruption", "never-degrade", "keep-ftm", "strategy", "allow-unsafe-base")
 TABLE = "tool.reconf"
 
 
 def ftm_names(expr: Optional[FtmExpr]) -> list[str]:
-    names = []
-    while expr is not None:
-        names.append(expr.name)
-        expr = expr.inner
-    return names
+    """The mechanisms of an FTM expression, outermost first; [] for none."""
+    return layers(expr) if expr is not None else []
 
 
 def coverage(expr: Optional[FtmExpr]) -> frozenset[str]:

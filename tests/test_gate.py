@@ -9,6 +9,7 @@ import shutil
 import jsonschema
 import pytest
 
+from checker.ftm.library import LIBRARY
 from checker.policy import coverage, load_policy
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import FtmExpr
@@ -127,7 +128,10 @@ def test_weakened_ftm_fails_at_the_ftm_line(here) -> None:
 
 def test_coverage_table() -> None:
     assert coverage(FtmExpr("SEC", FtmExpr("PBR", FtmExpr("TR")))) == {"intrusion", "crash", "transient"}
-    assert coverage(FtmExpr("AD")) == {"crash", "transient"}
+    assert coverage(FtmExpr("AD")) == {"crash", "transient", "permanent_value"}
+    # the policy reads the FTM library's Table I: one table, no copy to drift
+    for name, mechanism in LIBRARY.items():
+        assert coverage(FtmExpr(name)) == mechanism.covers
     assert coverage(None) == frozenset()
 
 
