@@ -484,21 +484,26 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
 def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str,
                  allow_unsafe_base: bool = False) -> Outcome:
     from .actions import failing_assumptions
-    from .engines import judge
+    from .engines import judge, judge_ftm
     out = Outcome()
     ftm_findings(old, new, policy, out)
     with status(f"checking {new.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         judged = judge(new, Configuration.initial(new), engine, solver)
-    out.safe, out.engines = judged.valid, judged.engines
+        ftm, _ = judge_ftm(new, engine)         # the head is judged as `reconf check` judges it
+    broken = [d for d in ftm if d.is_error]
+    out.safe, out.engines = judged.valid and not broken, judged.engines
     out.cases[:0] = report.assumption_cases(new.name, judged.python)
-    out.diagnostics[:0] = [report.assumption_diagnostic(r) for r in judged.python.unsatisfied]
+    out.diagnostics[:0] = ftm + [report.assumption_diagnostic(r) for r in judged.python.unsatisfied]
     base_failing = failing_assumptions(old, Configuration.initial(old))
     out.base_safe = not base_failing
-    if not judged.valid:
+    if not out.safe:
+        failing = len(judged.python.unsatisfied)
+        notes: tuple[str, ...] = ((f"{plural(failing, 'assumption')} {report.agree(failing, 'does', 'do')} not "
+                                   f"hold; see above",) if failing else ())
+        notes += ((f"{plural(len(broken), 'fault-tolerance rule')} {report.agree(len(broken), 'is', 'are')} "
+                   f"broken; see above",) if broken else ())
         d = error("RC507", f"{new.name} is not safe: no migration to it is planned", new.span,
-                  notes=(f"{plural(len(judged.python.unsatisfied), 'assumption')} "
-                         f"{report.agree(len(judged.python.unsatisfied), 'does', 'do')} not hold; see above",)
-                  + ((f"the base {old.name} is not safe either",) if base_failing else ()))
+                  notes=notes + ((f"the base {old.name} is not safe either",) if base_failing else ()))
         out.fail("gate.policy", "a verified migration plan exists", d)
         return out
     if base_failing:

@@ -104,8 +104,8 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC504", "ftm-weakened", "`reconf gate`: a fault covered by an FTM in the base is no longer covered"),
     ("RC505", "invalid-policy", "`reconf gate`: bad policy (a value of the wrong type, an unknown key)"),
     ("RC506", "unreadable-revision", "`reconf gate`: an architecture cannot be read from the git revision"),
-    ("RC507", "unsafe-architecture", "`reconf gate`: the new architecture is not safe, so no migration to it is "
-                                     "planned"),
+    ("RC507", "unsafe-architecture", "`reconf gate`: the new architecture is not safe as `check` judges it (an "
+                                     "assumption or a fault-tolerance rule fails), so no migration to it is planned"),
     ("RC508", "policy-name-unknown", "`reconf gate`: a policy name (`never-degrade`, `keep-ftm`) names no component, "
                                      "functionality or FTM of the head or the base"),
     ("RC509", "unsafe-base", "`reconf gate`: the base is not safe, so no plan from it exists; an error by default "

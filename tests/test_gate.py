@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+from pathlib import Path
 
 import jsonschema
 import pytest
@@ -13,7 +14,10 @@ from checker.ftm.library import LIBRARY
 from checker.policy import coverage, load_policy
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import FtmExpr
-from tests.examples_table import BY_NAME, ROOT
+from click.testing import CliRunner
+
+from checker.cli import main
+from tests.examples_table import BY_NAME, ROOT, path
 from tests.gatekit import gate, git
 from tests.test_formats import sarif_schema
 
@@ -93,6 +97,7 @@ message M = std_msgs/msg/String
 component server {
   output out: M
   faults crash, transient
+  application deterministic, state_access
   ftm PBR(TR)
   functionality serve (out) {
     normal { out: M @ 10 Hz }
@@ -119,9 +124,13 @@ def test_weakened_ftm_fails_at_the_ftm_line(here) -> None:
     (here / "reconf.toml").write_text('keep-ftm = ["PBR"]\n', encoding="utf-8")
     code, out, _ = gate("--base", "old.arch", "--head", "new.arch", fmt="sarif")
     assert code == 1
-    (r,) = json.loads(out)["runs"][0]["results"]
-    assert r["ruleId"] == "RC504" and "crash" in r["message"]["text"]
-    assert r["locations"][0]["physicalLocation"]["region"]["startLine"] == 6
+    results = json.loads(out)["runs"][0]["results"]
+    # TR alone does not tolerate the crash faults the server declares: `check` refuses the
+    # head (RC402), and so does the gate (RC507), besides the FTM the policy keeps (RC504)
+    assert sorted(r["ruleId"] for r in results) == ["RC402", "RC504", "RC507"]
+    (r,) = [r for r in results if r["ruleId"] == "RC504"]
+    assert "crash" in r["message"]["text"]
+    assert r["locations"][0]["physicalLocation"]["region"]["startLine"] == 7
     code, out, _ = gate("--base", "old.arch", "--head", "same.arch")
     assert code == 0, out
 
@@ -164,3 +173,24 @@ def test_git_references(tmp_path, monkeypatch) -> None:
     assert not [p for p in os.listdir(repo / "arch") if p.startswith("reconf-rev-")]
     code, out, _ = gate("--base", "git:nosuchref:arch/chatter.arch", "--head", "chatter.arch")
     assert code == 2 and json.loads(out)["diagnostics"][0]["code"] == "RC506"
+
+
+def test_gate_refuses_what_check_refuses_for_ftm_rules(tmp_path: Path) -> None:
+    """Base A&D, head LFR, both declaring permanent value faults: `check` refuses the head
+    (RC402: LFR does not tolerate them), and so does the gate, with keep-ftm or without."""
+    lfr = Path(path("examples", "ftm", "deterministic_lfr.arch")).read_text(encoding="utf-8")
+    head = lfr.replace("faults crash\n", "faults crash, permanent_value\n")
+    assert head != lfr
+    (tmp_path / "base.arch").write_text(head.replace("ftm LFR on", "ftm AD on"), encoding="utf-8")
+    (tmp_path / "head.arch").write_text(head, encoding="utf-8")
+    (tmp_path / "policy.toml").write_text("[tool.reconf]\nkeep-ftm = true\n", encoding="utf-8")
+    check = CliRunner().invoke(main, ["check", str(tmp_path / "head.arch"), "--engine", "python",
+                                      "--output-format", "json"])
+    assert check.exit_code == 1 and "RC402" in check.stdout
+    for extra, weakened in (([], []), (["--policy", str(tmp_path / "policy.toml")], ["RC504"])):
+        code, out, _ = gate("--base", str(tmp_path / "base.arch"), "--head", str(tmp_path / "head.arch"), *extra)
+        doc = json.loads(out)
+        assert code == 1, out
+        # with keep-ftm, A&D's permanent value coverage lost is named too (the policy reads Table I)
+        assert sorted(d["code"] for d in doc["diagnostics"] if d["severity"] == "error") == \
+            ["RC402", *weakened, "RC507"]
