@@ -95,12 +95,13 @@ abstract sig System {
   degraded: set Functionality,
   roles: Connector -> Port,
   csat: set Connector,  -- derived: the satisfied connectors
-  isat: set Input       -- derived: the satisfied inputs
+  isat: set Input,      -- derived: the satisfied inputs
+  ivia: Connector -> Input  -- derived: the satisfying attachments
 }
 one sig Pre, Post extends System {}
 
 fact derived {
-  all s: System | s.csat = sat_conns_def[s] and s.isat = sat_inputs_def[s]
+  all s: System | s.csat = sat_conns_def[s] and s.isat = sat_inputs_def[s] and s.ivia = sat_roles_def[s]
 }
 
 -- Semantics (shared with instance modules) -------------------------------------------
@@ -205,8 +206,23 @@ pred asm_holds[s: System, f: Functionality, a: Data] {
 -- the attachments no_r (Connector -> Input). An input keeps what its other attachments
 -- give it: "without" is about attachments, not whole inputs (docs/soundness.md, "One
 -- semantics").
+-- The satisfying attachments: k -> i, i attached to k, k satisfied, and k's guarantee
+-- satisfying i's assumption. An input is satisfied through these.
+fun sat_roles_q[s: System]: Connector -> Input {
+  {k: Connector, i: Input | k -> i in (s.roles) and k in (s.csat)
+                            and satisfy[k.cguar, i.iasm]}
+}
+
+fun sat_roles_j[s: System]: Connector -> Input {
+  ((s.roles) & ((s.csat) -> Input)) & cguar.(Sem.sat).~iasm
+}
+
+fun sat_roles_def[s: System]: Connector -> Input {
+  sat_roles_q[s]
+}
+
 pred input_satisfied_no_role[s: System, i: Input, no_r: Connector -> Input] {
-  some k: ((s.roles) - no_r).i & (s.csat) | satisfy[k.cguar, i.iasm]
+  some ((s.ivia) - no_r).i
 }
 
 pred asm_holds_no_role[s: System, f: Functionality, a: Data, no_r: Connector -> Input] {
@@ -230,7 +246,7 @@ pred safe_no_role[s: System, fs: set Functionality, no_r: Connector -> Input] {
 
 -- The satisfied inputs without the attachments no_r, as a join.
 fun sat_inputs_no_role[s: System, no_r: Connector -> Input]: set Input {
-  (iasm & (~(((s.roles) - no_r) & ((s.csat) -> Port))).cguar.(Sem.sat)).Data
+  Connector.((s.ivia) - no_r)
 }
 
 -- What holds for each functionality when the inputs ins are its satisfied ones: f -> every
@@ -424,6 +440,7 @@ assert SatEncodingsAgree { Sem.sat = mtype.~mtype & (Msg -> (Msg - rate.Rate) + 
 -- (with ConnectorEncodingsAgree, sat_conns_j = sat_conns_q)
 assert ConnectorsEncodingsAgree { sat_conns_j[Pre] = {k: Connector | conn_satisfied_no_out_j[Pre, k, none]} }
 assert InputsEncodingsAgree { sat_inputs_q[Pre] = sat_inputs_j[Pre] }
+assert RolesEncodingsAgree { sat_roles_q[Pre] = sat_roles_j[Pre] }
 assert ValidEncodingsAgree { valid_q[Pre] iff valid_j[Pre] }
 assert SafetyEncodingsAgree {
   all fs: set Functionality, no_r: Connector -> Input |
@@ -468,6 +485,7 @@ check ConnectorEncodingsAgree for 5 expect 0
 check SatEncodingsAgree for 5 expect 0
 check ConnectorsEncodingsAgree for 5 expect 0
 check InputsEncodingsAgree for 5 expect 0
+check RolesEncodingsAgree for 5 expect 0
 check ValidEncodingsAgree for 5 expect 0
 check SafetyEncodingsAgree for 5 expect 0
 check DetachInputEncodingsAgree for 5 expect 0
