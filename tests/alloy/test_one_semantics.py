@@ -135,3 +135,28 @@ def test_the_alloy_planner_reads_them_alike(bridge: AlloyBridge) -> None:
         planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), 8)
         # the same actions at the same disruption (two detaches may come in either order)
         assert (sorted(map(str, planned.steps)), planned.disruption) == (sorted(map(str, p.steps)), p.disruption)
+
+
+# The paper's readings, planted back into the templates the plan modules are rendered from.
+PAPER_READINGS = [
+    ("detach: safe without the whole input", "k -> p]\n", "Connector -> p]\n", "detach s.i from /a"),
+    ("degrade: f not exempt", ").funcs - f, aff -> Input]", ").funcs, aff -> Input]", "degrade a.f"),
+]
+
+
+@pytest.mark.parametrize("reading,right,planted,refused", PAPER_READINGS, ids=[r[0] for r in PAPER_READINGS])
+def test_a_paper_reading_planted_back_is_caught(monkeypatch: pytest.MonkeyPatch, reading: str, right: str,
+                                                planted: str, refused: str) -> None:
+    import jinja2
+
+    import codegen.alloy
+
+    real = codegen.alloy.environment()
+    source = real.loader.get_source(real, "actions.j2")[0]   # type: ignore[union-attr]
+    assert source.count(right) == 2, right                   # the quantified and the join encoding
+    loader = jinja2.ChoiceLoader([jinja2.DictLoader({"actions.j2": source.replace(right, planted)}), real.loader])
+    env = real.overlay(loader=loader)
+    monkeypatch.setattr(codegen.alloy, "environment", lambda: env)
+    # the Python engine allows the action, the planted reading refuses it
+    with pytest.raises(AssertionError, match=f"'{refused}', \\[\\]"):
+        test_engines_judge_alike_where_the_readings_part()
