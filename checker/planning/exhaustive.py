@@ -1,103 +1,437 @@
-"""The `exhaustive` strategy: A* over configurations, cost = (disruption, number of steps).
+"""The `exhaustive` strategy: decides whether a plan exists and, as far as its budget allows,
+finds one of least disruption.
 
-The search space: from a configuration, the relevant actions are creating an arriving
-component, removing a leaving one, attaching a wanted attachment, detaching an unwanted
-one, and degrading or upgrading any present functionality. Wanted attachments are never
-detached and arriving components never removed: doing so can only add steps. Within that
-space the first plan popped is optimal: the heuristic never overestimates, since
+**The space searched.** From a configuration the actions considered are: create an arriving
+component, remove a leaving one, attach a wanted attachment, detach an unwanted one, and
+degrade or upgrade a *relevant* functionality (`relevant`). So every attachment and every
+component changes at most once, towards the target: "reachable" below means reachable by
+safe steps of this kind. A plan that attaches a port where neither the start nor the target
+has it is outside this space (the Alloy planner, `checker.alloy.planner`, searches those too,
+up to a number of steps).
 
-- a degraded functionality of a component that stays must be upgraded (unless the goal keeps
-  it degraded), one per step, so with
-  weights w0 ≥ w1 ≥ … the i-th is degraded in at least i further states: Σ i·w_i;
-- an arriving component is degraded in the state right after its creation: Σ of its weights;
-- every differing attachment, component and degraded functionality needs one step.
+**Relevant functionalities.** A functionality normal in the start and in the target, of a
+component that stays, never needs to change mode unless it reads a connector the change can
+*touch*: one whose attachments differ, or one a relevant functionality publishes on, unless a
+publisher that is not relevant keeps it satisfied throughout (attached in the start and the
+target, of a component that stays, its normal guarantee satisfying the connector). Relevant
+are the functionalities of components that arrive or leave, those degraded in the start or
+the target, and those reading a touched connector, grown to a fixpoint. Take any plan and drop
+the degrades and upgrades of the others: they stay normal, so every connector they read stays
+satisfied as in the start and they stay safe; every connector is at least as satisfied as in
+the plan (a normal guarantee satisfies whatever the degraded one does: rule iii, which the DSL
+enforces, RC112); validity and every precondition only gain from satisfied connectors, so the
+plan stays safe, with fewer steps and no more disruption. Their modes are never searched.
 
-`max_states` bounds the search; beyond it `SearchTooLarge` is raised (systems of about eight
-components stay well within the default).
+**Three answers, one budget** (`Budget`: configurations and seconds).
+
+1. Relaxation (`checker.planning.relaxed`), in milliseconds: every step that could ever be
+   safe taken at once and nothing ever undone, first over the components and attachments of
+   the start and the target changed any number of times, then over the space above. A fact
+   of the target it never reaches proves that no plan exists, and says why.
+2. Reachability, to decide. A greedy best-first search over configurations closed under
+   the steps that never hurt, taken at once: creating an arriving component (degraded and
+   unattached, it changes nothing for the others), attaching a wanted input (an input attached
+   to one more connector only adds ways to be satisfied, and nothing detaches it again),
+   removing a leaving component once it is isolated (nothing can attach it again). Any plan
+   can be reordered to take those steps as soon as they are possible and stay safe, so the
+   closure loses no plan. It goes first where the fewest steps seem left (`_Space.distance`:
+   the steps every plan still needs, and what the blocked detaches would degrade). Duplicate
+   configurations are recognised (a configuration is its three sets). When the frontier
+   empties, no plan exists in the space, and the answer says how many configurations were
+   visited.
+3. A* (for the optimum): cost (disruption, steps) of the path, plus a lower bound that
+   never overestimates (`_Space.bound`), each functionality counted in states no other term
+   counts it in: one that must be upgraded is degraded in every state before its upgrade,
+   one upgrade a step, and only one that can be upgraded now may go first (Σ i·w_i, the
+   heaviest first); one that must end degraded and is not yet is degraded from its degrade to
+   the end, one degrade a step (Σ (i+1)·w_i); one that must end degraded and is, in the last
+   state; one of an arriving component in the state after its creation, and the next too if
+   its assumptions wait for an input to be attached; one of a leaving component that assumes
+   more than the environment gives, if normal, in its own degrade's state and the last input
+   detach's, if degraded for good (no input left to give what it assumes), in the state
+   after each detach its component still needs, else in two of them at least. Among
+   equal estimates the deeper configuration goes first. The first plan taken from the queue
+   is least disruptive, then shortest; the plan reachability found bounds the queue.
+
+When A* runs out of budget the reachability plan is returned, locally improved, and said not
+to be proved least disruptive. When reachability runs out of budget, `SearchTooLarge` says
+how far it got: the question is not decided.
 """
 from __future__ import annotations
 
 import heapq
+import time
+from dataclasses import dataclass
 from itertools import count
-from typing import Optional
+from typing import Callable, Iterator, Optional
 
-from reconf_dsl.ir import System
+from reconf_dsl.ir import Functionality, Predicate, System
 
-from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
-                       effect)
-from ..config import Configuration
+from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, _Catalogue, catalogue,
+                       check, effect, satisfies)
+from ..config import Configuration, FuncId
+from ..report import plural
 from .plan import Goal, NoSafePlan, state_weight
+from .relaxed import Relaxation, reachable
 
-__all__ = ["exhaustive_steps", "SearchTooLarge"]
+__all__ = ["Budget", "Impossible", "Search", "SearchTooLarge", "exhaustive_search", "exhaustive_steps", "relevant"]
 
 
 class SearchTooLarge(NoSafePlan):
-    pass
+    """The budget ran out before the search decided whether a plan exists."""
 
 
-def _heuristic(system: System, config: Configuration, goal: Goal) -> tuple[int, int]:
+class Impossible(NoSafePlan):
+    """No plan exists, proved by `how`: "relaxation" or "search" (see the module docstring)."""
+
+    def __init__(self, reasons: list[str], how: str) -> None:
+        super().__init__(reasons)
+        self.how = how
+
+
+@dataclass(frozen=True)
+class Budget:
+    """How far the search may go: configurations visited and seconds, both searches together."""
+
+    states: int = 400_000
+    seconds: float = 60.0
+
+
+@dataclass
+class Search:
+    """What `exhaustive_search` found: the steps, whether they are proved least disruptive,
+    and how many configurations each search visited in how long."""
+
+    steps: list[Action]
+    optimal: bool
+    visited: int          # by the reachability search
+    optimised: int        # by A*
+    seconds: float
+
+    def note(self) -> str:
+        if self.optimal:
+            return (f"exhaustive: least disruptive, then fewest steps (A* over {self.optimised:,} configurations, "
+                    f"{self.seconds:.1f} s)")
+        return (f"exhaustive: a plan found among {self.visited:,} configurations; not proved least disruptive "
+                f"(A* gave up after {self.optimised:,} configurations, {self.seconds:.1f} s in all)")
+
+
+class _Clock:
+    """The budget as it is spent."""
+
+    def __init__(self, budget: Budget) -> None:
+        self.budget = budget
+        self.began = time.perf_counter()
+        self.deadline = self.began + budget.seconds
+        self.visited = 0
+
+    def spent(self) -> float:
+        return time.perf_counter() - self.began
+
+    def over(self, visited: int) -> bool:
+        return visited > self.budget.states or time.perf_counter() > self.deadline
+
+
+def relevant(system: System, start: Configuration, goal: Goal) -> frozenset[FuncId]:
+    """The functionalities whose mode a plan may need to change (see the module docstring)."""
     cat = catalogue(system)
-    staying = sorted((cat.funcs[d].criticality for d in config.degraded - goal.degraded if d[0] in goal.components
-                      and d[0] in config.components), reverse=True)
-    arriving = [(c, f.name) for c in goal.components - config.components for f in cat.comps[c].functionalities]
-    cost = sum(i * w for i, w in enumerate(staying)) + sum(cat.funcs[d].criticality for d in arriving)
-    to_degrade = [d for d in goal.degraded - config.degraded if d[0] in config.components]
-    steps = (len(config.roles ^ goal.roles) + len(config.components ^ goal.components) + len(staying)
-             + len([d for d in arriving if d not in goal.degraded]) + len(to_degrade))
-    return cost, steps
-
-
-def _candidates(system: System, config: Configuration, goal: Goal) -> list[Action]:
-    cat = catalogue(system)
-    acts: list[Action] = [Create(c) for c in sorted(goal.components - config.components)]
-    acts += [Remove(c) for c in sorted(config.components - goal.components)]
-    acts += [Attach(*r) for r in sorted(goal.roles - config.roles) if r[1] in config.components]
-    acts += [Detach(*r) for r in sorted(config.roles - goal.roles)]
-    for c in sorted(config.components):
-        for f in cat.comps[c].functionalities:
-            acts.append(Upgrade(c, f.name) if (c, f.name) in config.degraded else Degrade(c, f.name))
-    return acts
-
-
-def exhaustive_steps(system: System, start: Configuration, goal: Goal, max_states: int = 100_000) -> list[Action]:
-    cat = catalogue(system)
-    tie = count()
-    best: dict[Configuration, tuple[int, int]] = {start: (0, 0)}
-    parent: dict[Configuration, tuple[Optional[Configuration], Optional[Action]]] = {start: (None, None)}
-    h0 = _heuristic(system, start, goal)
-    frontier: list[tuple[int, int, int, tuple[int, int], Configuration]] = [(h0[0], h0[1], next(tie), (0, 0), start)]
-    expanded = 0
-    while frontier:
-        _, _, _, g, config = heapq.heappop(frontier)
-        if g != best[config]:
+    staying = start.components & goal.components
+    kept = start.roles & goal.roles
+    readers: dict[str, set[FuncId]] = {}        # connector -> the functionalities reading it
+    outputs: dict[FuncId, set[str]] = {}        # functionality -> the connectors it publishes on
+    witnesses: dict[str, set[FuncId]] = {}      # connector -> kept publishers that satisfy it when normal
+    for k, c, p in start.roles | goal.roles:
+        port = cat.ports.get((c, p))
+        if port is None or k not in cat.conns:
             continue
+        for f in cat.comps[c].functionalities:
+            if p not in f.ports:
+                continue
+            if port.kind == "input":
+                readers.setdefault(k, set()).add((c, f.name))
+                continue
+            outputs.setdefault((c, f.name), set()).add(k)
+            if ((k, c, p) in kept and c in staying and f.normal is not None
+                    and satisfies(f.normal.guarantee(p), cat.conns[k].guarantee)):
+                witnesses.setdefault(k, set()).add((c, f.name))
+    found: set[FuncId] = {(c, f.name) for c in start.components ^ goal.components
+                          for f in cat.comps[c].functionalities}
+    found |= {d for d in start.degraded | goal.degraded if d[0] in start.components | goal.components}
+    changed = {k for k, _, _ in start.roles ^ goal.roles}
+    while True:
+        # a connector some publisher that stays normal keeps satisfied (attached in the start and the
+        # target) is satisfied in every configuration: its readers need not change for it
+        touched = changed | {k for d in found for k in outputs.get(d, ()) if not witnesses.get(k, set()) - found}
+        grown = found | {d for k in touched for d in readers.get(k, ())}
+        if grown == found:
+            return frozenset(found)
+        found = grown
+
+
+class _Space:
+    """The problem as the searches see it: what may change, and the bound on what is left."""
+
+    def __init__(self, system: System, start: Configuration, goal: Goal, prune: bool = True) -> None:
+        """With `prune` off, every functionality's mode is searched (to check `relevant` against)."""
+        self.system, self.start, self.goal = system, start, goal
+        self.cat: _Catalogue = catalogue(system)
+        self.relevant = (relevant(system, start, goal) if prune else
+                         frozenset((c, f.name) for c in start.components | goal.components
+                                   for f in self.cat.comps[c].functionalities))
+        self.by_comp: dict[str, list[FuncId]] = {}
+        for d in sorted(self.relevant):
+            self.by_comp.setdefault(d[0], []).append(d)
+        self.arriving = sorted(goal.components - start.components)
+        self.leaving = sorted(start.components - goal.components)
+        self.wanted = sorted(goal.roles - start.roles)
+        self.unwanted = sorted(start.roles - goal.roles)
+        self.wanted_inputs = [r for r in self.wanted if not self.cat.is_output(r[1], r[2])]
+        self.wanted_outputs = [r for r in self.wanted if self.cat.is_output(r[1], r[2])]
+        self.weight = {d: f.criticality for d, f in self.cat.funcs.items()}
+
+    # -- the lower bound on what is left --------------------------------------------------
+
+    def bound(self, config: Configuration) -> tuple[int, int]:
+        """(disruption, steps) that any plan from `config` still takes, at least."""
+        goal, w, cat = self.goal, self.weight, self.cat
         if goal.reached(config):
-            return _path(parent, config)
-        expanded += 1
-        if expanded > max_states:
-            raise SearchTooLarge([f"exhaustive: more than {max_states} configurations to explore"])
+            return 0, 0
+        present = config.components
         st = Snapshot(cat, config)
-        for a in _candidates(system, config, goal):
+        up = [d for d in config.degraded - goal.degraded if d[0] in present and d[0] in goal.components]
+        # the heaviest that can be upgraded now may go first; every other waits a step at least
+        ready = [w[d] for d in up if all(st.holds(d[0], cat.funcs[d], a) for a in _normal(cat.funcs[d]))]
+        first = max(ready, default=0)
+        rest = sorted((w[d] for d in up), reverse=True)
+        if ready:
+            rest.remove(first)
+        cost = sum((i + 1) * x for i, x in enumerate(rest))
+        down = sorted((w[d] for d in goal.degraded - config.degraded if d[0] in present), reverse=True)
+        cost += sum((i + 1) * x for i, x in enumerate(down))
+        cost += sum(w[d] for d in goal.degraded & config.degraded if d[0] in present)
+        steps = len(config.roles ^ goal.roles) + len(present ^ goal.components) + len(up) + len(down)
+        for c in goal.components - present:
+            wanted_input = any(r[1] == c for r in self.wanted_inputs)
+            for f in cat.comps[c].functionalities:
+                d = (c, f.name)
+                if d in goal.degraded:
+                    cost += w[d]
+                    continue
+                # degraded after its creation, and after the attach its assumptions wait for
+                cost += w[d] * (2 if wanted_input and self._needs_inputs(f) else 1)
+                steps += 1
+        for c in present - goal.components:
+            attached = [r for r in config.roles if r[1] == c]
+            inputs = {r[2] for r in attached if not cat.is_output(c, r[2])}
+            for f in cat.comps[c].functionalities:
+                d = (c, f.name)
+                if not self._needs_inputs(f):
+                    continue
+                if d not in config.degraded:
+                    # degraded before the last input it needs goes: in its own state and that detach's
+                    cost += 2 * w[d]
+                    steps += 1
+                elif self._stuck(f, c, inputs):
+                    cost += len(attached) * w[d]        # in the state after each detach c still needs
+                elif inputs:
+                    cost += min(len(attached), 2) * w[d]     # or upgraded, and degraded again later
+        return cost, steps
+
+    def _stuck(self, f: Functionality, c: str, inputs: set[str]) -> bool:
+        """Whether `f` (of the leaving `c`) can never be normal again: an assumption of its normal
+        mode that neither the environment nor any input of `c` still attached can give."""
+        env = self.cat.env
+        for a in _normal(f):
+            if any(satisfies(e, a) for e in env):
+                continue
+            ports = [self.cat.ports[(c, p)] for p in f.ports if p in inputs]
+            if not any(p.assumption is not None and satisfies(p.assumption, a) for p in ports):
+                return True
+        return False
+
+    def _needs_inputs(self, f: Functionality) -> bool:
+        """Whether some assumption of `f`'s normal mode is not given by the environment."""
+        return f.normal is not None and any(not any(satisfies(e, a) for e in self.cat.env)
+                                            for a in f.normal.assumptions)
+
+    def distance(self, config: Configuration) -> int:
+        """How far `config` seems from the goal, to order the reachability search (not a bound):
+        the steps `bound` counts, and for each unwanted attachment whose detach is refused the
+        functionalities it would degrade (`default._closure`), twice if they must come back."""
+        from .default import _closure
+
+        st = Snapshot(self.cat, config)
+        need: set[FuncId] = set()
+        for r in self.unwanted:
+            if r not in config.roles:
+                continue
+            a = Detach(*r)
             if check(st, a):
-                continue
-            nxt = effect(system, config, a)
-            cost = (g[0] + state_weight(system, nxt), g[1] + 1)
-            if nxt in best and best[nxt] <= cost:
-                continue
-            best[nxt] = cost
-            parent[nxt] = (config, a)
-            h = _heuristic(system, nxt, goal)
-            heapq.heappush(frontier, (cost[0] + h[0], cost[1] + h[1], next(tie), cost, nxt))
-    raise NoSafePlan(["exhaustive: no sequence of safe actions reaches the goal"])
+                suspects = {r[1]} | (st.readers([r[0]]) if st.is_output(r[1], r[2]) else set())
+                need |= _closure(self.system, effect(self.system, config, a), suspects)
+        need -= config.degraded
+        return self.bound(config)[1] + sum(1 if d in self.goal.degraded else 2 for d in need)
+
+    # -- the actions ------------------------------------------------------------------------
+
+    def _modes(self, config: Configuration) -> Iterator[Action]:
+        for c in sorted(config.components):
+            for d in self.by_comp.get(c, ()):
+                yield Upgrade(*d) if d in config.degraded else Degrade(*d)
+
+    def moves(self, config: Configuration) -> list[Action]:
+        """Every action of the space whose preconditions hold in `config` (A*)."""
+        st = Snapshot(self.cat, config)
+        acts: list[Action] = [Create(c) for c in self.arriving if c not in config.components]
+        acts += [Remove(c) for c in self.leaving if c in config.components]
+        acts += [Attach(*r) for r in self.wanted if r not in config.roles and r[1] in config.components]
+        acts += [Detach(*r) for r in self.unwanted if r in config.roles]
+        acts += list(self._modes(config))
+        return [a for a in acts if not check(st, a)]
+
+    def branches(self, config: Configuration) -> list[Action]:
+        """The actions the reachability search branches on (the others are taken at once: `close`)."""
+        st = Snapshot(self.cat, config)
+        acts: list[Action] = [Attach(*r) for r in self.wanted_outputs
+                              if r not in config.roles and r[1] in config.components]
+        acts += [Detach(*r) for r in self.unwanted if r in config.roles]
+        acts += list(self._modes(config))
+        return [a for a in acts if not check(st, a)]
+
+    def close(self, config: Configuration) -> tuple[Configuration, list[Action]]:
+        """`config` after every step that never hurts (see the module docstring), and those steps."""
+        steps: list[Action] = []
+        while True:
+            st = Snapshot(self.cat, config)
+            attached = {c for _, c, _ in config.roles}
+            todo: list[Action] = [Create(c) for c in self.arriving if c not in config.components]
+            todo += [Attach(*r) for r in self.wanted_inputs if r not in config.roles and r[1] in config.components]
+            todo += [Remove(c) for c in self.leaving if c in config.components and c not in attached]
+            done = [a for a in todo if not check(st, a)]
+            if not done:
+                return config, steps
+            for a in done:     # independent of one another: different components and roles
+                config = effect(self.system, config, a)
+            steps += done
 
 
-def _path(parent: dict[Configuration, tuple[Optional[Configuration], Optional[Action]]],
+def _normal(f: Functionality) -> tuple[Predicate, ...]:
+    return f.normal.assumptions if f.normal is not None else ()
+
+
+def _path(parent: dict[Configuration, tuple[Optional[Configuration], list[Action]]],
           end: Configuration) -> list[Action]:
     steps: list[Action] = []
     node: Optional[Configuration] = end
     while node is not None:
-        prev, a = parent[node]
-        if a is not None:
-            steps.append(a)
+        prev, acts = parent[node]
+        steps[:0] = acts
         node = prev
-    return steps[::-1]
+    return steps
+
+
+def _reach(space: _Space, clock: _Clock) -> tuple[Optional[list[Action]], int, bool]:
+    """Reachability: (a plan or None, configurations visited, whether the space was exhausted)."""
+    first, pre = space.close(space.start)
+    parent: dict[Configuration, tuple[Optional[Configuration], list[Action]]] = {first: (None, pre)}
+    tie = count()
+    frontier = [(space.distance(first), next(tie), first)]
+    expanded = 0
+    while frontier:
+        _, _, config = heapq.heappop(frontier)
+        if space.goal.reached(config):
+            return _path(parent, config), len(parent), False
+        expanded += 1
+        if expanded % 64 == 1 and clock.over(len(parent)):
+            return None, len(parent), False
+        for a in space.branches(config):
+            nxt, more = space.close(effect(space.system, config, a))
+            if nxt in parent:
+                continue
+            parent[nxt] = (config, [a] + more)
+            heapq.heappush(frontier, (space.distance(nxt), next(tie), nxt))
+    return None, len(parent), True
+
+
+def _astar(space: _Space, clock: _Clock, ceiling: Optional[tuple[int, int]],
+           bound: Optional[Callable[[Configuration], tuple[int, int]]] = None) -> tuple[Optional[list[Action]], int]:
+    """A*: the least disruptive plan (then the shortest), or None when the budget ran out
+    (or no plan costs less than `ceiling`); and how many configurations it visited. `bound`
+    replaces `space.bound` (a bound of (0, 0) makes it a uniform-cost search, to check the
+    bound against)."""
+    system, start, goal = space.system, space.start, space.goal
+    bound = bound or space.bound
+    best: dict[Configuration, tuple[int, int]] = {start: (0, 0)}
+    parent: dict[Configuration, tuple[Optional[Configuration], list[Action]]] = {start: (None, [])}
+    tie = count()
+    h = bound(start)
+    frontier = [(h[0], h[1], 0, next(tie), (0, 0), start)]
+    expanded = 0
+    while frontier:
+        f0, f1, _, _, g, config = heapq.heappop(frontier)
+        if g != best[config]:
+            continue
+        if goal.reached(config):
+            return _path(parent, config), len(best)
+        expanded += 1
+        if expanded % 64 == 1 and clock.over(clock.visited + len(best)):
+            return None, len(best)
+        for a in space.moves(config):
+            nxt = effect(system, config, a)
+            cost = (g[0] + state_weight(system, nxt), g[1] + 1)
+            old = best.get(nxt)
+            if old is not None and old <= cost:
+                continue
+            hn = bound(nxt)
+            est = (cost[0] + hn[0], cost[1] + hn[1])
+            if ceiling is not None and est > ceiling:
+                continue
+            best[nxt] = cost
+            parent[nxt] = (config, [a])
+            heapq.heappush(frontier, (est[0], est[1], -cost[1], next(tie), cost, nxt))
+    return None, len(best)
+
+
+def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: Budget = Budget()) -> Search:
+    """Decide whether a plan exists and find the least disruptive one the budget allows (see the
+    module docstring). Raises NoSafePlan, saying how it knows, when none exists, and
+    SearchTooLarge when the budget ran out first."""
+    from .improve import cost, improve
+
+    space = _Space(system, start, goal)
+    for restricted in (False, True):
+        relaxation = reachable(system, start, goal, restricted, space.relevant)
+        if not relaxation.possible:
+            raise Impossible([_impossible(relaxation, restricted)], "relaxation")
+    clock = _Clock(budget)
+    found, visited, exhausted = _reach(space, clock)
+    if found is None:
+        if exhausted:
+            raise Impossible([f"exhaustive: no safe plan exists: the search visited all {visited:,} configurations "
+                              "reachable from the start by safe steps towards the target (each attachment and "
+                              "component changed at most once, the modes of the "
+                              f"{plural(len(space.relevant), 'functionality', 'functionalities')} the change can "
+                              "affect), and none is the target"], "search")
+        raise SearchTooLarge([f"exhaustive: gave up after visiting {visited:,} configurations in "
+                              f"{clock.spent():.0f} s without deciding whether a plan exists"])
+    clock.visited = visited
+    steps, optimised = _astar(space, clock, cost(system, start, found, goal))
+    if steps is not None:
+        return Search(steps, True, visited, optimised, clock.spent())
+    return Search(improve(system, start, found, goal), False, visited, optimised, clock.spent())
+
+
+def _impossible(relaxation: Relaxation, restricted: bool) -> str:
+    """Why no plan exists, as the relaxation proved it."""
+    scope = ("steps towards the target (each attachment and component changed at most once)" if restricted else
+             "the components and attachments of the start and the target, each changed any number of times")
+    shown = relaxation.missing[:4]
+    more = len(relaxation.missing) - len(shown)
+    return (f"exhaustive: no safe plan exists: {'; '.join(shown)}" + (f" (and {more} more)" if more > 0 else "")
+            + f". Proved by relaxing the search (every step that could ever be safe taken at once, nothing ever "
+            f"undone) over {scope}")
+
+
+def exhaustive_steps(system: System, start: Configuration, goal: Goal, budget: Budget = Budget()) -> list[Action]:
+    """The steps of `exhaustive_search`."""
+    return exhaustive_search(system, start, goal, budget).steps
