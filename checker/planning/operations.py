@@ -1,11 +1,12 @@
 """Reconfigurations to plan: replace, remove, add, migrate; and the one entry point `solve`.
 
 Every plan is checked step by step with `semantics.evaluate` (`plan.verify`) before it is
-returned. A `migrate` is described on one combined System: the old deployed components,
-and as versions the new ones. A component whose definition changed becomes a new version
-named `<name>@new` (and a connector whose definition changed, `<name>@new`); `Plan.renames`
-maps these back to the names of the new architecture. Environment guarantees are those of
-the old architecture.
+returned. Each `plan_*` plans with the strategy it is given alone, or, given a `Fallback`,
+goes on to the next strategies when that one fails (`checker.planning.chain`). A `migrate`
+is described on one combined System: the old deployed components, and as versions the new
+ones. A component whose definition changed becomes a new version named `<name>@new` (and a
+connector whose definition changed, `<name>@new`); `Plan.renames` maps these back to the
+names of the new architecture. Environment guarantees are those of the old architecture.
 
 A target need not have every functionality normal: the goal is `settle`d first, so the
 functionalities whose assumptions cannot hold in the target (removing the only publisher of
@@ -21,30 +22,34 @@ from reconf_dsl.ir import Component, Connector, System
 
 from ..actions import Action, catalogue, failing_assumptions, satisfies
 from ..config import Configuration, Role
+from .chain import Fallback, plan_with_fallback
 from .default import default_steps
 from .environment import missing_environment
-from .exhaustive import exhaustive_steps
+from .exhaustive import Budget, exhaustive_search
 from .improve import cost, improve
 from .paper import paper_steps
 from .plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
 
-__all__ = ["STRATEGIES", "solve", "plan_replace", "plan_remove", "plan_add", "plan_migrate"]
+__all__ = ["STRATEGIES", "solve", "ready", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
+           "remove_problem"]
 
 STRATEGIES = ("default", "paper", "exhaustive")
 RENAMED = "@new"
 
 
-def _steps(problem: Problem, strategy: str) -> list[Action]:
+def _steps(problem: Problem, strategy: str, budget: Budget) -> tuple[list[Action], Optional[str]]:
+    """The steps of `strategy` for `problem` (its goal settled), and a note on how they were found."""
     if strategy == "paper":
-        return paper_steps(problem)
+        return paper_steps(problem), None
     if strategy == "exhaustive":
-        return exhaustive_steps(problem.system, problem.start, problem.goal)
+        search = exhaustive_search(problem.system, problem.start, problem.goal, budget)
+        return search.steps, search.note()
     if strategy == "default":
-        return default_steps(problem.system, problem.start, problem.goal)
+        return _default(problem)
     raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
 
 
-def _check_ends(problem: Problem) -> Problem:
+def ready(problem: Problem) -> Problem:
     """Refuse an invalid start or an impossible target; the problem with its goal `settle`d."""
     s, cat = problem.system, catalogue(problem.system)
     bad = failing_assumptions(s, problem.start)
@@ -82,6 +87,9 @@ def _check_ends(problem: Problem) -> Problem:
     return dc_replace(problem, goal=goal)
 
 
+_check_ends = ready      # its earlier name, which checker.alloy.planner and the Alloy planner tests import
+
+
 class _NoPort:
     kind = "none"
 
@@ -89,17 +97,14 @@ class _NoPort:
 _NO_PORT = _NoPort()
 
 
-def solve(problem: Problem, strategy: str = "default") -> Plan:
-    """Plan `problem` with `strategy`.
+def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()) -> Plan:
+    """Plan `problem` with `strategy` alone (`checker.planning.chain` goes on to the next
+    strategy when one fails).
 
     `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
-    so it is never worse than `paper`."""
-    problem = _check_ends(problem)
-    note = None
-    if strategy != "default":
-        steps = _steps(problem, strategy)
-    else:
-        steps, note = _default(problem)
+    so it is never worse than `paper`; `budget` bounds the `exhaustive` search."""
+    problem = ready(problem)
+    steps, note = _steps(problem, strategy, budget)
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
     if note:
         plan.notes.append(note)
@@ -132,13 +137,20 @@ def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
     return theirs, "the paper's order, improved, was less disruptive here and is kept"
 
 
+def _plan(problem: Problem, strategy: str, fallback: Optional[Fallback]) -> Plan:
+    """`strategy` alone, or with `fallback` the next strategies when it fails (`chain`)."""
+    if fallback is None:
+        return solve(problem, strategy)
+    return plan_with_fallback(problem, strategy, fallback)
+
+
 def _start(system: System, config: Optional[Configuration]) -> Configuration:
     return config if config is not None else Configuration.initial(system)
 
 
-def plan_replace(system: System, old: str, new: Union[str, Component], strategy: str = "default",
-                 config: Optional[Configuration] = None) -> Plan:
-    """Replace deployed `old` by the version `new` (a name in `system.versions`, or a Component)."""
+def replace_problem(system: System, old: str, new: Union[str, Component],
+                    config: Optional[Configuration] = None) -> Problem:
+    """Replacing deployed `old` by the version `new` (a name in `system.versions`, or a Component)."""
     if isinstance(new, Component):
         if system.component(new.name) is None:
             system = dc_replace(system, versions=system.versions + (new,))
@@ -159,20 +171,31 @@ def plan_replace(system: System, old: str, new: Union[str, Component], strategy:
     roles = {r for r in start.roles if r[1] != old}
     roles |= {(conn, new, port) for conn, c, port in start.roles if c == old and comp.port(port) is not None}
     goal = Goal((start.components - {old}) | {new}, frozenset(roles))
-    return solve(Problem(system, start, goal, replaced=[(old, new)]), strategy)
+    return Problem(system, start, goal, replaced=[(old, new)])
 
 
-def plan_remove(system: System, component: str, strategy: str = "default",
-                config: Optional[Configuration] = None) -> Plan:
+def plan_replace(system: System, old: str, new: Union[str, Component], strategy: str = "default",
+                 config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
+    """Replace deployed `old` by the version `new` (see `replace_problem`)."""
+    return _plan(replace_problem(system, old, new, config), strategy, fallback)
+
+
+def remove_problem(system: System, component: str, config: Optional[Configuration] = None) -> Problem:
+    """Removing deployed `component`, with its attachments."""
     start = _start(system, config)
     if component not in start.components:
         raise unknown("deployed component", component, start.components, system.name)
     goal = Goal(start.components - {component}, frozenset(r for r in start.roles if r[1] != component))
-    return solve(Problem(system, start, goal, removed=[component]), strategy)
+    return Problem(system, start, goal, removed=[component])
+
+
+def plan_remove(system: System, component: str, strategy: str = "default",
+                config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
+    return _plan(remove_problem(system, component, config), strategy, fallback)
 
 
 def plan_add(system: System, component: str, strategy: str = "default", *, source: System,
-             config: Optional[Configuration] = None) -> Plan:
+             config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
     """Add `component` as `source` declares it, with its attachments there."""
     comp = source.component(component)
     if comp is None:
@@ -186,11 +209,11 @@ def plan_add(system: System, component: str, strategy: str = "default", *, sourc
     system = dc_replace(system, versions=system.versions + (comp,), connectors=system.connectors + tuple(missing))
     start = _start(system, config)
     goal = Goal(start.components | {component}, start.roles | roles)
-    return solve(Problem(system, start, goal, added=[component]), strategy)
+    return _plan(Problem(system, start, goal, added=[component]), strategy, fallback)
 
 
 def plan_migrate(old: System, new: System, strategy: str = "default",
-                 config: Optional[Configuration] = None) -> Plan:
+                 config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
     """From the deployed `old` architecture to the deployed `new` one, in `old`'s environment."""
     needs = missing_environment(old, new, old.name, new.name)
     if needs:
@@ -229,8 +252,8 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
                         for r in conn.roles}
     goal = Goal(frozenset(comp_names.values()), frozenset(roles))
     renames = {v: k for k, v in {**comp_names, **conn_names}.items() if k != v}
-    return solve(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),
-                 strategy)
+    return _plan(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),
+                 strategy, fallback)
 
 
 def _fresh(name: str, taken: set[str]) -> str:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass, field
 from itertools import pairwise
-from typing import Any, Iterable, Optional, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Optional, Sequence
 
 from reconf_dsl.ir import System
 
@@ -22,6 +22,9 @@ from ..config import Configuration, FuncId, Role
 from ..semantics import evaluate
 from .states import States
 from ..report import plural
+
+if TYPE_CHECKING:
+    from .chain import Attempt
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
@@ -171,6 +174,9 @@ class Plan:
     # (connector, proxy) pairs of servers losing or gaining their FTM: while the proxy
     # publishes on its clients' connector it stays normal and its requests reach a protocol
     handover: list[tuple[str, str]] = field(default_factory=list)
+    # the strategies tried before the one that produced this plan, and why they failed
+    # (checker.planning.chain)
+    attempts: list["Attempt"] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -191,12 +197,15 @@ class Plan:
     def to_dict(self) -> dict[str, Any]:
         """The plan as data: its first state in full and, per step, what the step changed (states
         as deltas, so the document grows with the plan's length, not length × size)."""
-        return {"strategy": self.strategy, "disruption": self.disruption,
-                "steps": [a.to_dict() for a in self.steps],
-                "start": state_dict(self.states[0]),
-                "changes": [state_change(before, after) for before, after in pairwise(self.states)],
-                "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
-                "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
+        out: dict[str, Any] = {
+            "strategy": self.strategy, "disruption": self.disruption, "steps": [a.to_dict() for a in self.steps],
+            "start": state_dict(self.states[0]),
+            "changes": [state_change(before, after) for before, after in pairwise(self.states)],
+            "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
+            "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
+        if self.attempts:
+            out["attempts"] = [a.to_dict() for a in self.attempts]
+        return out
 
 
 def state_dict(s: Configuration) -> dict[str, list[Any]]:
