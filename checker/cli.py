@@ -386,13 +386,13 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
     orange, removed red; one annotated picture, or one per step with --steps."""
     from .gate import resolve, revisions
     from .pictures import plan_picture, step_pictures
-    from .planning import NoSafePlan, plan_migrate
+    from .planning import Fallback, NoSafePlan, plan_migrate
     fmt = picture_format_for(picture_format, output)
     with revisions() as revs:
         a, b = load([resolve(old, revs)], sources), load([resolve(new, revs)], sources)
     try:
         with status("planning…"):
-            p = plan_migrate(a, b, strategy)
+            p = plan_migrate(a, b, strategy, fallback=Fallback())
     except NoSafePlan as e:
         raise Failure([Diagnostic("RC501", Severity.ERROR, "no safe migration plan to draw", b.span,
                                   notes=tuple(e.reasons))], EXIT_UNSAFE) from None

@@ -1,7 +1,9 @@
 """`reconf plan replace|remove|add|migrate`: plan, verify, show like `terraform plan`, emit a ROS 2 script.
 
 Every plan shown has been checked step by step by the Python engine; with Alloy available
-(the default) it is also checked as a whole by the Alloy Analyzer before it is shown.
+(the default) it is also checked as a whole by the Alloy Analyzer before it is shown. A
+strategy that finds no plan, or whose plan Alloy refutes, hands over to the next
+(`checker.planning.chain`); the plan shown says which strategy produced it.
 """
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import json
 import os
 import sys
 from dataclasses import replace as dc_replace
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, Sequence
 
 import click
 from rich.markup import escape
@@ -26,7 +28,8 @@ from . import report
 from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from .plan_options import with_common, with_plan_options
 from .progress import status
-from .planning import NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
+from .planning import (Attempt, Fallback, NoPlanFound, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove,
+                       plan_replace)
 from .planning.plan import BadRequest, degradation, unknown
 from .report import OutputFormat, agree
 
@@ -85,7 +88,8 @@ def replace_cmd(component: str, replacement: Optional[str], source: Optional[str
                              f"{', '.join(versions)}; say which with --with, or take one from a file with --from")
         new = versions[0]
     label = f"replace {component} with {new if isinstance(new, str) else new.name}"
-    run(label, system, lambda: plan_replace(system, component, new, opts["strategy"]), sources, **opts)
+    run(label, system, lambda fb: plan_replace(system, component, new, opts["strategy"], fallback=fb), sources,
+        chain=True, **opts)
 
 
 @plan.command("remove")
@@ -95,7 +99,8 @@ def replace_cmd(component: str, replacement: Optional[str], source: Optional[str
 def remove_cmd(component: str, sources: Sources, **opts: Any) -> None:
     """Remove COMPONENT, degrading what depends on it."""
     system = load(list(opts["files"]) or default_files(), sources)
-    run(f"remove {component}", system, lambda: plan_remove(system, component, opts["strategy"]), sources, **opts)
+    run(f"remove {component}", system, lambda fb: plan_remove(system, component, opts["strategy"], fallback=fb),
+        sources, chain=True, **opts)
 
 
 @plan.command("add")
@@ -108,7 +113,8 @@ def add_cmd(component: str, source: str, sources: Sources, **opts: Any) -> None:
     """Add COMPONENT as declared in another file, with its attachments there."""
     system = load(list(opts["files"]) or default_files(), sources)
     other = load([source], sources)
-    run(f"add {component}", system, lambda: plan_add(system, component, opts["strategy"], source=other), sources,
+    run(f"add {component}", system,
+        lambda fb: plan_add(system, component, opts["strategy"], source=other, fallback=fb), sources, chain=True,
         **opts)
 
 
@@ -130,25 +136,55 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
         run(label, expand(a)[0], lambda: plan_ftm_migrate(a, b, opts["strategy"]).plan, sources,
             target=expand(b)[0], **opts)
         return
-    run(label, a, lambda: plan_migrate(a, b, opts["strategy"]), sources, target=b, **opts)
+    run(label, a, lambda fb: plan_migrate(a, b, opts["strategy"], fallback=fb), sources, target=b, chain=True,
+        **opts)
 
 
-def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, *, strategy: str,
+def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
         target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
-        detailed_exitcode: bool = False) -> None:
+        detailed_exitcode: bool = False, chain: bool = False) -> None:
+    """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
+    `checker.planning.chain`: a strategy that finds no plan, or whose plan Alloy refutes, hands
+    over to the next; otherwise `make()` plans alone and a refuted plan means no plan."""
     fmt = output_format
-    try:
-        p = make()
-        if engine == "alloy":
-            p = alloy_planned(p, max_steps)
-    except NoSafePlan as e:
-        return no_plan(label, e.reasons, fmt)
-    evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-    if use_alloy:
+    verified: dict[int, tuple[Plan, dict[str, Any]]] = {}
+
+    def judge(p: Plan, say: Callable[[str], None]) -> dict[str, Any]:
         from .alloy_plan import alloy_evidence
-        with status(f"verifying the plan in the Alloy Analyzer ({len(p.states)} states)…") as say:
-            evidence["alloy"] = alloy_evidence(p, progress=say)
+        say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
+        found = alloy_evidence(p, progress=say)
+        verified[id(p)] = (p, found)
+        return found
+
+    def accept(say: Callable[[str], None]) -> Callable[[Plan], Optional[str]]:
+        def refused(p: Plan) -> Optional[str]:
+            if not use_alloy:
+                return None
+            found = judge(p, say)
+            if found.get("verdict") == "not run" or found.get("valid", False):
+                return None     # a plan Alloy could not verify is not refuted: RC303 below
+            return f"Alloy refuted the plan: {found.get('reason', 'unknown')}"
+        return refused
+
+    with status("planning…") as say:
+        try:
+            if chain:
+                p = make(Fallback(accept=accept(say), alloy=use_alloy or engine == "alloy", max_steps=max_steps,
+                                  progress=say))
+            else:
+                p = make()
+            if engine == "alloy":
+                p = alloy_planned(p, max_steps)
+        except NoPlanFound as e:
+            return no_plan(label, e.reasons, fmt, attempts=e.attempts)
+        except NoSafePlan as e:
+            return no_plan(label, e.reasons, fmt)
+        evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
+        if use_alloy:
+            hit = verified.get(id(p))
+            evidence["alloy"] = hit[1] if hit is not None and hit[0] is p else judge(p, say)
+    if use_alloy:
         if evidence["alloy"].get("verdict") == "not run":      # not answered: not "unsafe" (docs/exit-codes.md)
             raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
                                       f"{evidence['alloy']['reason']}", Span.unknown("<alloy>"),
@@ -156,7 +192,7 @@ def run(label: str, system: System, make: Callable[[], Plan], sources: Sources, 
                                              "verification alone",))])
         if not evidence["alloy"].get("valid", False):
             return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
-                           p, evidence)
+                           p, evidence, attempts=p.attempts)
     doc = plan_document(label, system, p, evidence, target)
     if output:
         from codegen.ros2 import model_data, render_plan_script
@@ -173,8 +209,7 @@ def alloy_planned(p: Plan, max_steps: int) -> Plan:
     """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
     from .alloy.planner import plan_with_alloy
     from .planning import Problem
-    with status("planning in the Alloy Analyzer…"):
-        planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
+    planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
     planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
                          f"in {plural(len(p.steps), 'step')}")
     return planned
@@ -193,7 +228,11 @@ def plan_document(label: str, system: System, p: Plan, evidence: dict[str, Any],
 
 def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -> None:
     out = console()
-    out.print(f"reconf will {label} in {plural(len(p.steps), 'step')} (strategy [bold]{p.strategy}[/]):\n")
+    after = ""
+    if p.attempts:
+        tried = [a.strategy for a in p.attempts]
+        after = f"; {' and '.join([', '.join(tried[:-1]), tried[-1]] if len(tried) > 1 else tried)} failed, see below"
+    out.print(f"reconf will {label} in {plural(len(p.steps), 'step')} (strategy [bold]{p.strategy}[/]{after}):\n")
     styles = {"create": "green", "remove": "red", "attach": "cyan", "detach": "magenta", "degrade": "yellow",
               "upgrade": "blue"}
     for i, a in enumerate(p.steps, 1):
@@ -234,6 +273,8 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
             out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
     else:
         out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
+    for attempt in p.attempts:
+        out.print(f"[dim]note: {escape(attempt.describe())}[/]")
     for note in p.notes:
         if note.startswith("warning: "):
             out.print(f"[yellow]{escape(note)}[/]")
@@ -244,11 +285,14 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
 
 
 def no_plan(label: str, reasons: list[str], fmt: OutputFormat, p: Optional[Plan] = None,
-            evidence: Optional[dict[str, Any]] = None) -> None:
+            evidence: Optional[dict[str, Any]] = None, attempts: Sequence[Attempt] = ()) -> None:
     if fmt is OutputFormat.JSON:
-        click.echo(json.dumps({"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan",
+        doc: dict[str, Any] = {"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan",
                                "operation": label, "verdict": "no-plan", "reasons": reasons,
-                               "evidence": evidence or {}}, indent=2))
+                               "evidence": evidence or {}}
+        if attempts:
+            doc["attempts"] = [a.to_dict() for a in attempts]
+        click.echo(json.dumps(doc, indent=2))
     else:
         out = console()
         out.print(f"[bold red]✗ no safe plan[/] to {label}:")
