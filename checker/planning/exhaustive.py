@@ -154,18 +154,36 @@ def relevant(system: System, start: Configuration, goal: Goal) -> frozenset[Func
             if ((k, c, p) in kept and c in staying and f.normal is not None
                     and satisfies(f.normal.guarantee(p), cat.conns[k].guarantee)):
                 witnesses.setdefault(k, set()).add((c, f.name))
-    found: set[FuncId] = {(c, f.name) for c in start.components ^ goal.components
-                          for f in cat.comps[c].functionalities}
-    found |= {d for d in start.degraded | goal.degraded if d[0] in start.components | goal.components}
-    changed = {k for k, _, _ in start.roles ^ goal.roles}
-    while True:
-        # a connector some publisher that stays normal keeps satisfied (attached in the start and the
-        # target) is satisfied in every configuration: its readers need not change for it
-        touched = changed | {k for d in found for k in outputs.get(d, ()) if not witnesses.get(k, set()) - found}
-        grown = found | {d for k in touched for d in readers.get(k, ())}
-        if grown == found:
-            return frozenset(found)
-        found = grown
+    # a connector some publisher that stays normal keeps satisfied (attached in the start and the
+    # target) is satisfied in every configuration: its readers need not change for it
+    found: set[FuncId] = set()
+    todo: list[FuncId] = []
+    touched: set[str] = set()
+
+    def add(d: FuncId) -> None:
+        if d not in found:
+            found.add(d)
+            todo.append(d)
+
+    def touch(k: str) -> None:
+        if k not in touched:
+            touched.add(k)
+            for d in readers.get(k, ()):
+                add(d)
+
+    for c in start.components ^ goal.components:
+        for f in cat.comps[c].functionalities:
+            add((c, f.name))
+    for d in start.degraded | goal.degraded:
+        if d[0] in start.components | goal.components:
+            add(d)
+    for k, _, _ in start.roles ^ goal.roles:
+        touch(k)
+    while todo:
+        for k in outputs.get(todo.pop(), ()):
+            if not witnesses.get(k, set()) - found:     # the last witness, if any, is relevant now
+                touch(k)
+    return frozenset(found)
 
 
 class _Space:
@@ -398,12 +416,12 @@ def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: 
     SearchTooLarge when the budget ran out first."""
     from .improve import cost, improve
 
+    clock = _Clock(budget)
     space = _Space(system, start, goal)
     for restricted in (False, True):
-        relaxation = reachable(system, start, goal, restricted, space.relevant)
+        relaxation = reachable(system, start, goal, restricted, space.relevant, clock.deadline)
         if not relaxation.possible:
             raise Impossible([_impossible(relaxation, restricted)], "relaxation")
-    clock = _Clock(budget)
     found, visited, exhausted = _reach(space, clock)
     if found is None:
         if exhausted:

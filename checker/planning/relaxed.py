@@ -22,6 +22,7 @@ relevant functionalities' modes).
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Optional
 
@@ -178,11 +179,13 @@ class _Relaxed:
         port = self.cat.ports[(c, p)]
         return port.assumption is not None and satisfies(want, port.assumption)
 
-    def run(self) -> None:
-        """Add facts until none is added."""
+    def run(self, deadline: Optional[float] = None) -> bool:
+        """Add facts until none is added; False if `deadline` (time.perf_counter) came first."""
         cat = self.cat
         changed = True
         while changed:
+            if deadline is not None and time.perf_counter() > deadline:
+                return False
             changed = False
             for c in self.creatable:
                 if c in self.absent and c not in self.present and all(f.degraded is not None
@@ -214,15 +217,18 @@ class _Relaxed:
                     if d not in self.normal and self.may_upgrade(d):
                         self.normal.add(d)
                         changed = True
+        return True
 
 
 def reachable(system: System, start: Configuration, goal: Goal, restricted: bool = False,
-              relevant: Optional[frozenset[FuncId]] = None) -> Relaxation:
+              relevant: Optional[frozenset[FuncId]] = None, deadline: Optional[float] = None) -> Relaxation:
     """The relaxation of the planning problem (see the module docstring) and the facts of
-    `goal` it never gathers, each in words."""
+    `goal` it never gathers, each in words; none when `deadline` (time.perf_counter) passed
+    before the relaxation was complete (it then proves nothing)."""
     r = _Relaxed(system, start, goal, relevant, restricted)
-    r.run()
     missing: list[str] = []
+    if not r.run(deadline):
+        return Relaxation(r.present, r.absent, r.attached, r.detached, r.normal, r.degraded, missing)
     for c in r.comps:
         if c in goal.components and c not in r.present:
             missing.append(f"{c} can never be created")
