@@ -22,7 +22,7 @@ from reconf_dsl.formatter import format_document
 from reconf_dsl.loader import STDIN, Sources, display_path, read_source
 from reconf_dsl.parser import parse_text
 
-from .cli import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
+from .command import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
 from .inputs import exclude_option, expand, paths_argument
 from .report import OutputFormat
 

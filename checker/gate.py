@@ -34,7 +34,7 @@ from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 
 from . import formats, report
-from .cli import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, CannotWrite, Failure, emit_report, engine_option,
+from .command import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, CannotWrite, Failure, emit_report, engine_option,
                   format_option, guarded, plural, solver_option, write_atomically)
 from .config import Configuration
 from .engines import EngineUnavailable, EnginesDisagree

@@ -24,7 +24,8 @@ from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.parser import parse_text
 
-from .cli import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, main as reconf, solver_option
+from .cli import main as reconf
+from .command import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, solver_option
 from .report import plural
 
 

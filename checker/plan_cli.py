@@ -25,7 +25,7 @@ from reconf_dsl.loader import Sources, load
 from reconf_dsl.span import Span
 
 from . import report
-from .cli import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from .command import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from .plan_options import with_common, with_plan_options
 from .progress import status
 from .planning import (Attempt, Fallback, NoPlanFound, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove,

@@ -10,7 +10,7 @@ import click
 
 from reconf_dsl.loader import Sources
 
-from .cli import guarded
+from .command import guarded
 from .config import Configuration
 from .plan_cli import run
 from .plan_options import with_plan_options

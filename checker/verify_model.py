@@ -5,7 +5,6 @@ Exit codes: 0 all as expected, 1 some outcome differs, 2 Alloy or Java unavailab
 """
 from __future__ import annotations
 
-import functools
 import json
 import sys
 import time
@@ -17,6 +16,7 @@ import click
 from checker.alloy import AlloyBridge, AlloyError, AlloyUnavailable, CommandOutcome, metamodel_modules
 from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES
 from checker.alloy.metamodel import MAIN
+from checker.command import Failure, guarded
 from checker.report import OutputFormat, plural
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.loader import Sources, read_source
@@ -233,21 +233,6 @@ def _render_counterexample(r: CommandRow, console: Any) -> None:
             console.print(f"    unsatisfied: {', '.join(conf.unsatisfied)}")
 
 
-def _guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """`checker.cli.guarded`, looked up when the command runs (`checker.cli` imports this
-    module to register the command): every failure a diagnostic with a code, never a traceback."""
-    @functools.wraps(fn)
-    def inner(*args: Any, **kwargs: Any) -> Any:
-        from checker.cli import guarded
-        return guarded("verify-model")(fn)(*args, **kwargs)
-    return inner
-
-
-def _failure(diagnostic: Diagnostic) -> Exception:
-    from checker.cli import Failure
-    return Failure([diagnostic])
-
-
 @click.command("verify-model")
 @click.option("--scope", type=click.IntRange(1, 12), default=5, show_default=True,
               help="Scope of every check (runs use scope 3).")
@@ -262,7 +247,7 @@ def _failure(diagnostic: Diagnostic) -> Exception:
 @click.option("--unbounded", is_flag=True,
               help="Prove the six Safe assertions for every size with z3 instead (no Alloy; "
                    "--scope, --solver and --model are ignored).")
-@_guarded
+@guarded("verify-model")
 def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model_path: str | None,
                      unbounded: bool, sources: Sources) -> None:
     """Prove the six reconfiguration actions safe in the Alloy meta-model."""
@@ -273,7 +258,7 @@ def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model
         try:
             sys.exit(z3proof.command(output_format))
         except z3proof.Z3Unavailable as exc:
-            raise _failure(Diagnostic("RC011", Severity.ERROR, str(exc), Span.unknown("<z3>"))) from None
+            raise Failure([Diagnostic("RC011", Severity.ERROR, str(exc), Span.unknown("<z3>"))]) from None
 
     console = Console(stderr=True)
     progress = console.is_terminal and output_format is OutputFormat.TEXT
@@ -300,16 +285,16 @@ def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model
             if status is not None:
                 status.stop()
     except AlloyUnavailable as exc:
-        raise _failure(Diagnostic("RC301", Severity.ERROR, f"Alloy unavailable: {exc}", Span.unknown("<alloy>"))) \
+        raise Failure([Diagnostic("RC301", Severity.ERROR, f"Alloy unavailable: {exc}", Span.unknown("<alloy>"))]) \
             from None
     except AlloyError as exc:
         if model_path is None:
-            raise _failure(Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the meta-model: {exc}",
+            raise Failure([Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the meta-model: {exc}",
                                       Span.unknown("<alloy>"),
-                                      notes=("this is a bug in reconf: please report it",))) from None
+                                      notes=("this is a bug in reconf: please report it",))]) from None
         shown = next(reversed(sources.texts))
         where = Span(shown, exc.line, exc.column, exc.line, exc.column + 1) if exc.line else Span.unknown(shown)
-        raise _failure(Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the model: {exc.message}", where)) \
+        raise Failure([Diagnostic("RC302", Severity.ERROR, f"Alloy rejected the model: {exc.message}", where)]) \
             from None
     if output_format is OutputFormat.JSON:
         click.echo(json.dumps(report.to_json(), indent=2))

@@ -10,7 +10,7 @@ import pytest
 
 from bench.gen import generate
 from checker import gate_comment
-from checker.cli import EXIT_CHANGES
+from checker.command import EXIT_CHANGES
 from tests.examples_table import BY_NAME
 from tests.gatekit import gate
 from tests.test_formats import validate_sarif

@@ -105,7 +105,7 @@ def _picture_of(nodes: int) -> Picture:
 
 
 def test_the_limit_is_on_the_largest_picture(monkeypatch: pytest.MonkeyPatch) -> None:
-    from checker.cli import Failure, draw
+    from checker.command import Failure, draw
     monkeypatch.setattr(pictures, "to_svg", lambda dot: "<svg/>")
     limit = pictures.SVG_MAX_NODES
     assert draw([_picture_of(limit), _picture_of(3)], "svg") == "<svg/><svg/>"

@@ -6,11 +6,10 @@ register the commands.
 """
 from __future__ import annotations
 
-import functools
 import json
 import os
 import sys
-from typing import Any, Callable, Optional
+from typing import Any, Optional
 
 import click
 
@@ -18,6 +17,8 @@ from reconf_dsl.diagnostics import error
 from reconf_dsl.loader import Sources, load
 from reconf_dsl.span import Span
 
+from ..command import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, write_atomically
+from ..plan_cli import default_files
 from ..plan_options import with_common
 from ..report import OutputFormat, plural
 from .expand import expand, to_text
@@ -26,35 +27,11 @@ from .select import Candidate, profile, select
 
 __all__ = ["ftm_group", "transition_cmd"]
 
-EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
-
-
-def guarded(command: str) -> Callable[[Any], Any]:
-    """`checker.cli.guarded`, looked up when the command runs."""
-    def wrap(fn: Any) -> Any:
-        @functools.wraps(fn)
-        def inner(*args: Any, **kwargs: Any) -> Any:
-            from ..cli import guarded as real
-            return real(command)(fn)(*args, **kwargs)
-        return inner
-    return wrap
-
-
-def _failure(diags: list[Any], code: int = EXIT_BAD_INPUT) -> Exception:
-    from ..cli import Failure
-    return Failure(diags, code)
-
-
-def console() -> Any:
-    from ..cli import console as real
-    return real()
-
 format_option = click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
                              default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
 
 
 def _files(files: tuple[str, ...]) -> list[str]:
-    from ..plan_cli import default_files
     return list(files) or default_files()
 
 
@@ -82,7 +59,7 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
     system = load(_files(files), sources)
     comp = system.component(component)
     if comp is None:
-        raise _failure([error("RC103", f"no component '{component}'", system.span)])
+        raise Failure([error("RC103", f"no component '{component}'", system.span)])
     prof = profile(system, comp)
     cands = select(prof)
     alloy: dict[str, Any] = {}
@@ -93,7 +70,7 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
         theirs = set(verdict.valid[component])
         alloy = {"engine": "alloy", "agrees": mine == theirs, "seconds": round(verdict.seconds, 3)}
         if mine != theirs:
-            raise _failure([error("RC499", f"Python and Alloy disagree on {component}: only Python: "
+            raise Failure([error("RC499", f"Python and Alloy disagree on {component}: only Python: "
                                           f"{sorted(mine - theirs)}, only Alloy: {sorted(theirs - mine)}",
                                  comp.span)], EXIT_BAD_INPUT)
     attached = str(compose(comp.ftm.expr)[0] or comp.ftm.expr) if comp.ftm is not None else None
@@ -171,7 +148,6 @@ def expand_cmd(files: tuple[str, ...], picture_format: Optional[str], output: Op
         parts.append(to_dot(picture(expanded, title=f"{system.name} (FTMs expanded)")))
     text = "\n".join(parts)
     if output:
-        from ..cli import write_atomically
         write_atomically(output, text)
     else:
         click.echo(text, nl=False)
@@ -195,7 +171,7 @@ def _expand_format(given: Optional[str], output: Optional[str]) -> str:
     if said is not None and said != given:
         right = {"dsl": f"name the file {stem}.arch", "dot": f"name the file {stem}.dot",
                  "both": "name the file without .arch or .dot"}[given]
-        raise _failure([error("RC013", f"-o {output} says {_EXPAND_SAYS[said]}, but --format {given} writes "
+        raise Failure([error("RC013", f"-o {output} says {_EXPAND_SAYS[said]}, but --format {given} writes "
                                        f"{_EXPAND_SAYS[given]}; {right}, or leave out --format to write "
                                        f"{_EXPAND_SAYS[said]}", Span.unknown("<command line>"))])
     return given

@@ -1,0 +1,45 @@
+"""Every module imports on its own: no import cycle, and no command module that works only
+when `checker.cli` has been imported first (commands share `checker.command`; `checker.cli`
+imports the commands to register them)."""
+from __future__ import annotations
+
+import pkgutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("reconf_dsl", "checker", "codegen")
+
+# One interpreter imports each module after forgetting every module of the project, so a
+# module that needs another imported before it fails here.
+SCRIPT = """
+import importlib, sys
+failed = []
+for name in sys.argv[1:]:
+    for m in [m for m in sys.modules if m.split('.')[0] in {%s}]:
+        del sys.modules[m]
+    try:
+        importlib.import_module(name)
+    except Exception as e:
+        failed.append(f"{name}: {type(e).__name__}: {e}")
+print("\\n".join(failed))
+""" % ", ".join(repr(p) for p in PACKAGES)
+
+
+def _modules() -> list[str]:
+    out = []
+    for pkg in PACKAGES:
+        out.append(pkg)
+        out += [m.name for m in pkgutil.walk_packages([str(ROOT / pkg)], prefix=pkg + ".")
+                if not m.name.endswith("__main__")]
+    return out
+
+
+def test_every_module_imports_alone() -> None:
+    modules = _modules()
+    assert "checker.gate" in modules and "checker.plan_cli" in modules and "checker.command" in modules
+    r = subprocess.run([sys.executable, "-c", SCRIPT, *modules], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "", r.stdout
