@@ -74,7 +74,7 @@ def judged_alike(system: ir.System, states: list[Configuration]) -> None:
 
 
 @given(dense(), st.randoms(use_true_random=False))
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_engines_judge_every_action_alike(case: tuple[ir.System, Configuration], rng: random.Random) -> None:
     system, start = case
     judged_alike(system, walk(system, start, rng, 3))
