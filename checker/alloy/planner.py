@@ -316,9 +316,9 @@ def alloy_plan(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLV
 def plan_with_alloy(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER) -> Plan:
     """Plan `problem` in Alloy and check the result step by step with the Python engine;
     the same checks of the start and the target as `operations.solve` come first."""
-    from ..planning.operations import _check_ends
+    from ..planning.operations import ready
 
-    problem = _check_ends(problem)
+    problem = ready(problem)
     search = alloy_search(problem, max_steps, solver)
     plan = verify(problem.system, problem.start, search.steps, problem.goal, STRATEGY, problem.renames)
     plan.notes.append(search.note())

@@ -87,7 +87,6 @@ def ready(problem: Problem) -> Problem:
     return dc_replace(problem, goal=goal)
 
 
-_check_ends = ready      # its earlier name, which checker.alloy.planner and the Alloy planner tests import
 
 
 class _NoPort:

@@ -9,7 +9,7 @@ import pytest
 from checker.alloy import AlloyBridge
 from checker.alloy.planner import alloy_plan, alloy_search, plan_with_alloy, render_planner
 from checker.config import Configuration
-from checker.planning.operations import _check_ends, solve
+from checker.planning.operations import ready, solve
 from checker.planning.plan import Goal, NoSafePlan, Problem, verify
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load
@@ -28,13 +28,13 @@ def replace_problem(system: System, old: str, new: str) -> Problem:
     roles = {r for r in start.roles if r[1] != old}
     roles |= {(k, new, p) for k, c, p in start.roles if c == old and comp.port(p) is not None}
     goal = Goal((start.components - {old}) | {new}, frozenset(roles))
-    return _check_ends(Problem(system, start, goal, replaced=[(old, new)]))
+    return ready(Problem(system, start, goal, replaced=[(old, new)]))
 
 
 def remove_problem(system: System, old: str) -> Problem:
     start = Configuration.initial(system)
     goal = Goal(start.components - {old}, frozenset(r for r in start.roles if r[1] != old))
-    return _check_ends(Problem(system, start, goal, removed=[old]))
+    return ready(Problem(system, start, goal, removed=[old]))
 
 
 def _generated() -> list[tuple[str, Problem]]:
