@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import replace as dc_replace
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 from codegen.alloy import TERNARY_ATOMS
 
@@ -24,6 +24,31 @@ WINDOW_BUDGET = 750
 def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:
     return {"engine": "alloy", "valid": False, "verdict": "not run", "reason": reason, "states": len(plan.states),
             "transitions": len(plan.steps), "solver": solver, "seconds": round(seconds, 3)}
+
+
+class PlanVerdicts:
+    """Alloy's evidence on each plan a fallback chain finds (`planning.Fallback.accept`): a plan
+    Alloy refutes hands over to the next strategy; one it could not verify is not refuted (the
+    caller reports RC303). Each plan is judged once by `judge`, its evidence kept for the plan
+    document."""
+
+    def __init__(self, judge: Callable[[Plan], dict[str, Any]]) -> None:
+        self._judge = judge
+        self._seen: dict[int, tuple[Plan, dict[str, Any]]] = {}
+
+    def evidence(self, plan: Plan) -> dict[str, Any]:
+        seen = self._seen.get(id(plan))
+        if seen is not None and seen[0] is plan:
+            return seen[1]
+        found = self._judge(plan)
+        self._seen[id(plan)] = (plan, found)
+        return found
+
+    def refused(self, plan: Plan) -> Optional[str]:
+        found = self.evidence(plan)
+        if found.get("verdict") == "not run" or found.get("valid", False):
+            return None
+        return f"Alloy refuted the plan: {found.get('reason', 'unknown')}"
 
 
 def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,

@@ -383,31 +383,23 @@ def func_span(systems: list[System], component: str, functionality: str) -> Opti
 
 
 def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, solver: str, out: Outcome) -> None:
+    from .alloy_plan import PlanVerdicts
     from .plan_cli import plan_document
-    from .planning import Fallback, NoSafePlan, Plan, plan_migrate
+    from .planning import Fallback, NoSafePlan, plan_migrate
 
-    judged: dict[int, dict[str, Any]] = {}
-
-    def refused(p: Plan) -> Optional[str]:
-        """Alloy's verdict on a plan: a refuted plan hands over to the next strategy (planning.chain)."""
-        if not use_alloy:
-            return None
-        verdict = judged[id(p)] = alloy_evidence(p, solver)
-        if verdict.get("verdict") == "not run" or verdict.get("valid", False):
-            return None
-        return f"Alloy refuted the plan: {verdict.get('reason', 'unknown')}"
-
+    verdicts = PlanVerdicts(lambda p: alloy_evidence(p, solver)) if use_alloy else None
     with status(f"planning the migration {old.name} → {new.name}…"):
         try:
-            p = plan_migrate(old, new, policy.strategy, fallback=Fallback(accept=refused, alloy=use_alloy))
+            fallback = Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy)
+            p = plan_migrate(old, new, policy.strategy, fallback=fallback)
         except NoSafePlan as e:
             out.fail("gate.policy", "a verified migration plan exists", error(
                 "RC501", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy and "
                 "those after it)", new.span, notes=tuple(e.reasons)))
             return
         evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-        if use_alloy:
-            evidence["alloy"] = judged[id(p)]
+        if verdicts is not None:
+            evidence["alloy"] = verdicts.evidence(p)
     if use_alloy and evidence["alloy"].get("verdict") == "not run":     # not answered: exit 2, as `plan` does
         raise DiagnosticError([error("RC303", f"Alloy could not verify the migration plan: "
                                               f"{evidence['alloy'].get('reason', 'unknown')}", new.span,

@@ -147,31 +147,20 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
     """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
     `checker.planning.chain`: a strategy that finds no plan, or whose plan Alloy refutes, hands
     over to the next; otherwise `make()` plans alone and a refuted plan means no plan."""
+    from .alloy_plan import PlanVerdicts, alloy_evidence      # the Alloy side loads only when a plan is made
+
     fmt = output_format
-    verified: dict[int, tuple[Plan, dict[str, Any]]] = {}
 
     def judge(p: Plan, say: Callable[[str], None]) -> dict[str, Any]:
-        from .alloy_plan import alloy_evidence
         say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
-        found = alloy_evidence(p, progress=say)
-        verified[id(p)] = (p, found)
-        return found
-
-    def accept(say: Callable[[str], None]) -> Callable[[Plan], Optional[str]]:
-        def refused(p: Plan) -> Optional[str]:
-            if not use_alloy:
-                return None
-            found = judge(p, say)
-            if found.get("verdict") == "not run" or found.get("valid", False):
-                return None     # a plan Alloy could not verify is not refuted: RC303 below
-            return f"Alloy refuted the plan: {found.get('reason', 'unknown')}"
-        return refused
+        return alloy_evidence(p, progress=say)
 
     with status("planning…") as say:
+        verdicts = PlanVerdicts(lambda p: judge(p, say)) if use_alloy else None
         try:
             if chain:
-                p = make(Fallback(accept=accept(say), alloy=use_alloy or engine == "alloy", max_steps=max_steps,
-                                  progress=say))
+                p = make(Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy or engine == "alloy",
+                                  max_steps=max_steps, progress=say))
             else:
                 p = make()
             if engine == "alloy":
@@ -181,9 +170,8 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
         except NoSafePlan as e:
             return no_plan(label, e.reasons, fmt)
         evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-        if use_alloy:
-            hit = verified.get(id(p))
-            evidence["alloy"] = hit[1] if hit is not None and hit[0] is p else judge(p, say)
+        if verdicts is not None:
+            evidence["alloy"] = verdicts.evidence(p)
     if use_alloy:
         if evidence["alloy"].get("verdict") == "not run":      # not answered: not "unsafe" (docs/exit-codes.md)
             raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
