@@ -87,8 +87,6 @@ def ready(problem: Problem) -> Problem:
     return dc_replace(problem, goal=goal)
 
 
-
-
 class _NoPort:
     kind = "none"
 
