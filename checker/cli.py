@@ -172,6 +172,7 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
 
 
 def _register() -> None:
+    from .bringup_cli import down_cmd, up_cmd
     from .fmt_cli import fmt_cmd
     from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
@@ -180,6 +181,8 @@ def _register() -> None:
     plan.add_command(transition_cmd)
     main.add_command(plan)
     main.add_command(recover_cmd)
+    main.add_command(up_cmd)
+    main.add_command(down_cmd)
     main.add_command(gate_cmd)
     main.add_command(ftm_group)
     main.add_command(fmt_cmd)

@@ -143,10 +143,13 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
 def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
         target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
-        detailed_exitcode: bool = False, chain: bool = False) -> None:
+        detailed_exitcode: bool = False, chain: bool = False,
+        apply: Optional[Callable[[dict[str, Any]], int]] = None) -> None:
     """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
     `checker.planning.chain`: a strategy that finds no plan, or whose plan Alloy refutes, hands
-    over to the next; otherwise `make()` plans alone and a refuted plan means no plan."""
+    over to the next; otherwise `make()` plans alone and a refuted plan means no plan. With
+    `apply` and no `output`, the verified plan's script document is handed to `apply`, whose
+    answer is the exit status (`reconf up`, `reconf down`)."""
     from .alloy_plan import PlanVerdicts, alloy_evidence      # the Alloy side loads only when a plan is made
 
     fmt = output_format
@@ -182,14 +185,17 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
             return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
                            p, evidence, attempts=p.attempts)
     doc = plan_document(label, system, p, evidence, target)
-    if output:
+    if output or apply is not None:
         from codegen.ros2 import model_data, render_plan_script
         script_doc = dict(doc, model=model_data(p.system))
-        write_atomically(output, render_plan_script(script_doc))
+        if output:
+            write_atomically(output, render_plan_script(script_doc))
     if fmt is OutputFormat.JSON:
         click.echo(json.dumps(doc, indent=2))
     else:
         show(label, p, evidence, output)
+    if apply is not None and not output:
+        sys.exit(apply(script_doc))
     sys.exit(EXIT_CHANGES if detailed_exitcode and p.steps else EXIT_OK)
 
 
