@@ -26,7 +26,8 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .executor import CREATED_ENV, STATUS_PREFIX, join_list
-from .model import Component, Functionality, Output
+from .graph import MODEL_PARAM
+from .model import Component, Functionality, ModelError, Output, components_to_arch
 from .monitor import GAP_FACTOR, Monitor
 
 __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
@@ -92,6 +93,10 @@ class ComponentNode(LifecycleNode):
             self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
                                    ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
                                                        description=f"connectors {p.name} is attached to"))
+        # the component's model, read-only, for `reconf discover` (docs/control-interface.md#the-model)
+        self.declare_parameter(MODEL_PARAM, self._model_text(),
+                               ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
+                                                   description="the component as .arch text"))
         self._store_params()
         self.add_on_set_parameters_callback(self._on_set)
         self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
@@ -107,6 +112,13 @@ class ComponentNode(LifecycleNode):
         self._dirty = False
         self._flush = self.create_guard_condition(self._tick)
         self._changed()
+
+    def _model_text(self) -> str:
+        try:
+            return components_to_arch([self.component])
+        except ModelError as e:     # a model reconf cannot print: said, not guessed
+            self.get_logger().warning(f"{MODEL_PARAM} left empty: {e}")
+            return ""
 
     def _serve_control_interface(self) -> None:
         def get_state(req: Any, resp: Any) -> Any:
@@ -153,6 +165,8 @@ class ComponentNode(LifecycleNode):
         return SetParametersResult(successful=True)
 
     def _apply(self, p: Parameter) -> Optional[str]:
+        if p.name.count(".") < 2:
+            return f"{p.name} is read-only"
         _, kind, name = p.name.split(".", 2)
         if not self.active:
             return f"{self.get_name()} is not active"

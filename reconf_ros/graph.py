@@ -1,0 +1,214 @@
+"""A snapshot of the live ROS 2 graph as plain data, for `reconf discover` and `reconf drift`
+(docs/control-interface.md#the-model): nodes, their topics and services, lifecycle states, and
+for reconf nodes their model (`reconf.model`), modes and attachments.
+
+ROS is imported only inside `read_snapshot`, through the executor's `Runtime` (its retries, its
+status reader); `Snapshot` itself is plain data that `checker.drift` compares without ROS.
+"""
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable, Optional
+
+__all__ = ["MODEL_PARAM", "NodeInfo", "Snapshot", "read_snapshot", "RosUnavailable"]
+
+MODEL_PARAM = "reconf.model"     # a reconf node's component as .arch text (read-only string)
+# the middleware's and reconf's own topics, not the application's
+HIDDEN_TOPICS = frozenset({"/rosout", "/parameter_events", "/diagnostics"})
+HIDDEN_SUFFIXES = ("/transition_event",)
+# services every node (or every lifecycle node) has
+STANDARD_SERVICES = ("describe_parameters", "get_parameter_types", "get_parameters", "list_parameters",
+                     "set_parameters", "set_parameters_atomically", "get_state", "change_state",
+                     "get_available_states", "get_available_transitions", "get_transition_graph",
+                     "get_type_description")
+POLL = 0.1     # s between two looks at the graph while it settles
+
+Progress = Callable[[str], None]
+
+
+class RosUnavailable(Exception):
+    """rclpy cannot be imported or started here."""
+
+
+@dataclass
+class NodeInfo:
+    """One node: its application endpoints (topic or service -> types), and what a reconf node
+    tells of itself."""
+
+    fqn: str
+    publishers: dict[str, list[str]] = field(default_factory=dict)
+    subscribers: dict[str, list[str]] = field(default_factory=dict)
+    servers: dict[str, list[str]] = field(default_factory=dict)
+    clients: dict[str, list[str]] = field(default_factory=dict)
+    lifecycle: Optional[str] = None      # `active`, `inactive`, ..., `unresponsive`; None: not a lifecycle node
+    model: Optional[str] = None          # the reconf.model text; None: not a reconf node
+    component: Optional[str] = None      # the component the node declares (its status), if it does
+    modes: dict[str, str] = field(default_factory=dict)
+    ports: dict[str, list[str]] = field(default_factory=dict)
+    pid: Optional[int] = None
+
+    @property
+    def name(self) -> str:
+        return self.fqn.rsplit("/", 1)[1]
+
+    @property
+    def namespace(self) -> str:
+        return self.fqn.rsplit("/", 1)[0]
+
+    @property
+    def has_endpoints(self) -> bool:
+        return bool(self.publishers or self.subscribers or self.servers or self.clients)
+
+
+@dataclass
+class Snapshot:
+    """The live system in one namespace: its nodes by fully qualified name, every topic's types."""
+
+    nodes: dict[str, NodeInfo] = field(default_factory=dict)
+    topics: dict[str, list[str]] = field(default_factory=dict)
+    namespace: str = ""
+    settled: bool = True
+    seconds: float = 0.0
+
+    def publishers(self, topic: str) -> list[str]:
+        return sorted(n.fqn for n in self.nodes.values() if topic in n.publishers)
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=1, sort_keys=True)
+
+    @staticmethod
+    def from_json(text: str) -> "Snapshot":
+        doc = json.loads(text)
+        nodes = {k: NodeInfo(**v) for k, v in doc.pop("nodes").items()}
+        return Snapshot(nodes=nodes, **doc)
+
+
+def hidden_topic(name: str) -> bool:
+    return name in HIDDEN_TOPICS or name.endswith(HIDDEN_SUFFIXES)
+
+
+def _own_services(fqn: str, services: dict[str, list[str]]) -> dict[str, list[str]]:
+    standard = {f"{fqn}/{s}" for s in STANDARD_SERVICES}
+    return {s: t for s, t in services.items() if s not in standard}
+
+
+def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.0,
+                  progress: Progress = lambda _: None) -> Snapshot:
+    """Wait for the graph to settle (bounded by `settle` s), then read every node of `namespace`.
+    Raises RosUnavailable when rclpy is not installed or does not start."""
+    try:
+        from .executor import Runtime
+    except ImportError as e:     # pragma: no cover - the executor is standard library only
+        raise RosUnavailable(str(e)) from None
+    import importlib.util
+    if importlib.util.find_spec("rclpy") is None:
+        raise RosUnavailable("rclpy is not installed: pip install 'reconf[ros]'")
+    t0 = time.monotonic()
+    try:
+        rt = Runtime("discover", namespace, timeout, node_name=f"reconf_discover_{os.getpid()}")
+    except Exception as e:       # rclpy.init() or the node: the middleware did not start
+        raise RosUnavailable(f"ROS 2 did not start: {type(e).__name__}: {e}") from None
+    try:
+        progress(f"waiting for discovery to settle (at most {settle:g} s)…")
+        settled = _settle(rt, settle)
+        snap = _read(rt, progress)
+        snap.settled, snap.seconds = settled, time.monotonic() - t0
+        return snap
+    finally:
+        rt.close()
+
+
+def _settle(rt: Any, seconds: float) -> bool:
+    """Until one Fast DDS announcement period has passed and neither the nodes nor the topics'
+    endpoints have changed for GRAPH_QUIET s (the executor's rule, docs/executor.md), or `seconds`."""
+    from .executor import DISCOVERY_ROUND, GRAPH_QUIET
+    node = rt.node
+    seen: list[Any] = [None, time.monotonic(), 0.0]     # signature, when it last changed, when last looked
+
+    def quiet() -> bool:
+        now = time.monotonic()
+        if now - seen[2] < POLL:
+            return False
+        seen[2] = now
+        topics = node.get_topic_names_and_types()
+        sig = (frozenset(node.get_node_names_and_namespaces()),
+               frozenset((t, tuple(ty), node.count_publishers(t), node.count_subscribers(t)) for t, ty in topics))
+        if sig != seen[0]:
+            seen[0], seen[1] = sig, now
+        return now - rt.started_at >= DISCOVERY_ROUND and now - seen[1] >= GRAPH_QUIET
+    return bool(rt.wait(quiet, seconds))
+
+
+def _endpoints(pairs: Any) -> dict[str, list[str]]:
+    return {name: sorted(types) for name, types in pairs if not hidden_topic(name)}
+
+
+def _read(rt: Any, progress: Progress) -> Snapshot:
+    node, ns = rt.node, rt.namespace or ""
+    own = node.get_fully_qualified_name()
+    snap = Snapshot(namespace=ns)
+    snap.topics = _endpoints(node.get_topic_names_and_types())
+    for name, node_ns in node.get_node_names_and_namespaces():
+        fqn = f"{node_ns.rstrip('/')}/{name}"
+        if fqn == own or node_ns.rstrip("/") != ns or name.startswith("_"):
+            continue
+        info = NodeInfo(fqn)
+        try:
+            info.publishers = _endpoints(node.get_publisher_names_and_types_by_node(name, node_ns))
+            info.subscribers = _endpoints(node.get_subscriber_names_and_types_by_node(name, node_ns))
+            servers = _endpoints(node.get_service_names_and_types_by_node(name, node_ns))
+            info.clients = _own_services(fqn, _endpoints(node.get_client_names_and_types_by_node(name, node_ns)))
+        except Exception:     # the node left between the two reads
+            continue
+        info.servers = _own_services(fqn, servers)
+        if f"{fqn}/get_state" in servers:
+            info.lifecycle = "unresponsive"
+        snap.nodes[fqn] = info
+        info.model = "" if f"{fqn}/get_parameters" in servers else None    # asked below
+    progress(f"reading {len(snap.nodes)} nodes…")
+    _read_reconf(rt, snap)
+    return snap
+
+
+def _read_reconf(rt: Any, snap: Snapshot) -> None:
+    """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once."""
+    from .executor import StepFailed
+    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle])
+    for fqn, label in states.items():
+        snap.nodes[fqn].lifecycle = "unresponsive" if isinstance(label, StepFailed) else label
+    models = rt.get_many({f: [MODEL_PARAM] for f, n in snap.nodes.items() if n.model is not None})
+    wanted: dict[str, list[str]] = {}
+    for fqn, values in models.items():
+        info = snap.nodes[fqn]
+        text = None if isinstance(values, StepFailed) else values.get(MODEL_PARAM)
+        info.model = text if text else None
+        if info.model:
+            funcs, ports = model_names(info.model)
+            wanted[fqn] = [f"reconf.mode.{f}" for f in funcs] + [f"reconf.port.{p}" for p in ports]
+        status = rt.status(fqn) or {}
+        info.component = status.get("component")
+        info.pid = int(status["pid"]) if status.get("pid", "").isdigit() else None
+    for fqn, values in rt.get_many(wanted).items():
+        if isinstance(values, StepFailed):
+            continue
+        info = snap.nodes[fqn]
+        info.modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
+        info.ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
+
+
+def model_names(text: str) -> tuple[list[str], list[str]]:
+    """The functionalities and ports of the (first) component in a reconf.model text."""
+    from reconf_dsl.diagnostics import DiagnosticError
+    from reconf_dsl.ir import Component
+    from reconf_dsl.parser import parse_text
+    try:
+        doc = parse_text(text, "<reconf.model>")
+    except DiagnosticError:
+        return [], []
+    comp = next((it for it in doc.items if isinstance(it, Component)), None)
+    if comp is None:
+        return [], []
+    return [f.name for f in comp.functionalities], [p.name for p in comp.ports]
