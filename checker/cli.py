@@ -173,6 +173,8 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
 
 def _register() -> None:
     from .bringup_cli import down_cmd, up_cmd
+    from .discover_cli import discover_cmd
+    from .drift_cli import drift_cmd
     from .fmt_cli import fmt_cmd
     from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
@@ -186,6 +188,8 @@ def _register() -> None:
     main.add_command(gate_cmd)
     main.add_command(ftm_group)
     main.add_command(fmt_cmd)
+    main.add_command(discover_cmd)
+    main.add_command(drift_cmd)
     try:
         from .verify_model import verify_model_cmd
     except ImportError:  # pragma: no cover - the Alloy side is part of the package

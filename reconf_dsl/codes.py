@@ -114,6 +114,20 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
                                      "`allow-unsafe-base = true`: a warning, the head passes alone, to be deployed "
                                      "by other means"),
     ("RC511", "report-not-written", "`reconf gate`: a `--report` file cannot be written"),
+    ("RC601", "discover-placeholder", "warning, `reconf discover`: a guess where only the graph is known (a node "
+                                      "without `reconf.model`, a topic with no rate or no publisher), marked "
+                                      "`// placeholder:` in the written `.arch`"),
+    ("RC602", "ros-unavailable", "`reconf discover`, `reconf drift`: ROS 2 is not installed or did not start, or "
+                                 "a snapshot file cannot be read: the live system cannot be read"),
+    ("RC611", "drift-component-missing", "`reconf drift`: a deployed component has no node in the live system"),
+    ("RC612", "drift-component-extra", "`reconf drift`: a node with topics or services that no deployed component "
+                                       "of the model accounts for"),
+    ("RC613", "drift-attachment", "`reconf drift`: a port attached elsewhere than the model attaches it, not "
+                                  "attached, or attached to a connector the model does not have"),
+    ("RC614", "drift-message-type", "`reconf drift`: a topic carries another message type than its connector's"),
+    ("RC615", "drift-mode", "`reconf drift`: a functionality degraded live, normal in the deployed configuration"),
+    ("RC616", "drift-single-publishers", "`reconf drift`: several publishers on a `single` topic or a service"),
+    ("RC617", "drift-lifecycle", "`reconf drift`: a component's node is not active (or does not answer)"),
 ))
 BY_CODE: dict[str, Code] = {c.code: c for c in CODES}
 

@@ -1,0 +1,164 @@
+"""An architecture from a snapshot of the live system (`reconf_ros.graph.Snapshot`), as `.arch`
+text in the formatter's canonical layout (docs/runtime.md#discover). Pure Python: no ROS here.
+
+A reconf node's component is its own model (`reconf.model`), exact; its attachments are its
+`reconf.port.*` parameters. A node without a model gets a placeholder component from the graph:
+its publishers as outputs, its subscribers as inputs (service servers and clients likewise), no
+rates, one functionality `main`. A connector's guarantee is its message type at the highest
+rate its publishers' normal modes guarantee. Every guess is marked `// placeholder: ...`.
+A topic with subscribers and no publisher is written as it is, a placeholder, and not as an
+`environment` guarantee: the graph cannot tell data from outside ROS from a publisher that is
+missing, so `reconf check` says the subscribers' assumptions do not hold until one is added.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Optional
+
+from reconf_dsl.diagnostics import DiagnosticError
+from reconf_dsl.formatter import format_document, pred
+from reconf_dsl.ir import Component, MessageType, Predicate
+from reconf_dsl.parser import parse_text
+from reconf_ros.graph import NodeInfo, Snapshot
+
+__all__ = ["architecture", "PLACEHOLDER"]
+
+PLACEHOLDER = "// placeholder: "
+ROS_NAME = re.compile(r"(/[^\W\d]\w*)+")
+
+
+@dataclass
+class _Role:
+    component: str
+    port: str
+    output: bool
+    alias: str
+    predicate: Optional[Predicate] = None     # an output's normal guarantee, when a model says it
+
+
+@dataclass
+class _Build:
+    messages: dict[str, str] = field(default_factory=dict)          # alias -> ROS type
+    blocks: list[str] = field(default_factory=list)
+    roles: dict[str, list[_Role]] = field(default_factory=dict)     # connector -> roles
+    services: set[str] = field(default_factory=set)
+
+    def alias(self, ros_type: str) -> str:
+        """The alias of a ROS type: its last part, or package_Name when that is taken."""
+        for a, t in self.messages.items():
+            if t == ros_type:
+                return a
+        pkg, name = ros_type.split("/")[0], ros_type.rsplit("/", 1)[1]
+        alias = name if name not in self.messages else f"{pkg}_{name}"
+        self.messages[alias] = ros_type
+        return alias
+
+
+def architecture(snap: Snapshot, system: str) -> str:
+    """The snapshot as `.arch` text, canonical (reconf fmt)."""
+    b = _Build()
+    taken: set[str] = set()
+    for node in sorted(snap.nodes.values(), key=lambda n: n.fqn):
+        if node.model:
+            _modelled(b, node, snap, taken)
+        elif node.has_endpoints:
+            _plain(b, node, taken)
+    text = "\n".join([f"system {system}", ""] + [f"message {a} = {t}" for a, t in sorted(b.messages.items())]
+                     + [""] + b.blocks + _connectors(b))
+    try:
+        return format_document(parse_text(text, "<discovered>"))
+    except DiagnosticError:   # pragma: no cover - the text above is built to parse
+        return text
+
+
+def _modelled(b: _Build, node: NodeInfo, snap: Snapshot, taken: set[str]) -> None:
+    model = node.model or ""
+    try:
+        doc = parse_text(model, f"<{node.fqn} reconf.model>")
+    except DiagnosticError:
+        _plain(b, node, taken, why="its reconf.model does not parse")
+        return
+    comp = next((it for it in doc.items if isinstance(it, Component)), None)
+    if comp is None or comp.name in taken:
+        _plain(b, node, taken, why="its reconf.model has no component of its own")
+        return
+    taken.add(comp.name)
+    for m in doc.items:
+        if isinstance(m, MessageType):
+            b.messages.setdefault(m.name, m.ros_type)
+    live = [f"{f} {m}" for f, m in sorted(node.modes.items()) if m != "normal"]
+    if node.lifecycle not in (None, "active"):
+        live.insert(0, str(node.lifecycle))
+    head = [f"// live: {', '.join(live)}"] if live else []
+    b.blocks.append("\n".join(head) + "\n" + model[model.index("component "):])
+    guarantees = {g.port: g.predicate for f in comp.functionalities if f.normal for g in f.normal.guarantees}
+    for port in comp.ports:
+        for k in node.ports.get(port.name, []):
+            b.roles.setdefault(k, []).append(_Role(comp.name, port.name, port.kind == "output", port.message,
+                                                   guarantees.get(port.name)))
+            if f"{k}/request" in snap.topics:       # a reconf service: requests on <k>/request
+                b.services.add(k)
+
+
+def _name(text: str, used: set[str]) -> str:
+    base = re.sub(r"\W", "_", text.strip("/")) or "port"
+    base = base if re.match(r"[^\W\d]", base) else f"p_{base}"
+    name, k = base, 2
+    while name in used:
+        name, k = f"{base}_{k}", k + 1
+    used.add(name)
+    return name
+
+
+def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:
+    comp = _name(node.name, taken)
+    lines: list[str] = []
+    ports: list[str] = []
+    outs: list[tuple[str, str]] = []
+    used: set[str] = set()
+    skipped: list[str] = []
+    for eps, output in ((node.publishers, True), (node.servers, True), (node.subscribers, False),
+                        (node.clients, False)):
+        for k, types in sorted(eps.items()):
+            if not ROS_NAME.fullmatch(k) or len(types) != 1 or "/_" in k:
+                skipped.append(k)
+                continue
+            alias = b.alias(types[0])
+            port = _name(k.rsplit("/", 1)[1], used)
+            lines.append(f"  {'output' if output else 'input'} {port}: {alias}")
+            ports.append(port)
+            if output:
+                outs.append((port, alias))
+            if eps is node.servers or eps is node.clients:
+                b.services.add(k)
+            b.roles.setdefault(k, []).append(_Role(comp, port, output, alias))
+    inputs = [ln.split(": ")[1] for ln in lines if ln.startswith("  input")]
+    normal = " ".join([f"assume {a}" for a in inputs] + [f"{p}: {a}" for p, a in outs])
+    degraded = " ".join(f"{p}: nothing" for p, _ in outs)
+    note = f"node {node.fqn} has no reconf.model" + (f" ({why})" if why else "") + \
+        ": its topics as ports, no rates, one functionality" + \
+        (f"; left out: {', '.join(skipped)}" if skipped else "")
+    b.blocks.append("\n".join([PLACEHOLDER + note, f"component {comp} {{", *lines,
+                               f"  functionality main ({', '.join(ports)}) {{",
+                               f"    normal {{ {normal} }}", f"    degraded {{ {degraded} }}", "  }", "}"]))
+
+
+def _connectors(b: _Build) -> list[str]:
+    out = []
+    for k, roles in sorted(b.roles.items()):
+        pubs, subs = [r for r in roles if r.output], [r for r in roles if not r.output]
+        alias = (pubs or subs)[0].alias
+        rated = [r.predicate for r in pubs if r.predicate is not None and r.predicate.rate is not None]
+        best = max(rated, key=lambda p: p.hz or Fraction(0), default=None)
+        guarantee = pred(best) if best is not None and best.message == alias else alias
+        if not pubs:
+            out.append(f"{PLACEHOLDER}{k} has subscribers and no publisher in the graph")
+        elif not rated:
+            out.append(f"{PLACEHOLDER}{k}: no publisher's model gives a rate")
+        kind = "service" if k in b.services else "topic"
+        refs = lambda rs: ", ".join(f"{r.component}.{r.port}" for r in rs)    # noqa: E731
+        out.append(f"{kind} {k}: {guarantee} {{ {refs(pubs)} -> {refs(subs)} }}".replace("{  -> ", "{ -> ")
+                   .replace(" ->  }", " -> }"))
+    return out
