@@ -1,0 +1,215 @@
+"""`reconf drift` and `reconf discover` without ROS: the comparison and the writing over
+hand-made snapshots of the running system, every kind of difference at its span, and the
+commands on saved snapshots (exit codes, output formats)."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from checker.discover import architecture
+from checker.drift import drift
+from reconf_dsl.loader import load, load_text
+from reconf_ros.graph import NodeInfo, Snapshot
+from reconf_ros.model import components_to_arch
+
+ROOT = Path(__file__).resolve().parents[1]
+CHATTER = str(ROOT / "examples" / "chatter.arch")
+ROBOT = str(ROOT / "examples" / "robot.arch")
+STRING = "std_msgs/msg/String"
+
+
+def deployed(path: str) -> Snapshot:
+    """The system as its model deploys it: every component's node active, normal, attached as declared."""
+    from reconf_ros.generic import from_architecture
+    system = load([path])
+    types = {m.name: m.ros_type for m in system.messages}
+    snap = Snapshot()
+    for c in system.components:
+        node = NodeInfo(f"/{c.name}", lifecycle="active", component=c.name,
+                        model=components_to_arch([from_architecture(system, c.name)]))
+        node.modes = {f.name: "normal" for f in c.functionalities}
+        node.ports = {p.name: [] for p in c.ports}
+        snap.nodes[node.fqn] = node
+    for conn in system.connectors:
+        t = types[conn.guarantee.message or ""]
+        snap.topics[conn.name] = [t]
+        for r in conn.roles:
+            node = snap.nodes[f"/{r.component}"]
+            node.ports[r.port].append(conn.name)
+            side = node.publishers if r in conn.publishers else node.subscribers
+            side[conn.name] = [t]
+    return snap
+
+
+def codes(path: str, snap: Snapshot) -> list[tuple[str, int]]:
+    return [(d.code, d.span.line) for d in drift(load([path]), snap)]
+
+
+def test_a_system_as_deployed_has_no_drift() -> None:
+    assert codes(CHATTER, deployed(CHATTER)) == []
+    assert codes(ROBOT, deployed(ROBOT)) == []
+
+
+def test_a_missing_component_is_reported_at_its_declaration() -> None:
+    snap = deployed(CHATTER)
+    del snap.nodes["/listener"]
+    assert codes(CHATTER, snap) == [("RC611", 30)]
+
+
+def test_an_extra_node_is_reported_and_a_tool_node_is_not() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/spy"] = NodeInfo("/spy", subscribers={"/chatter": [STRING]})
+    snap.nodes["/reconf_watch_1"] = NodeInfo("/reconf_watch_1")          # no topic of the application
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC612", 3) and "/spy" in d.message and "it subscribes to /chatter" in d.notes
+
+
+def test_a_version_running_is_extra_and_named_as_such() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/talker_v2"] = NodeInfo("/talker_v2", component="talker_v2", lifecycle="active", model="x")
+    [d] = drift(load([CHATTER]), snap)
+    assert d.code == "RC612" and "a version of the model" in d.message
+
+
+def test_a_port_attached_elsewhere_is_one_difference_at_its_role() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/talker"].ports["out"] = ["/other"]
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC613", 42)
+    assert "attached to /other (not a connector of the model), where the model attaches it to /chatter" in d.message
+
+
+def test_a_port_detached_or_attached_twice() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/listener"].ports["in"] = []
+    assert codes(CHATTER, snap) == [("RC613", 42)]
+    snap.nodes["/listener"].ports["in"] = ["/chatter", "/extra"]
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC613", 33) and "attached to /extra" in d.message
+
+
+def test_a_plain_node_is_compared_by_its_topics() -> None:
+    snap = deployed(CHATTER)
+    node = snap.nodes["/listener"]
+    node.model, node.ports, node.modes, node.lifecycle = None, {}, {}, None
+    assert codes(CHATTER, snap) == []
+    node.subscribers = {"/elsewhere": [STRING]}
+    assert [c for c, _ in codes(CHATTER, snap)] == ["RC613"]
+
+
+def test_a_message_type_that_differs() -> None:
+    snap = deployed(CHATTER)
+    snap.topics["/chatter"] = ["std_msgs/msg/Int32"]
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC614", 41) and "std_msgs/msg/Int32" in d.message
+
+
+def test_a_degraded_functionality() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/listener"].modes["listen"] = "degraded"
+    assert codes(CHATTER, snap) == [("RC615", 35)]
+
+
+def test_a_second_publisher_on_a_single_topic(tmp_path: Path) -> None:
+    arch = tmp_path / "single.arch"
+    arch.write_text(Path(CHATTER).read_text().replace("topic /chatter: String @ 10 Hz {",
+                                                      "topic /chatter: String @ 10 Hz single {"))
+    snap = deployed(str(arch))
+    assert codes(str(arch), snap) == []
+    snap.nodes["/intruder"] = NodeInfo("/intruder", publishers={"/chatter": [STRING]})
+    assert sorted(c for c, _ in codes(str(arch), snap)) == ["RC612", "RC616"]
+
+
+def test_a_node_not_active() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/talker"].lifecycle = "inactive"
+    snap.nodes["/talker"].ports["out"] = []        # an inactive node is isolated: said once, not per port
+    assert codes(CHATTER, snap) == [("RC617", 7)]
+
+
+def test_a_new_version_under_another_node_name_is_found_by_what_it_declares() -> None:
+    snap = deployed(CHATTER)
+    node = snap.nodes.pop("/talker")
+    node.fqn = "/talker_2"
+    snap.nodes["/talker_2"] = node
+    assert codes(CHATTER, snap) == []
+
+
+def test_discovery_of_the_deployed_system_reads_back_as_the_model() -> None:
+    system = load([CHATTER])
+    found = load_text(architecture(deployed(CHATTER), "chatter"), "<discovered>")
+    assert sorted(c.name for c in found.components) == sorted(c.name for c in system.components)
+    for c in system.components:
+        assert found.component(c.name) == c
+    assert found.connectors == system.connectors
+
+
+def test_a_plain_node_is_a_placeholder_component() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/counter"] = NodeInfo("/counter", publishers={"/heard": ["std_msgs/msg/Int32"]},
+                                      subscribers={"/chatter": [STRING]})
+    text = architecture(snap, "chatter")
+    found = load_text(text, "<discovered>")
+    counter = found.component("counter")
+    assert counter is not None
+    assert [(p.name, p.kind, p.message) for p in counter.ports] == [("heard", "output", "Int32"),
+                                                                    ("chatter", "input", "String")]
+    assert [f.name for f in counter.functionalities] == ["main"]
+    assert "// placeholder: node /counter has no reconf.model" in text
+    assert "// placeholder: /heard: no publisher's model gives a rate" in text
+    chatter = found.connector("/chatter")
+    assert chatter is not None and [str(r) for r in chatter.subscribers] == ["counter.chatter", "listener.in"]
+
+
+def reconf(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "checker", *args], capture_output=True, text=True, cwd=ROOT)
+
+
+@pytest.fixture(scope="module")
+def drifted(tmp_path_factory: pytest.TempPathFactory) -> str:
+    snap = deployed(CHATTER)
+    snap.nodes["/listener"].modes["listen"] = "degraded"
+    path = tmp_path_factory.mktemp("drift") / "snap.json"
+    path.write_text(snap.to_json())
+    return str(path)
+
+
+def test_the_command_exits_1_on_drift_with_every_format(drifted: str) -> None:
+    res = reconf("drift", CHATTER, "--snapshot", drifted)
+    assert res.returncode == 1 and "chatter.arch:35:3: error[RC615]" in res.stderr, res.stderr
+    doc = json.loads(reconf("drift", CHATTER, "--snapshot", drifted, "--output-format", "json").stdout)
+    assert doc["verdict"] == "drift" and [d["code"] for d in doc["diagnostics"]] == ["RC615"]
+    sarif = json.loads(reconf("drift", CHATTER, "--snapshot", drifted, "--output-format", "sarif").stdout)
+    [result] = sarif["runs"][0]["results"]
+    assert result["ruleId"] == "RC615" and result["locations"][0]["physicalLocation"]["region"]["startLine"] == 35
+    junit = reconf("drift", CHATTER, "--snapshot", drifted, "--output-format", "junit").stdout
+    assert 'name="mode"' in junit and "<failure" in junit
+
+
+def test_the_command_exits_0_in_sync_and_2_unanswered(tmp_path: Path) -> None:
+    snap = tmp_path / "snap.json"
+    snap.write_text(deployed(CHATTER).to_json())
+    res = reconf("drift", CHATTER, "--snapshot", str(snap))
+    assert res.returncode == 0 and "in sync" in res.stderr, res.stderr
+    bad = reconf("drift", CHATTER, "--snapshot", str(tmp_path / "none.json"))
+    assert bad.returncode == 2 and "RC602" in bad.stderr and "Traceback" not in bad.stderr
+    worse = reconf("drift", str(tmp_path / "none.arch"), "--snapshot", str(snap))
+    assert worse.returncode == 2 and "RC007" in worse.stderr
+
+
+def test_discover_writes_an_arch_check_accepts_with_a_warning_per_placeholder(tmp_path: Path) -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/counter"] = NodeInfo("/counter", publishers={"/heard": ["std_msgs/msg/Int32"]})
+    path = tmp_path / "snap.json"
+    path.write_text(snap.to_json())
+    out = tmp_path / "found.arch"
+    res = reconf("discover", "--snapshot", str(path), "--system", "chatter", "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("warning[RC601]") == 2 and f"{out}:6:1: warning[RC601]" in res.stderr
+    check = reconf("check", "--engine", "python", str(out))
+    assert check.returncode == 0, check.stderr
+    assert reconf("fmt", "--check", str(out)).returncode == 0
