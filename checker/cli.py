@@ -22,6 +22,7 @@ from .config import Configuration
 from .planning import STRATEGIES
 from .inputs import exclude_option, expand, nothing_left, paths_argument
 from .progress import status
+from .recording_cli import bag_options, judge_bag
 from .report import OutputFormat, ReportFormat
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -48,14 +49,16 @@ def main(allow_includes_outside: bool) -> None:
 @format_option
 @engine_option
 @solver_option
+@bag_options
 @guarded("check")
 def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str,
-          sources: Sources) -> None:
+          bag: Optional[str], window: float, tolerance: float, sources: Sources) -> None:
     """Prove that every functionality's assumptions hold in PATHs (one system; includes followed;
     a directory stands for the .arch files under it).
 
     Lists each assumption that does not hold with its chain: functionality → assumption →
-    input → connector → each attached output and why it falls short.
+    input → connector → each attached output and why it falls short. With --bag, also judges
+    every rate and message type against a rosbag2 recording (docs/recordings.md).
     """
     from .engines import judge, judge_ftm
 
@@ -71,6 +74,10 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     ev = judged.python
     diags = judged.warnings + ftm + [report.assumption_diagnostic(r) for r in ev.unsatisfied]
     safe = judged.valid and not any(d.is_error for d in ftm)
+    rec = judge_bag(system, bag, window, tolerance)
+    if rec is not None:
+        diags += rec.diagnostics
+        safe = safe and not rec.contradicted
     verdict = "safe" if safe else "unsafe"
     n, bad = len(ev.results), len(ev.unsatisfied)
     summary = ", ".join(plural(k, w) for k, w in ((len(system.components), "component"),
@@ -81,7 +88,7 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     if ftm_alloy is not None:
         parts.append(("FTM rules in Alloy", ftm_alloy["seconds"]))
     wall = time.perf_counter() - started
-    timing = "; " + report.timing_note(wall, parts, details)
+    timing = ("; " + rec.summary if rec else "") + "; " + report.timing_note(wall, parts, details)
     # the engines' note (`how`) is about the assumptions; the FTM rules' is said after them
     by = ", judged by Alloy too" if ftm_alloy is not None else ""
     ftm_note = (f"; {plural(len(ftm), 'fault-tolerance finding')} (FTM rules{by})" if ftm else
@@ -93,11 +100,13 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
         held = f"{bad} {report.agree(bad, 'does', 'do')} not hold" if bad else "all hold"
         line = f"{system.name} — {summary}, {held}{how}{ftm_note}{timing}"
         human = f"[bold red]✗ unsafe[/]: {line}"
-    rep = formats.Report("check", verdict, diags, report.assumption_cases(system.name, ev), f"{verdict}: {line}")
+    cases = report.assumption_cases(system.name, ev) + (rec.cases(system.name) if rec else [])
+    rep = formats.Report("check", verdict, diags, cases, f"{verdict}: {line}")
     emit_report(rep, output_format, sources,
                 lambda: report.document("check", verdict, diags, system=system.name, files=list(system.files),
                                         engines=judged.engines, timing=report.timing_json(wall, parts),
-                                        assumptions=report.evaluation_json(ev)), human)
+                                        assumptions=report.evaluation_json(ev),
+                                        **({"recording": rec.doc} if rec else {})), human)
     sys.exit(EXIT_OK if safe else EXIT_UNSAFE)
 
 

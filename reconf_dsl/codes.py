@@ -128,6 +128,14 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC615", "drift-mode", "`reconf drift`: a functionality degraded live, normal in the deployed configuration"),
     ("RC616", "drift-single-publishers", "`reconf drift`: several publishers on a `single` topic or a service"),
     ("RC617", "drift-lifecycle", "`reconf drift`: a component's node is not active (or does not answer)"),
+    ("RC701", "recording-unreadable", "`check --bag`: the recording cannot be read (missing, not a rosbag2 directory, "
+                                      ".db3 or .mcap, or corrupt)"),
+    ("RC702", "recording-rate-contradicted", "`check --bag`: a topic's observed rate (its worst sliding window) is "
+                                             "under a rate the model states of it, beyond `--tolerance`"),
+    ("RC703", "recording-type-contradicted", "`check --bag`: a modelled topic is recorded with another message type"),
+    ("RC704", "recording-topic-absent", "warning, `check --bag`: a modelled topic (or an environment's stream) is not "
+                                        "in the recording: not judged, not evidence either way"),
+    ("RC705", "recording-too-short", "warning, `check --bag`: the recording is shorter than the window: no rate judged"),
 ))
 BY_CODE: dict[str, Code] = {c.code: c for c in CODES}
 

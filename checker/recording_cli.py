@@ -1,0 +1,46 @@
+"""The options `check --bag` adds, and the one call it makes (checker/recording.py judges;
+docs/recordings.md)."""
+from __future__ import annotations
+
+from typing import Any, Callable, Optional
+
+import click
+
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.ir import System
+from reconf_dsl.span import Span
+
+from .command import Failure
+from .progress import status
+from .recording import RecordingVerdict, Unreadable, judge_recording
+
+__all__ = ["bag_options", "judge_bag"]
+
+
+def bag_options(fn: Callable[..., Any]) -> Callable[..., Any]:
+    for option in reversed((
+        click.option("--bag", type=click.Path(), default=None, metavar="RECORDING",
+                     help="also judge every rate and message type against a rosbag2 recording: its directory, "
+                          "or a .db3 or .mcap file"),
+        click.option("--window", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
+                     metavar="SECONDS", help="with --bag: the sliding window a topic's rate is measured over"),
+        click.option("--tolerance", type=click.FloatRange(min=0, max=100, max_open=True), default=10.0,
+                     show_default=True, metavar="PERCENT",
+                     help="with --bag: a rate this far under the model's is still taken as met"),
+    )):
+        fn = option(fn)
+    return fn
+
+
+def judge_bag(system: System, bag: Optional[str], window: float, tolerance: float) -> Optional[RecordingVerdict]:
+    """The recording's verdict, or None without --bag; an unreadable recording is RC701, exit 2."""
+    if bag is None:
+        return None
+    try:
+        with status(f"reading {bag}…"):
+            return judge_recording(system, bag, window, tolerance)
+    except Unreadable as e:
+        raise Failure([Diagnostic("RC701", Severity.ERROR, f"cannot read the recording {bag}: {e}",
+                                  Span.unknown(bag), notes=("a rosbag2 recording is a directory with "
+                                                            "metadata.yaml, or a .db3 (sqlite3) or .mcap file",))]) \
+            from None
