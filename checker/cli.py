@@ -187,6 +187,7 @@ def _register() -> None:
     from .fmt_cli import fmt_cmd
     from .ftm.cli import ftm_group, transition_cmd
     from .gate import gate_cmd
+    from .modes_cli import modes_group
     from .plan_cli import plan
     from .recover_cli import recover_cmd
     plan.add_command(transition_cmd)
@@ -197,6 +198,7 @@ def _register() -> None:
     main.add_command(gate_cmd)
     main.add_command(ftm_group)
     main.add_command(fmt_cmd)
+    main.add_command(modes_group)
     main.add_command(discover_cmd)
     main.add_command(drift_cmd)
     try:

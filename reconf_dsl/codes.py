@@ -128,6 +128,17 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC615", "drift-mode", "`reconf drift`: a functionality degraded live, normal in the deployed configuration"),
     ("RC616", "drift-single-publishers", "`reconf drift`: several publishers on a `single` topic or a service"),
     ("RC617", "drift-lifecycle", "`reconf drift`: a component's node is not active (or does not answer)"),
+    ("RC621", "smh-not-yaml", "`reconf modes import`: the model file is not YAML"),
+    ("RC622", "smh-not-a-model", "`reconf modes import`: YAML, but not an SMH model file of ROS 2 system_modes (a "
+                                 "part without modes, a first mode other than `__DEFAULT__`, a node mode without "
+                                 "`ros__parameters`, an unknown lifecycle state)"),
+    ("RC623", "smh-placeholder", "warning, `reconf modes import`: SMH does not say it (ports, message types, rates, "
+                                 "topics): a `// placeholder` comment in the architecture"),
+    ("RC624", "smh-not-carried-over", "warning, `reconf modes import`: what the SMH file says that an architecture "
+                                      "does not (system modes, rules, parameter values, lifecycle states other than "
+                                      "active, a node name that is not a DSL name): kept as a comment, or renamed"),
+    ("RC625", "smh-unsafe-default", "`reconf modes export`: the deployed configuration is not safe, so its "
+                                    "`__DEFAULT__` mode would not be (exit 1); a warning with `--degrade-unsafe`"),
     ("RC701", "recording-unreadable", "`check --bag`: the recording cannot be read (missing, not a rosbag2 directory, "
                                       ".db3 or .mcap, or corrupt)"),
     ("RC702", "recording-rate-contradicted", "`check --bag`: a topic's observed rate (its worst sliding window) is "
