@@ -174,10 +174,11 @@ def _judge(p: Promise, topics: tuple[str, ...], worst: dict[str, Optional[Worst]
 
 
 def _observed(topic: str, w: Worst, window: float) -> str:
+    at = f"{w.at:.{1 if window >= 1 else 2 if window >= 0.1 else 3}f}"     # t as fine as the window
     if w.to_end:
-        return f"{topic}: no message in the last {w.gap:.2f} s, from t = {w.at:.1f} s to the recording's end"
+        return f"{topic}: no message in the last {w.gap:.2f} s, from t = {at} s to the recording's end"
     gap = f" (no message for {w.gap:.2f} s)" if w.gap is not None else ""
-    return f"{topic}: {hz_text(w.hz)} Hz over the worst {window:g} s window at t = {w.at:.1f} s{gap}"
+    return f"{topic}: {hz_text(w.hz)} Hz over the worst {window:g} s window at t = {at} s{gap}"
 
 
 def _scope(p: Promise, topics: tuple[str, ...], topic: str) -> str:

@@ -1,0 +1,168 @@
+"""`reconf check --bag`: rates and types judged against the committed recordings of
+tests/data/bag (tests/bagkit.py says what they hold), and against recordings made on the spot."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from checker.cli import main
+from checker.rates import RateMeter, Worst
+from tests import bagkit
+
+DATA = bagkit.DATA
+BAGS = [str(DATA / "six_seconds.db3"), str(DATA / "six_seconds.mcap")]
+CONTRADICTED = str(DATA / "contradicted.arch")
+
+
+def check(arch: str, bag: str, *args: str, fmt: str = "json") -> tuple[int, dict, str]:
+    r = CliRunner().invoke(main, ["check", arch, "--engine", "python", "--bag", bag, "--output-format", fmt, *args])
+    doc = json.loads(r.stdout) if fmt == "json" and r.stdout.strip() else {}
+    return r.exit_code, doc, r.stderr
+
+
+def by_who(doc: dict) -> dict[tuple[str, str], dict]:
+    return {(p["who"], p["predicate"]): p for p in doc["recording"]["promises"]}
+
+
+@pytest.mark.parametrize("bag", BAGS)
+def test_every_rate_met(bag: str) -> None:
+    code, doc, err = check(str(DATA / "bagged.arch"), bag)
+    assert code == 0, err
+    rec = doc["recording"]
+    assert rec["judged"] == {"topics": ["/camera", "/chatter", "/cmd_vel"], "messages": 60 + 110 + 180,
+                             "seconds": pytest.approx(5.966667)}
+    assert rec["storage"] == ("mcap" if bag.endswith("mcap") else "sqlite3") and rec["messages"] == 380
+    assert {p["verdict"] for p in rec["promises"]} == {"met"} and len(rec["promises"]) == 8
+    ps = by_who(doc)
+    period = ps[("listener.listen assumes", "String @ 100 ms")]
+    assert period["evidence"] == ("/chatter: 10 Hz over the worst 1 s window at t = 0.0 s; "
+                                  "listener.listen assumes 10 Hz (every 100 ms)")
+    env = ps[("environment camera guarantees", "Image @ 30 Hz")]
+    assert env["topic"] == "/camera" and env["observed"]["hz"] == pytest.approx(30.0)
+    assert "named by no connector" in env["evidence"]
+    assert ps[("talker.talk guarantees", "String @ 10 Hz")]["evidence"].endswith("(the topic's rate, all publishers)")
+
+
+def test_the_summary_line_says_what_was_judged() -> None:
+    code, _, err = check(str(DATA / "bagged.arch"), BAGS[0], fmt="text")
+    assert code == 0
+    assert ("recording six_seconds.db3: 3 topics, 350 messages over 6.0 s judged against 8 rates, all met" in err)
+
+
+@pytest.mark.parametrize("bag", BAGS)
+def test_a_rate_contradicted_at_a_known_time(bag: str) -> None:
+    code, doc, err = check(CONTRADICTED, bag)
+    assert code == 1 and doc["verdict"] == "unsafe", err
+    diags = {(d["code"], d["span"]["line"], d["span"]["column"]): d for d in doc["diagnostics"]}
+    topic = diags[("RC702", 50, 17)]
+    assert topic["message"] == "/cmd_vel: 10 Hz over the worst 1 s window at t = 2.5 s; topic /cmd_vel promises 20 Hz"
+    assert topic["span"]["file"].endswith("contradicted.arch")
+    assert diags[("RC702", 11, 14)]["message"] == (
+        "/cmd_vel: 10 Hz over the worst 1 s window at t = 2.5 s; controller.control guarantees 20 Hz "
+        "(the topic's rate, all 2 publishers: a finding on the topic, not proved of controller alone)")
+    assert diags[("RC702", 29, 21)]["message"] == (
+        "/cmd_vel: 10 Hz over the worst 1 s window at t = 2.5 s; base.drive assumes 20 Hz (every 50 ms)")
+    assert diags[("RC702", 54, 16)]["message"] == (
+        "/status: no message in the last 3.07 s, from t = 2.9 s to the recording's end; topic /status promises 10 Hz")
+    assert diags[("RC702", 43, 7)]["message"].endswith("monitor.watch guarantees 10 Hz (the topic's rate, all publishers)")
+    absent = diags[("RC704", 58, 17)]
+    assert absent["severity"] == "warning" and "not evidence either way" in absent["message"]
+    assert sum(d["code"] == "RC702" for d in doc["diagnostics"]) == 7
+
+
+def test_the_window_is_stated_and_changes_the_rate() -> None:
+    _, doc, _ = check(CONTRADICTED, BAGS[0], "--window", "2")
+    worst = by_who(doc)[("topic /cmd_vel promises", "Twist @ 20 Hz")]
+    assert worst["evidence"].startswith("/cmd_vel: 15 Hz over the worst 2 s window at t = 1.5 s;")
+    code, doc, _ = check(CONTRADICTED, BAGS[0], "--window", "0.2")
+    assert code == 1   # a window under the gap: one interval over the silence
+    assert by_who(doc)[("topic /cmd_vel promises", "Twist @ 20 Hz")]["evidence"].startswith(
+        "/cmd_vel: 1.82 Hz over the worst 0.2 s window at t = 2.95 s (no message for 0.55 s)")
+
+
+def test_tolerance() -> None:
+    _, doc, _ = check(CONTRADICTED, BAGS[1], "--tolerance", "50")
+    assert by_who(doc)[("topic /cmd_vel promises", "Twist @ 20 Hz")]["verdict"] == "met"     # 10 Hz ≥ 50% of 20
+    assert by_who(doc)[("topic /status promises", "String @ 10 Hz")]["verdict"] == "contradicted"
+
+
+def test_a_type_mismatch(tmp_path: Path) -> None:
+    arch = tmp_path / "mistyped.arch"
+    arch.write_text("system mistyped\nmessage Twist = geometry_msgs/msg/Twist\n"
+                    "topic /chatter: Twist @ 10 Hz { }\n", encoding="utf-8")
+    code, doc, err = check(str(arch), BAGS[1])
+    assert code == 1, err
+    (d,) = [d for d in doc["diagnostics"] if d["code"] == "RC703"]
+    assert d["severity"] == "error" and (d["span"]["line"], d["span"]["column"]) == (3, 17)
+    assert d["message"] == ("/chatter is recorded as std_msgs/msg/String; the model says "
+                            "Twist = geometry_msgs/msg/Twist")
+    assert by_who(doc)[("topic /chatter promises", "Twist @ 10 Hz")]["verdict"] == "contradicted"
+
+
+def test_a_recording_shorter_than_the_window(tmp_path: Path) -> None:
+    bag = bagkit.write(tmp_path / "short", [("/chatter", "std_msgs/msg/String", bagkit.stamps(10, 0.6))], "mcap")
+    code, doc, err = check(str(DATA / "bagged.arch"), str(bag))
+    assert code == 0, err
+    (d,) = [d for d in doc["diagnostics"] if d["code"] == "RC705"]
+    assert d["message"] == "the recording lasts 0.50 s, less than the 1 s window: no rate is judged"
+    ps = by_who(doc)
+    assert ps[("topic /chatter promises", "String @ 10 Hz")]["verdict"] == "not judged"
+    assert ps[("topic /chatter promises", "String @ 10 Hz")]["observed"] is None
+    assert "/cmd_vel is not in the recording" in err or any(
+        x["code"] == "RC704" and x["message"].startswith("/cmd_vel is not in the recording") for x in doc["diagnostics"])
+
+
+@pytest.mark.parametrize("name", ["six_seconds.db3", "six_seconds.mcap"])
+def test_a_corrupt_recording_is_exit_2(tmp_path: Path, name: str) -> None:
+    bad = tmp_path / name
+    data = (DATA / name).read_bytes()
+    bad.write_bytes(data[:len(data) // 3] + b"\x00garbage" * 64)
+    code, doc, err = check(str(DATA / "bagged.arch"), str(bad))
+    assert code == 2 and doc["verdict"] == "error"
+    (d,) = doc["diagnostics"]
+    assert d["code"] == "RC701" and d["message"].startswith(f"cannot read the recording {bad}: ")
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("what", ["missing", "not-a-bag.txt", "empty-dir"])
+def test_not_a_recording_is_exit_2(tmp_path: Path, what: str) -> None:
+    path = tmp_path / what
+    if what == "not-a-bag.txt":
+        path.write_text("hello")
+    if what == "empty-dir":
+        path.mkdir()
+    code, _, err = check(str(DATA / "bagged.arch"), str(path), fmt="text")
+    assert code == 2 and "error[RC701]: cannot read the recording" in err and "Traceback" not in err
+
+
+def test_sarif_carries_the_findings() -> None:
+    r = CliRunner().invoke(main, ["check", CONTRADICTED, "--engine", "python", "--bag", BAGS[0],
+                                  "--output-format", "sarif"])
+    assert r.exit_code == 1
+    results = json.loads(r.stdout)["runs"][0]["results"]
+    assert {x["ruleId"] for x in results} >= {"RC702", "RC704"}
+
+
+def test_the_meter_on_its_own() -> None:
+    s = 10**9
+    m = RateMeter(s, 0)
+    for t in (0, s // 10, 3 * s, 3 * s, 3 * s + s // 10):     # a 2.9 s silence, two messages at one instant
+        m.feed(t)
+    assert m.finish(5 * s) == Worst(0.0, 3.1, gap=pytest.approx(1.9), to_end=True)
+    m = RateMeter(s, 0)
+    for t in (0, s // 10, 3 * s, 5 * s):
+        m.feed(t)
+    assert m.finish(5 * s) == Worst(pytest.approx(1 / 2.9), 0.1, gap=pytest.approx(2.9))
+
+
+def test_the_committed_recordings_are_the_kit_s(tmp_path: Path) -> None:
+    """tests/data/bag holds what tests/bagkit.py writes: a changed kit is written again."""
+    out = bagkit.write(tmp_path / "again", bagkit.committed(), "mcap")
+    from rosbags.rosbag2 import Reader
+    with Reader(out) as a, Reader(DATA / "six_seconds.mcap") as b:
+        assert [(c.topic, t) for c, t, _ in a.messages()] == [(c.topic, t) for c, t, _ in b.messages()]
+    shutil.rmtree(out)
