@@ -1,7 +1,7 @@
 """`check --bag`: the model's rates and types judged against a rosbag2 recording.
 
 Every rate the deployed configuration states (a topic's own predicate, an output's guarantee, an
-assumption, an environment guarantee) is compared with the observed rate of its topic (the worst
+input's or a functionality's assumption, an environment guarantee) is compared with the observed rate of its topic (the worst
 sliding window, checker/rates.py), and every message type with the type the recording holds.
 docs/recordings.md gives the computation and what a finding proves: a recording does not say
 which publisher sent a message, so a guarantee is judged on its topic's rate, all publishers."""
@@ -28,7 +28,7 @@ class Promise:
     """A rate or type the model states, and the topics it is judged on: `topics` None for the
     environment's (the recorded topics of its type that no connector names); any one suffices."""
 
-    kind: str                 # topic | guarantee | assumption | environment
+    kind: str                 # topic | guarantee | input | assumption | environment
     who: str                  # `talker.talk guarantees`, `topic /chatter promises`
     predicate: Predicate
     ros_type: Optional[str]
@@ -48,6 +48,11 @@ def promises(system: System) -> list[Promise]:
     out = [Promise("topic", f"topic {k.name} promises", k.guarantee, ros(k.guarantee.message), (k.name,),
                    _span(k.guarantee.span, k.span)) for k in topics]
     for c in system.components:
+        for port in c.inputs:
+            fed = tuple(k.name for k in topics if any((r.component, r.port) == (c.name, port.name) for r in k.subscribers))
+            if fed and port.assumption is not None:
+                out.append(Promise("input", f"input {c.name}.{port.name} assumes", port.assumption, ros(port.message),
+                                   fed, _span(port.assumption.span, port.span)))
         for f in c.functionalities:
             if f.normal is None:
                 continue

@@ -36,7 +36,7 @@ def test_every_rate_met(bag: str) -> None:
     assert rec["judged"] == {"topics": ["/camera", "/chatter", "/cmd_vel"], "messages": 60 + 110 + 180,
                              "seconds": pytest.approx(5.966667)}
     assert rec["storage"] == ("mcap" if bag.endswith("mcap") else "sqlite3") and rec["messages"] == 380
-    assert {p["verdict"] for p in rec["promises"]} == {"met"} and len(rec["promises"]) == 8
+    assert {p["verdict"] for p in rec["promises"]} == {"met"} and len(rec["promises"]) == 10
     ps = by_who(doc)
     period = ps[("listener.listen assumes", "String @ 100 ms")]
     assert period["evidence"] == ("/chatter: 10 Hz over the worst 1 s window at t = 0.0 s; "
@@ -50,7 +50,7 @@ def test_every_rate_met(bag: str) -> None:
 def test_the_summary_line_says_what_was_judged() -> None:
     code, _, err = check(str(DATA / "bagged.arch"), BAGS[0], fmt="text")
     assert code == 0
-    assert ("recording six_seconds.db3: 3 topics, 350 messages over 6.0 s judged against 8 rates, all met" in err)
+    assert ("recording six_seconds.db3: 3 topics, 350 messages over 6.0 s judged against 10 rates, all met" in err)
 
 
 @pytest.mark.parametrize("bag", BAGS)
@@ -71,7 +71,8 @@ def test_a_rate_contradicted_at_a_known_time(bag: str) -> None:
     assert diags[("RC702", 43, 7)]["message"].endswith("monitor.watch guarantees 10 Hz (the topic's rate, all publishers)")
     absent = diags[("RC704", 58, 17)]
     assert absent["severity"] == "warning" and "not evidence either way" in absent["message"]
-    assert sum(d["code"] == "RC702" for d in doc["diagnostics"]) == 7
+    assert sum(d["code"] == "RC702" for d in doc["diagnostics"]) == 9
+    assert diags[("RC702", 25, 18)]["message"].endswith("input base.cmd_vel assumes 20 Hz (every 50 ms)")
 
 
 def test_the_window_is_stated_and_changes_the_rate() -> None:
