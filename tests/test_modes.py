@@ -193,3 +193,16 @@ def test_bad_model_files_give_the_code_and_where(case: str, tmp_path: Path) -> N
 def test_a_machine_report_needs_a_file_for_the_model() -> None:
     r = run("modes", "export", CHATTER, "--output-format", "json")
     assert r.exit_code == 2 and "give -o" in r.output
+
+
+@pytest.mark.parametrize("arch", ALL, ids=lambda p: os.path.relpath(p, ROOT))
+def test_what_a_degradation_forces_is_settles_least_set(arch: str) -> None:
+    from checker.planning.plan import Goal, settle
+    from checker.smh.export import export
+    system = load([arch], Sources())
+    exp = export(system, degrade_unsafe=True)
+    base = exp.modes[0].degraded
+    config = Configuration.initial(system)
+    for m in exp.modes[2:]:
+        seed = {d for d in m.degraded - base if d not in dict(m.forced)}
+        assert settle(system, Goal(config.components, config.roles, base | seed)).degraded == m.degraded

@@ -7,6 +7,7 @@ component, and per functionality of a component with several, that one degraded 
 everything the degradation forces (`settle`, checker/planning/plan.py)."""
 from __future__ import annotations
 
+import functools
 import json
 import re
 from dataclasses import dataclass
@@ -16,7 +17,7 @@ import yaml
 
 from reconf_dsl.ir import Component, Predicate, System
 
-from ..actions import failing_assumptions, is_valid
+from ..actions import Snapshot, catalogue, failing_assumptions, is_valid
 from ..config import Configuration, FuncId
 from ..planning.plan import Goal, settle
 from . import DEFAULT, DEGRADED, DEGRADED_VALUE, NORMAL_VALUE, PARAM
@@ -46,10 +47,13 @@ class SmhExport:
     nodes: dict[str, list[NodeMode]]
     modes: list[SystemMode]
 
-    def node_mode(self, component: str, degraded: frozenset[FuncId]) -> str:
-        """The name of the node mode of `component` that degrades its part of `degraded`."""
-        mine = frozenset(f for c, f in degraded if c == component)
-        return next(m.name for m in self.nodes[component] if m.degraded == mine)
+    def node_modes_of(self, mode: SystemMode) -> dict[str, str]:
+        """Per part, the name of its node mode in the system mode `mode`."""
+        mine = _by_component(mode.degraded)
+        return {c.name: self._names[c.name][mine.get(c.name, frozenset())] for c in self.components}
+
+    def __post_init__(self) -> None:
+        self._names = {c: {m.degraded: m.name for m in modes} for c, modes in self.nodes.items()}
 
 
 class UnsafeDeployment(Exception):
@@ -87,7 +91,8 @@ def export(system: System, degrade_unsafe: bool = False) -> SmhExport:
             raise AssertionError(f"system mode {m.name} is not a valid configuration")
     name = _unique(system.name, {c.name for c in comps})   # SMH systems and nodes share one namespace
     skipped = [c.name for c in system.components if not c.functionalities]
-    return SmhExport(name, comps, skipped, {c.name: _node_modes(c, modes) for c in comps}, modes)
+    groups = [_by_component(m.degraded) for m in modes]
+    return SmhExport(name, comps, skipped, {c.name: _node_modes(c, groups) for c in comps}, modes)
 
 
 def _funcs(comps: Iterable[Component]) -> frozenset[FuncId]:
@@ -95,13 +100,25 @@ def _funcs(comps: Iterable[Component]) -> frozenset[FuncId]:
 
 
 def _forced(system: System, base: Goal, seed: frozenset[FuncId], name: str, origin: str) -> SystemMode:
-    """`seed` degraded on top of `base`, and whatever that forces."""
-    goal = settle(system, Goal(base.components, base.roles, base.degraded | seed, base.why))
-    forced = tuple((d, why) for d, why in goal.why if d not in seed and d not in base.degraded)
-    return SystemMode(name, goal.degraded, origin, forced)
+    """`seed` degraded on top of `base`, and whatever that forces: `settle`'s least set, grown
+    from the readers of what was just degraded only (a degraded mode assumes nothing, and the
+    rest of `base` is valid), so a mode costs its own reach and not the system's size."""
+    cat = catalogue(system)
+    degraded = set(base.degraded | seed)
+    forced: dict[FuncId, str] = {}
+    changed = {c for c, _ in seed}
+    while changed:
+        st = Snapshot(cat, Configuration(base.components, frozenset(degraded), base.roles))
+        readers = st.readers(conn for c in changed for conn, _ in st.attached_outputs(c))
+        new = [(c, f, a) for c, f, a in st.unsafe(readers & base.components) if (c, f) not in degraded]
+        for c, f, a in new:
+            forced.setdefault((c, f), f"it assumes {a}, which no longer holds")
+            degraded.add((c, f))
+        changed = {c for c, _, _ in new}
+    return SystemMode(name, frozenset(degraded), origin, tuple(sorted(forced.items())))
 
 
-def _node_modes(c: Component, modes: list[SystemMode]) -> list[NodeMode]:
+def _node_modes(c: Component, groups: list[dict[str, frozenset[str]]]) -> list[NodeMode]:
     """__DEFAULT__, DEGRADED, one per functionality when there are several, then every other
     combination a system mode needs (named after its functionalities, in declaration order)."""
     order = [f.name for f in c.functionalities]
@@ -109,12 +126,21 @@ def _node_modes(c: Component, modes: list[SystemMode]) -> list[NodeMode]:
     out = [NodeMode(_unique(DEFAULT, taken), frozenset()), NodeMode(_unique(DEGRADED, taken), frozenset(order))]
     if len(order) > 1:
         out += [NodeMode(_unique(f"{DEGRADED}_{f}", taken), frozenset({f})) for f in order]
-    for m in modes:
-        mine = frozenset(f for comp, f in m.degraded if comp == c.name)
-        if all(n.degraded != mine for n in out):
+    seen = {n.degraded for n in out}
+    for g in groups:                       # each system mode's degraded functionalities, by component
+        mine = g.get(c.name, frozenset())
+        if mine not in seen:
+            seen.add(mine)
             label = "_".join(f for f in order if f in mine)
             out.append(NodeMode(_unique(f"{DEGRADED}_{label}", taken), mine))
     return out
+
+
+def _by_component(degraded: frozenset[FuncId]) -> dict[str, frozenset[str]]:
+    out: dict[str, set[str]] = {}
+    for c, f in degraded:
+        out.setdefault(c, set()).add(f)
+    return {c: frozenset(fs) for c, fs in out.items()}
 
 
 def _unique(name: str, taken: set[str]) -> str:
@@ -132,6 +158,7 @@ def _unique(name: str, taken: set[str]) -> str:
 _PLAIN = re.compile(r"[^\W\d][\w.]*")
 
 
+@functools.lru_cache(maxsize=4096)
 def scalar(text: str) -> str:
     """`text` as a YAML scalar: plain when it reads back as itself, else double-quoted."""
     if _PLAIN.fullmatch(text) and yaml.safe_load(text) == text:
@@ -165,8 +192,7 @@ def _system_lines(exp: SmhExport) -> list[str]:
         out.append(f"      # {m.origin}")
         out += [f"      #   forces {c}.{f}: {why}" for (c, f), why in m.forced]
         out.append(f"      {scalar(m.name)}:")
-        out += [f"        {scalar(c.name)}: {scalar('active.' + exp.node_mode(c.name, m.degraded))}"
-                for c in exp.components]
+        out += [f"        {scalar(c)}: {scalar('active.' + n)}" for c, n in exp.node_modes_of(m).items()]
     return out
 
 
