@@ -206,3 +206,28 @@ def test_what_a_degradation_forces_is_settles_least_set(arch: str) -> None:
     for m in exp.modes[2:]:
         seed = {d for d in m.degraded - base if d not in dict(m.forced)}
         assert settle(system, Goal(config.components, config.roles, base | seed)).degraded == m.degraded
+
+
+@pytest.mark.parametrize("argv, code, says", [
+    (["modes", "export", os.path.join(ROOT, "tests", "no_such_file.arch")], 2, "RC007"),
+    (["modes", "export", os.path.join(ROOT, "tests", "bad_inputs", "unterminated_string.arch")], 2, "RC003"),
+    (["modes", "import", os.path.join(DATA, "no_such_file.yaml")], 2, "RC007"),
+    (["modes", "export", CHATTER, "-o", os.path.join(ROOT, "tests", "no_such_dir", "x.yaml")], 2, "RC007"),
+    (["modes", "import", SMH_EXAMPLE, "-o", os.path.join(ROOT, "tests", "no_such_dir", "x.arch")], 2, "RC007"),
+], ids=["missing-arch", "broken-arch", "missing-model", "unwritable-yaml", "unwritable-arch"])
+def test_failures_keep_the_exit_code_contract(argv: list[str], code: int, says: str) -> None:
+    r = run(*argv)
+    assert r.exit_code == code and says in r.output and "Traceback" not in r.output, r.output
+
+
+def test_bad_input_in_json_is_an_error_document(tmp_path: Path) -> None:
+    model = tmp_path / "bad.yaml"
+    model.write_text("a: [1\n", encoding="utf-8")
+    r = run("modes", "import", str(model), "-o", str(tmp_path / "x.arch"), "--output-format", "json")
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 2 and doc["verdict"] == "error" and doc["diagnostics"][0]["code"] == "RC621"
+    r = run("modes", "export", os.path.join(ROOT, "examples", "chatter_slow.arch"), "-o", str(tmp_path / "x.yaml"),
+            "--output-format", "json")
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 1 and doc["verdict"] == "unsafe"
+    assert [d["code"] for d in doc["diagnostics"]] == ["RC625", "RC201"]
