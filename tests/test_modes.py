@@ -53,8 +53,8 @@ def test_chatter_exports_exactly_this(tmp_path: Path) -> None:
                 "DEGRADED_talker": {"talker": "active.DEGRADED", "listener": "active.DEGRADED"},
                 "DEGRADED_listener": {"talker": "active.__DEFAULT__", "listener": "active.DEGRADED"}}}},
         **{n: {"ros__parameters": {"type": "node", "modes": {
-            "__DEFAULT__": {"ros__parameters": {f"reconf.mode.{f}": "normal"}},
-            "DEGRADED": {"ros__parameters": {f"reconf.mode.{f}": "degraded"}}}}} for f, n in node.items()},
+            "__DEFAULT__": {"ros__parameters": {"reconf": {"mode": {f: "normal"}}}},
+            "DEGRADED": {"ros__parameters": {"reconf": {"mode": {f: "degraded"}}}}}}} for f, n in node.items()},
     }
     text = (tmp_path / "modes.yaml").read_text(encoding="utf-8")
     assert "talker_v2" not in text            # a replacement version is not deployed
@@ -74,10 +74,11 @@ def modes_of(doc: dict[str, Any]) -> tuple[str, dict[str, Any], dict[str, dict[s
         assert next(iter(p["modes"])) == "__DEFAULT__"
         nodes[name] = {}
         for mode, body in p["modes"].items():
-            params = body["ros__parameters"]
-            assert all(k.startswith("reconf.mode.") and v in ("normal", "degraded") for k, v in params.items())
-            assert len(set(params)) == len(next(iter(p["modes"].values()))["ros__parameters"])
-            nodes[name][mode] = frozenset(k[len("reconf.mode."):] for k, v in params.items() if v == "degraded")
+            assert list(body["ros__parameters"]) == ["reconf"] and list(body["ros__parameters"]["reconf"]) == ["mode"]
+            params = body["ros__parameters"]["reconf"]["mode"]          # reconf.mode.<f>, nested
+            assert all(v in ("normal", "degraded") for v in params.values())
+            assert list(params) == list(next(iter(p["modes"].values()))["ros__parameters"]["reconf"]["mode"])
+            nodes[name][mode] = frozenset(f for f, v in params.items() if v == "degraded")
         assert len(set(nodes[name].values())) == len(nodes[name])     # SMH infers a node's mode from them
     return systems[0], doc[systems[0]]["ros__parameters"], nodes
 

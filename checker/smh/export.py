@@ -202,7 +202,9 @@ def _node_lines(c: Component, modes: list[NodeMode]) -> list[str]:
         what = ("every functionality normal" if not m.degraded else
                 "every functionality degraded" if len(m.degraded) == len(c.functionalities) else
                 ", ".join(f.name for f in c.functionalities if f.name in m.degraded) + " degraded")
-        out += [f"      # {what}", f"      {scalar(m.name)}:", "        ros__parameters:"]
-        out += [f"          {scalar(PARAM + f.name)}: {DEGRADED_VALUE if f.name in m.degraded else NORMAL_VALUE}"
+        # reconf.mode.<f> nested, as `ros2 param dump` writes parameters: every parser reads it so
+        out += [f"      # {what}", f"      {scalar(m.name)}:", "        ros__parameters:",
+                f"          {PARAM.split('.')[0]}:", f"            {PARAM.split('.')[1]}:"]
+        out += [f"              {scalar(f.name)}: {DEGRADED_VALUE if f.name in m.degraded else NORMAL_VALUE}"
                 for f in c.functionalities]
     return out
