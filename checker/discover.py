@@ -44,6 +44,7 @@ class _Build:
     blocks: list[str] = field(default_factory=list)
     roles: dict[str, list[_Role]] = field(default_factory=dict)     # connector -> roles
     services: set[str] = field(default_factory=set)
+    environment: dict[str, Predicate] = field(default_factory=dict)  # alias -> the most any model assumes of it
 
     def alias(self, ros_type: str) -> str:
         """The alias of a ROS type: its last part, or package_Name when that is taken."""
@@ -66,7 +67,7 @@ def architecture(snap: Snapshot, system: str) -> str:
         elif node.has_endpoints:
             _plain(b, node, taken)
     text = "\n".join([f"system {system}", ""] + [f"message {a} = {t}" for a, t in sorted(b.messages.items())]
-                     + [""] + b.blocks + _connectors(b))
+                     + [""] + _environment(b) + b.blocks + _connectors(b))
     try:
         return format_document(parse_text(text, "<discovered>"))
     except DiagnosticError:   # pragma: no cover - the text above is built to parse
@@ -93,6 +94,13 @@ def _modelled(b: _Build, node: NodeInfo, snap: Snapshot, taken: set[str]) -> Non
         live.insert(0, str(node.lifecycle))
     head = [f"// live: {', '.join(live)}"] if live else []
     b.blocks.append("\n".join(head) + "\n" + model[model.index("component "):])
+    for f in comp.functionalities:      # what no input of f can satisfy is the environment's
+        on_inputs = {p.message for p in comp.inputs if p.name in f.ports}
+        for a in (f.normal.assumptions if f.normal else ()):
+            if a.message and a.message not in on_inputs:
+                known = b.environment.get(a.message)
+                if known is None or (a.hz or 0) > (known.hz or 0):
+                    b.environment[a.message] = a
     guarantees = {g.port: g.predicate for f in comp.functionalities if f.normal for g in f.normal.guarantees}
     for port in comp.ports:
         for k in node.ports.get(port.name, []):
@@ -143,6 +151,16 @@ def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:
     b.blocks.append("\n".join([PLACEHOLDER + note, f"component {comp} {{", *lines,
                                f"  functionality main ({', '.join(ports)}) {{",
                                f"    normal {{ {normal} }}", f"    degraded {{ {degraded} }}", "  }", "}"]))
+
+
+def _environment(b: _Build) -> list[str]:
+    """An environment guarantee per message type a functionality assumes of no input: the graph
+    cannot show it, so it is written as what is assumed of it, a placeholder."""
+    out = []
+    for alias, p in sorted(b.environment.items()):
+        out.append(f"{PLACEHOLDER}{alias} is assumed of the environment: guaranteed here as assumed, not seen")
+        out.append(f"environment {alias.lower()}: {pred(p)}")
+    return out + ([""] if out else [])
 
 
 def _connectors(b: _Build) -> list[str]:

@@ -39,5 +39,7 @@ def drift_cmd(files: tuple[str, ...], exclude: tuple[str, ...], output_format: R
     human = f"[bold red]✗ drift[/]: {line}" if diags else f"[bold green]✓ in sync[/]: {line}"
     emit_report(formats.Report("drift", verdict, diags, cases, f"{verdict}: {line}"), output_format, sources,
                 lambda: report.document("drift", verdict, diags, system=system.name, files=list(system.files),
-                                        nodes=sorted(snap.nodes), settled=snap.settled), human)
+                                        nodes=sorted(snap.nodes), settled=snap.settled,
+                                        seconds={"settle": round(snap.settle_seconds, 3),
+                                                 "read": round(snap.seconds - snap.settle_seconds, 3)}), human)
     sys.exit(EXIT_UNSAFE if diags else EXIT_OK)

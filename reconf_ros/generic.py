@@ -56,6 +56,9 @@ def from_architecture(system: System, name: str) -> Component:
                                      if not g.predicate.is_nothing}
             hz = max((r.hz for r in gs.values() if r is not None), default=DEFAULT_HZ)
             callback = _publisher(list(gs)) if gs else None
+            for a in mode.assumptions:      # an environment's type (no port has it) is in the model too
+                if a.message in types:
+                    comp.message(a.message, types[a.message])
             if mode.kind == "normal":
                 fn.set_normal_mode(callback, rate=hz if gs else None, outputs=gs,
                                    assumes=[str(a) for a in mode.assumptions])

@@ -71,7 +71,8 @@ class Snapshot:
     topics: dict[str, list[str]] = field(default_factory=dict)
     namespace: str = ""
     settled: bool = True
-    seconds: float = 0.0
+    seconds: float = 0.0           # the whole reading, discovery included
+    settle_seconds: float = 0.0    # of which waiting for discovery to settle
 
     def publishers(self, topic: str) -> list[str]:
         return sorted(n.fqn for n in self.nodes.values() if topic in n.publishers)
@@ -114,8 +115,9 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
     try:
         progress(f"waiting for discovery to settle (at most {settle:g} s)…")
         settled = _settle(rt, settle)
+        t1 = time.monotonic()
         snap = _read(rt, progress)
-        snap.settled, snap.seconds = settled, time.monotonic() - t0
+        snap.settled, snap.seconds, snap.settle_seconds = settled, time.monotonic() - t0, t1 - t0
         return snap
     finally:
         rt.close()
