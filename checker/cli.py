@@ -22,7 +22,7 @@ from .config import Configuration
 from .planning import STRATEGIES
 from .inputs import exclude_option, expand, nothing_left, paths_argument
 from .progress import status
-from .recording_cli import bag_options, judge_bag
+from .recording_cli import bag_options, judge_bag, refuse_bag_options_alone
 from .report import OutputFormat, ReportFormat
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -62,6 +62,7 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     """
     from .engines import judge, judge_ftm
 
+    refuse_bag_options_alone(bag)
     age = report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
     system = load(expand(files, exclude) or nothing_left(files), sources)

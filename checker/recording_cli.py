@@ -14,7 +14,7 @@ from .command import Failure
 from .progress import status
 from .recording import RecordingVerdict, Unreadable, judge_recording
 
-__all__ = ["bag_options", "judge_bag"]
+__all__ = ["bag_options", "judge_bag", "refuse_bag_options_alone"]
 
 
 def bag_options(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -30,6 +30,16 @@ def bag_options(fn: Callable[..., Any]) -> Callable[..., Any]:
     )):
         fn = option(fn)
     return fn
+
+
+def refuse_bag_options_alone(bag: Optional[str]) -> None:
+    """--window and --tolerance without --bag are a usage error, not silently ignored."""
+    ctx = click.get_current_context(silent=True)
+    given = [f"--{name}" for name in ("window", "tolerance") if bag is None and ctx is not None and
+             ctx.get_parameter_source(name) not in (None, click.core.ParameterSource.DEFAULT)]
+    if given:
+        raise click.UsageError(f"{' and '.join(given)} {'is' if len(given) == 1 else 'are'} only read with "
+                               "--bag RECORDING")
 
 
 def judge_bag(system: System, bag: Optional[str], window: float, tolerance: float) -> Optional[RecordingVerdict]:
