@@ -124,9 +124,10 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
 
 
 def _settle(rt: Any, seconds: float) -> bool:
-    """Until one Fast DDS announcement period has passed and neither the nodes nor the topics'
-    endpoints have changed for GRAPH_QUIET s (the executor's rule, docs/executor.md), or `seconds`."""
-    from .executor import DISCOVERY_ROUND, GRAPH_QUIET
+    """Until one Fast DDS announcement period has passed, neither the nodes nor the topics'
+    endpoints have changed for GRAPH_QUIET s (the executor's rule, docs/executor.md), and every
+    node heard on /diagnostics is in the graph; or `seconds`."""
+    from .executor import DISCOVERY_ROUND, GRAPH_QUIET, STATUS_FRESH
     node = rt.node
     seen: list[Any] = [None, time.monotonic(), 0.0]     # signature, when it last changed, when last looked
 
@@ -136,7 +137,11 @@ def _settle(rt: Any, seconds: float) -> bool:
             return False
         seen[2] = now
         topics = node.get_topic_names_and_types()
-        sig = (frozenset(node.get_node_names_and_namespaces()),
+        nodes = frozenset(node.get_node_names_and_namespaces())
+        named = {f"{ns.rstrip('/')}/{n}" for n, ns in nodes}
+        if any(now - t <= STATUS_FRESH and fqn not in named for fqn, t in rt.heard.items()):
+            seen[1] = now      # a node heard on /diagnostics that the graph does not show yet
+        sig = (nodes,
                frozenset((t, tuple(ty), node.count_publishers(t), node.count_subscribers(t)) for t, ty in topics))
         if sig != seen[0]:
             seen[0], seen[1] = sig, now
@@ -177,8 +182,15 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
 
 def _read_reconf(rt: Any, snap: Snapshot) -> None:
     """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once."""
-    from .executor import StepFailed
-    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle])
+    from .executor import STATUS_FRESH, StepFailed
+    # a reconf node's own status (at least once a second) says its lifecycle: asking get_state
+    # too would make and match one more client per node (1.4 s for 100 nodes)
+    now = time.monotonic()
+    fresh = {f: rt.status(f) for f in snap.nodes if now - rt.heard.get(f, -STATUS_FRESH) <= STATUS_FRESH}
+    for fqn, st in fresh.items():
+        if snap.nodes[fqn].lifecycle and st and st.get("lifecycle"):
+            snap.nodes[fqn].lifecycle = st["lifecycle"]
+    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle and f not in fresh])
     for fqn, label in states.items():
         snap.nodes[fqn].lifecycle = "unresponsive" if isinstance(label, StepFailed) else label
     models = rt.get_many({f: [MODEL_PARAM] for f, n in snap.nodes.items() if n.model is not None})
