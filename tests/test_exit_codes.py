@@ -38,8 +38,12 @@ COMMANDS: dict[str, list[str]] = {
     "gate": ["gate", "--base", "{f}", "--head", "{g}"],
     "ftm expand": ["ftm", "expand", "{f}"],
     "ftm select": ["ftm", "select", "server", "-f", "{f}", "--no-alloy"],
+    "up": ["up", "{f}", "--no-alloy", "--dry-run"],
+    "down": ["down", "{f}", "--no-alloy", "--dry-run"],
+    "modes export": ["modes", "export", "{f}"],
 }
-JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "ftm select"}
+JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "ftm select", "up",
+        "down"}
 # commands that take no architecture: only the failures that apply to them
 OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"]}
 
@@ -100,9 +104,22 @@ def test_recover_without_a_run_report_is_2(path: str, said: str) -> None:
     ["check", "--engine", "python", SLOW],
     ["plan", "remove", "talker", "-f", SLOW, "--no-alloy"],
     ["gate", "--base", CHATTER, "--head", SLOW],
-], ids=["check", "plan", "gate"])
+    ["up", SLOW, "--no-alloy", "--dry-run"],
+    ["modes", "export", SLOW],
+], ids=["check", "plan", "gate", "up", "modes-export"])
 def test_unsafe_is_1(argv: list[str]) -> None:
     assert_clean(invoke(argv), 1)
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["check", "--engine", "python", CHATTER, "--bag", MISSING], "RC701"),
+    (["check", "--engine", "python", CHATTER, "--bag", BROKEN], "RC701"),
+    (["check", "--engine", "python", CHATTER, "--window", "2"], "--window is only read with --bag"),
+], ids=["missing", "not-a-recording", "window-alone"])
+def test_a_recording_that_cannot_be_read_is_2(argv: list[str], said: str) -> None:
+    r = invoke(argv)
+    assert_clean(r, 2)
+    assert said in r.stderr
 
 
 def test_a_file_to_reformat_is_1_for_fmt_check(tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -117,7 +134,9 @@ def test_a_file_to_reformat_is_1_for_fmt_check(tmp_path) -> None:  # type: ignor
     ["graph", CHATTER, "--format", "dot", "-o", "{out}"],
     ["plan", "replace", "talker", "-f", CHATTER, "--no-alloy", "-o", "{out}"],
     ["ftm", "expand", FTM, "-o", "{out}"],
-], ids=["alloy", "graph", "plan", "ftm-expand"])
+    ["up", CHATTER, "--no-alloy", "-o", "{out}"],
+    ["modes", "export", CHATTER, "-o", "{out}"],
+], ids=["alloy", "graph", "plan", "ftm-expand", "up", "modes-export"])
 @pytest.mark.parametrize("where", ["missing-dir", "parent-is-a-file"])
 def test_an_output_that_cannot_be_written_is_2_and_names_it(argv: list[str], where: str, tmp_path) -> None:  # type: ignore[no-untyped-def]
     if where == "missing-dir":
@@ -125,7 +144,7 @@ def test_an_output_that_cannot_be_written_is_2_and_names_it(argv: list[str], whe
     else:                                   # fails for root too, unlike a read-only directory
         (tmp_path / "file").write_text("x")
         out = str(tmp_path / "file" / "out.txt")
-    ext = {"alloy": ".als", "graph": ".dot", "plan": ".py", "ftm": ".arch"}[argv[0]]
+    ext = {"alloy": ".als", "graph": ".dot", "plan": ".py", "ftm": ".arch", "up": ".py", "modes": ".yaml"}[argv[0]]
     out = out.replace(".txt", ext)
     r = invoke([a.format(out=out) for a in argv])
     assert_clean(r, 2)
