@@ -29,7 +29,10 @@ def drift_cmd(files: tuple[str, ...], exclude: tuple[str, ...], output_format: R
     """Compare PATHs' deployed configuration with the running system: components missing or
     extra, attachments, message types, modes, publishers on single topics, lifecycle states."""
     system = load(expand(files, exclude) or nothing_left(files), sources)
-    snap = snapshot(namespace, settle, timeout, snapshot_in, snapshot_out)
+    ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
+    # the model's nodes are waited for, as a plan script waits for its plan's (docs/executor.md)
+    snap = snapshot(namespace, settle, timeout, snapshot_in, snapshot_out,
+                    frozenset(f"{ns}/{c.name}" for c in system.components))
     diags = drift(system, snap)
     verdict = "drift" if diags else "in sync"
     line = f"{system.name} — {plural(len(system.components), 'component')} against " \

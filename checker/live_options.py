@@ -34,7 +34,7 @@ def live_options(fn: F) -> F:
 
 
 def snapshot(namespace: str, settle: float, timeout: float, snapshot_in: Optional[str],
-             snapshot_out: Optional[str]) -> Snapshot:
+             snapshot_out: Optional[str], expect: frozenset[str] = frozenset()) -> Snapshot:
     """The live system (or a saved snapshot); RC602 when neither can be read."""
     def unavailable(why: str, where: str) -> Failure:
         return Failure([Diagnostic("RC602", Severity.ERROR, why, Span.unknown(where),
@@ -49,7 +49,7 @@ def snapshot(namespace: str, settle: float, timeout: float, snapshot_in: Optiona
     else:
         say = console()
         try:
-            snap = read_snapshot(namespace, settle, timeout, progress=lambda m: say.print(m))
+            snap = read_snapshot(namespace, settle, timeout, progress=lambda m: say.print(m), expect=expect)
         except RosUnavailable as e:
             raise unavailable(f"cannot read the live system: {e}", "<ros>") from None
         note = "" if snap.settled else f", discovery not settled within --settle {settle:g} s"

@@ -97,8 +97,9 @@ def _own_services(fqn: str, services: dict[str, list[str]]) -> dict[str, list[st
 
 
 def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.0,
-                  progress: Progress = lambda _: None) -> Snapshot:
-    """Wait for the graph to settle (bounded by `settle` s), then read every node of `namespace`.
+                  progress: Progress = lambda _: None, expect: frozenset[str] = frozenset()) -> Snapshot:
+    """Wait for the graph to settle (bounded by `settle` s; the nodes `expect`ed seen too, as the
+    executor waits for a plan's), then read every node of `namespace`.
     Raises RosUnavailable when rclpy is not installed or does not start."""
     try:
         from .executor import Runtime
@@ -114,7 +115,7 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
         raise RosUnavailable(f"ROS 2 did not start: {type(e).__name__}: {e}") from None
     try:
         progress(f"waiting for discovery to settle (at most {settle:g} s)…")
-        settled = _settle(rt, settle)
+        settled = _settle(rt, settle, expect)
         t1 = time.monotonic()
         snap = _read(rt, progress)
         snap.settled, snap.seconds, snap.settle_seconds = settled, time.monotonic() - t0, t1 - t0
@@ -123,7 +124,7 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
         rt.close()
 
 
-def _settle(rt: Any, seconds: float) -> bool:
+def _settle(rt: Any, seconds: float, expect: frozenset[str]) -> bool:
     """Until one Fast DDS announcement period has passed, neither the nodes nor the topics'
     endpoints have changed for GRAPH_QUIET s (the executor's rule, docs/executor.md), and every
     node heard on /diagnostics is in the graph; or `seconds`."""
@@ -139,7 +140,7 @@ def _settle(rt: Any, seconds: float) -> bool:
         topics = node.get_topic_names_and_types()
         nodes = frozenset(node.get_node_names_and_namespaces())
         named = {f"{ns.rstrip('/')}/{n}" for n, ns in nodes}
-        if any(now - t <= STATUS_FRESH and fqn not in named for fqn, t in rt.heard.items()):
+        if not expect <= named or any(now - t <= STATUS_FRESH and fqn not in named for fqn, t in rt.heard.items()):
             seen[1] = now      # a node heard on /diagnostics that the graph does not show yet
         sig = (nodes,
                frozenset((t, tuple(ty), node.count_publishers(t), node.count_subscribers(t)) for t, ty in topics))
