@@ -12,6 +12,7 @@ from reconf_dsl.span import Span
 from reconf_ros.graph import RosUnavailable, Snapshot, read_snapshot
 
 from .command import Failure, console, write_atomically
+from .report import plural
 
 F = Callable[..., Any]
 
@@ -53,7 +54,8 @@ def snapshot(namespace: str, settle: float, timeout: float, snapshot_in: Optiona
         except RosUnavailable as e:
             raise unavailable(f"cannot read the live system: {e}", "<ros>") from None
         note = "" if snap.settled else f", discovery not settled within --settle {settle:g} s"
-        say.print(f"read {len(snap.nodes)} nodes and {len(snap.topics)} topics in {snap.seconds:.1f} s{note}")
+        say.print(f"read {plural(len(snap.nodes), 'node')} and {plural(len(snap.topics), 'topic')} in "
+                  f"{snap.seconds:.1f} s{note}")
     if snapshot_out:
         write_atomically(snapshot_out, snap.to_json() + "\n")
     return snap

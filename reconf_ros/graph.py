@@ -176,7 +176,7 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
             info.lifecycle = "unresponsive"
         snap.nodes[fqn] = info
         info.model = "" if f"{fqn}/get_parameters" in servers else None    # asked below
-    progress(f"reading {len(snap.nodes)} nodes…")
+    progress(f"reading {len(snap.nodes)} node{'' if len(snap.nodes) == 1 else 's'}…")
     _read_reconf(rt, snap)
     return snap
 
