@@ -1,6 +1,8 @@
 """The README's examples run as written: every `reconf …` line of its fenced shell blocks (and
 every `$ reconf …` line of its other fenced blocks) is run through bash, as from the repository
 root, and must exit 0 with no traceback, or 1 where its comment says the example is unsafe.
+A block just after a `<!-- live: ... -->` line needs a running ROS 2 graph: the live test it
+names runs it (`tests/ros/test_live_readme.py`).
 
 The commands run in a scratch copy of the repository's examples/ (a git repository on branch
 `main`, for `git:main:…` revisions), so that the files they write (`-o plan.py`, `> x.arch`) and
@@ -20,6 +22,7 @@ import pytest
 from tests.examples_table import ROOT
 
 README = os.path.join(ROOT, "README.md")
+LIVE = "<!-- live:"
 TIMEOUT = 300   # seconds for one command: a hang fails, a slow shared machine does not
 
 # Commands that cannot run here, each with why. Keep this short.
@@ -34,6 +37,7 @@ class Example:
     line: int        # in README.md
     command: str     # as written, continuation lines joined
     unsafe: bool     # its comment says it is unsafe: exit 1 expected
+    live: bool = False   # in a block marked `<!-- live: ... -->`
 
     @property
     def id(self) -> str:
@@ -44,6 +48,7 @@ def examples(text: str) -> list[Example]:
     """Every reconf command line of the fenced blocks of `text`."""
     out: list[Example] = []
     fence: str | None = None
+    live = False
     lines = text.splitlines()
     i = 0
     while i < len(lines):
@@ -51,6 +56,7 @@ def examples(text: str) -> list[Example]:
         opened = re.match(r"^(```+)\s*(\w*)\s*$", line)
         if fence is None and opened:
             fence = opened.group(2) or "-"
+            live = i > 0 and lines[i - 1].startswith(LIVE)
         elif fence is not None and line.strip().startswith("```"):
             fence = None
         elif fence is not None:
@@ -62,7 +68,7 @@ def examples(text: str) -> list[Example]:
                     i += 1
                     command = command.rstrip()[:-1] + " " + lines[i].strip()
                 comment = command.split(" #", 1)[1] if " #" in command else ""
-                out.append(Example(first, command, bool(re.search(r"\bunsafe\b", comment))))
+                out.append(Example(first, command, bool(re.search(r"\bunsafe\b", comment)), live))
         i += 1
     return out
 
@@ -74,7 +80,8 @@ with open(README, encoding="utf-8") as _f:
 def test_the_readme_has_examples_of_every_command() -> None:
     said = {" ".join(e.command.split()[:2]) for e in EXAMPLES}
     for command in ("reconf check", "reconf alloy", "reconf verify-model", "reconf plan", "reconf fmt", "reconf graph",
-                    "reconf graph-plan", "reconf gate", "reconf ftm", "reconf recover"):
+                    "reconf graph-plan", "reconf gate", "reconf ftm", "reconf recover", "reconf up", "reconf down",
+                    "reconf discover", "reconf drift", "reconf modes"):
         assert command in said, command
     assert any(e.unsafe for e in EXAMPLES)
 
@@ -95,7 +102,7 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-@pytest.mark.parametrize("example", EXAMPLES, ids=lambda e: e.id)
+@pytest.mark.parametrize("example", [e for e in EXAMPLES if not e.live], ids=lambda e: e.id)
 def test_the_example_runs(example: Example, workdir: Path) -> None:
     for prefix, why in SKIP.items():
         if example.command.startswith(prefix):
