@@ -8,7 +8,10 @@ went to waiting for discovery to settle, and what came after. Then, on the large
 differences made on the live system, every kind of `reconf drift`: how many it finds, and
 whether it reports anything on the unchanged system.
 
-    python -m bench.bench_discover [--sizes 10,50,100] [--settle 15]
+    python -m bench.bench_discover [--sizes 10,50,100] [--settle 15] [--no-bag]
+
+It ends with `bench.bench_bag`: `reconf check --bag` on 1/4, 1/2 and 1 GiB recordings, wall
+time and peak memory (streaming: memory independent of the recording's length).
 """
 from __future__ import annotations
 
@@ -145,6 +148,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="10,50,100")
     ap.add_argument("--settle", type=float, default=15.0, help="--settle of discover and drift")
+    ap.add_argument("--no-bag", action="store_true", help="leave out the check of 1/4, 1/2 and 1 GiB recordings "
+                                                         "(bench.bench_bag) that ends the run")
     args = ap.parse_args(argv)
     sizes = [int(x) for x in args.sizes.split(",")]
     print("| components | nodes read | discover s | of which settling | after settling | drift s | "
@@ -176,6 +181,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"missed: {d['missed']}; reported codes: {dict(d['codes'])}")
     print("(wall time of the command, Python start-up included; `after settling`: reading every node and comparing, "
           "what is left once discovery has settled)")
+    if not args.no_bag:
+        from bench import bench_bag
+        print("\n`reconf check --bag` on recordings of growing length (bench.bench_bag):", flush=True)
+        return bench_bag.main([])
     return 0
 
 
