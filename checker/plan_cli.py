@@ -194,9 +194,8 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
         click.echo(json.dumps(doc, indent=2))
     else:
         show(label, p, evidence, output)
-    if apply is not None and not output:
-        sys.exit(apply(script_doc))
-    sys.exit(EXIT_CHANGES if detailed_exitcode and p.steps else EXIT_OK)
+    code = apply(script_doc) if apply is not None and not output else EXIT_OK
+    sys.exit(EXIT_CHANGES if code == EXIT_OK and detailed_exitcode and p.steps else code)
 
 
 def alloy_planned(p: Plan, max_steps: int) -> Plan:

@@ -1338,9 +1338,11 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     return ap
 
 
-def parse(doc: dict[str, Any], argv: Optional[list[str]]) -> argparse.Namespace:
-    """The script's arguments, checked (argparse exits with status 2 on bad ones)."""
-    ap = arguments(doc)
+def parse(doc: dict[str, Any], argv: Optional[list[str]],
+          ap: Optional[argparse.ArgumentParser] = None) -> argparse.Namespace:
+    """The script's arguments, checked (argparse exits with status 2 on bad ones; `reconf up`
+    passes a parser of `arguments(doc)` whose errors are its own)."""
+    ap = ap or arguments(doc)
     args = ap.parse_args(argv)
     steps = doc["plan"]["steps"]
     if not 1 <= args.from_step <= max(1, len(steps)):
