@@ -19,7 +19,7 @@ from ..test_readme import LIVE, README
 TIMEOUT = 120
 # What each command of the walkthrough must print (a value, not only an exit status).
 SHOWS = {
-    "reconf up": "reconf will bring chatter up in 6 steps",
+    "reconf up": "reconf will bring chatter up in 6 steps",           # and, the second time, is refused:
     "reconf discover": "wrote found.arch: 2 reconf nodes, 0 placeholders",
     "reconf check found.arch": "✓ safe: chatter — 2 components, 1 connector, 1 assumption, all hold",
     "reconf drift": "✓ in sync: chatter — 2 components against",           # and the test's status watcher
@@ -54,6 +54,8 @@ def test_the_readme_walkthrough_runs_on_a_live_graph(live: LiveSystem) -> None:
         said = f"README.md:{number}: {command}\n{out[-3000:]}"
         assert "Traceback" not in out, said
         assert done.returncode == (1 if re.search(r"exit 1\b", line) else 0), said
+        if command.startswith("reconf up") and done.returncode:
+            assert "does not match" in out, said
         for prefix, text in SHOWS.items():
             if command.startswith(prefix):
                 assert text in " ".join(out.split()), said
