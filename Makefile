@@ -22,8 +22,11 @@ demo: $(STAMP)
 	$(BIN)/reconf check examples/chatter.arch
 	$(BIN)/reconf check examples/chatter_slow.arch || echo "(exit $$?: unsafe, as expected for this variant)"
 
+# The tests that need no live ROS 2 graph run in two processes (the machine's two cores); the
+# live ones (marker `ros`) run alone, as their timing is real.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 -m "not ros"
+	$(BIN)/python -m pytest -m ros
 	$(BIN)/python -m mypy
 
 bench: $(STAMP)
