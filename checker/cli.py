@@ -88,6 +88,8 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     parts = [("start-up", age), ("parsing", parsed)] + judging
     if ftm_alloy is not None:
         parts.append(("FTM rules in Alloy", ftm_alloy["seconds"]))
+    if rec is not None:
+        parts.append(("reading the recording", rec.seconds))
     wall = time.perf_counter() - started
     timing = ("; " + rec.summary if rec else "") + "; " + report.timing_note(wall, parts, details)
     # the engines' note (`how`) is about the assumptions; the FTM rules' is said after them

@@ -14,7 +14,8 @@ NS = 1_000_000_000
 @dataclass(frozen=True)
 class Worst:
     """A topic's worst window: its rate (Hz) and start (s from the recording's start); `gap` when
-    it held no message after its start (the silence, s), `to_end` when the silence ran to the end."""
+    it held no message after its start (the silence, s, whose inverse is the rate), `to_end` when
+    the silence ran to the recording's end."""
 
     hz: float
     at: float
@@ -25,14 +26,16 @@ class Worst:
 class RateMeter:
     """One topic's worst window, fed its log times in order.
 
-    A window starts at each message, and at the recording's start; it spans `window_ns`. Its rate
-    is the number of message intervals in it over their time; when no message follows its start
-    within it, one over the silence up to the next message, or 0 when none comes before the
-    recording's end. A window that would end after the recording is not judged."""
+    A window starts at each message, and at `start_ns` when the recorder stated when it started
+    (`opened`; otherwise t counts from `start_ns` but the topic's first window is at its own first
+    message); it spans `window_ns`. Its rate is the number of message intervals in it over their
+    time; when no message follows its start within it, one over the silence: up to the next
+    message, or up to the recording's end. A window that would end after the recording is not
+    judged."""
 
-    def __init__(self, window_ns: int, start_ns: int) -> None:
+    def __init__(self, window_ns: int, start_ns: int, opened: bool = False) -> None:
         self.window, self.start = window_ns, start_ns
-        self.anchors: deque[tuple[int, int]] = deque([(start_ns, 0)])   # (start, messages up to it)
+        self.anchors: deque[tuple[int, int]] = deque([(start_ns, 0)] if opened else [])   # (start, messages up to it)
         self.n = 0
         self.last = start_ns
         self.worst: Optional[Worst] = None
@@ -65,6 +68,6 @@ class RateMeter:
         elif next_t is not None:
             w = Worst(NS / (next_t - a), at, gap=(next_t - a) / NS)
         else:
-            w = Worst(0.0, at, gap=(end - a) / NS, to_end=True)
+            w = Worst(NS / (end - a), at, gap=(end - a) / NS, to_end=True)    # as the start's silence
         if self.worst is None or w.hz < self.worst.hz:
             self.worst = w

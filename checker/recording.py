@@ -7,6 +7,7 @@ docs/recordings.md gives the computation and what a finding proves: a recording 
 which publisher sent a message, so a guarantee is judged on its topic's rate, all publishers."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
@@ -92,10 +93,16 @@ class RecordingVerdict:
     judgements: list[Judgement]
     summary: str
     doc: dict[str, Any]
+    seconds: float = 0.0      # reading and judging the recording
 
     @property
     def contradicted(self) -> bool:
         return any(d.is_error for d in self.diagnostics)
+
+    @property
+    def answered(self) -> bool:
+        """False when no promise was judged at all (RC706): a question not answered, not a pass."""
+        return any(j.verdict != "not judged" for j in self.judgements)
 
     def cases(self, system: str) -> list[CheckCase]:
         """One JUnit/SARIF case per promise judged."""
@@ -107,6 +114,7 @@ class RecordingVerdict:
 def judge_recording(system: System, path: str, window: float = 1.0, tolerance: float = 10.0) -> RecordingVerdict:
     """Judge `system`'s deployed promises against the recording at `path` (`Unreadable` when it
     cannot be read). A rate down to `tolerance` percent under the model's is taken as met."""
+    began = time.perf_counter()
     ps = promises(system)
     with open_recording(path) as rec:
         diags = _types_and_absences(system, rec)
@@ -114,18 +122,33 @@ def judge_recording(system: System, path: str, window: float = 1.0, tolerance: f
         named = {k.name for k in system.connectors if k.kind == "topic"}
         sources = [_sources(p, rec, named, wrong) for p in ps]
         judged = sorted({t for s in sources for t in s})
-        short = rec.messages == 0 or rec.end - rec.start < window * NS
+        short = rec.messages == 0 or rec.closed - rec.opened < window * NS
         worst = {} if short else _measure(rec, judged, window)
     js = [_judge(p, s, worst, window, tolerance, short, wrong) for p, s in zip(ps, sources)]
     out = [d for d, _ in diags]
     if short and any(j.promise.predicate.rate is not None for j in js):
         out.append(Diagnostic("RC705", Severity.WARNING,
-                              f"the recording lasts {(rec.end - rec.start) / NS:.2f} s, less than the {window:g} s "
+                              f"the recording lasts {(rec.closed - rec.opened) / NS:.2f} s, less than the {window:g} s "
                               "window: no rate is judged", Span.unknown(path),
                               notes=("record for longer, or judge over a shorter --window",)))
     out += [_absent(j) for j in js if j.verdict == "not judged" and not j.topics and j.promise.topics is None]
     out += [_contradiction(j, tolerance) for j in js if j.verdict == "contradicted" and j.worst is not None]
-    return _verdict(rec, out, js, judged, window, tolerance)
+    if not any(j.verdict != "not judged" for j in js):
+        out.append(_nothing_judged(rec, js))
+    verdict = _verdict(rec, out, js, judged, window, tolerance)
+    verdict.seconds = time.perf_counter() - began
+    return verdict
+
+
+def _nothing_judged(rec: Recording, js: list[Judgement]) -> Diagnostic:
+    held = ", ".join(sorted(rec.topics)[:8]) + (", …" if len(rec.topics) > 8 else "")
+    return Diagnostic("RC706", Severity.ERROR,
+                      f"the recording {rec.path} judged none of the model's {plural(len(js), 'promise')}: "
+                      "the question is not answered", Span.unknown(rec.path),
+                      notes=(f"the recording holds {held or 'no topic'}" if rec.messages or rec.topics
+                             else "the recording holds no message",
+                             "a modelled topic missing from it is RC704, a recording shorter than --window RC705: "
+                             "check the recording and the topics' names"))
 
 
 def _types_and_absences(system: System, rec: Recording) -> list[tuple[Diagnostic, str]]:
@@ -153,11 +176,13 @@ def _sources(p: Promise, rec: Recording, named: set[str], wrong: set[str]) -> tu
 
 
 def _measure(rec: Recording, topics: list[str], window: float) -> dict[str, Optional[Worst]]:
-    """Each topic's worst window, in one streaming pass over the recording."""
-    meters = {t: RateMeter(round(window * NS), rec.start) for t in topics}
+    """Each topic's worst window, in one streaming pass over the recording; a window at the
+    recording's start only where the recorder said when it started (a topic's first message
+    otherwise: recorders subscribe to topics one at a time)."""
+    meters = {t: RateMeter(round(window * NS), rec.opened, rec.bounds is not None) for t in topics}
     for topic, stamp in rec.stamps(topics):
         meters[topic].feed(stamp)
-    return {t: m.finish(rec.end) for t, m in meters.items()}
+    return {t: m.finish(rec.closed) for t, m in meters.items()}
 
 
 def _judge(p: Promise, topics: tuple[str, ...], worst: dict[str, Optional[Worst]], window: float,
@@ -180,9 +205,8 @@ def _judge(p: Promise, topics: tuple[str, ...], worst: dict[str, Optional[Worst]
 
 def _observed(topic: str, w: Worst, window: float) -> str:
     at = f"{w.at:.{1 if window >= 1 else 2 if window >= 0.1 else 3}f}"     # t as fine as the window
-    if w.to_end:
-        return f"{topic}: no message in the last {w.gap:.2f} s, from t = {at} s to the recording's end"
-    gap = f" (no message for {w.gap:.2f} s)" if w.gap is not None else ""
+    end = ", to the recording's end" if w.to_end else ""
+    gap = f" (no message for {w.gap:.2f} s{end})" if w.gap is not None else ""
     return f"{topic}: {hz_text(w.hz)} Hz over the worst {window:g} s window at t = {at} s{gap}"
 
 
@@ -230,7 +254,7 @@ def _verdict(rec: Recording, diags: list[Diagnostic], js: list[Judgement], judge
     bad = [j for j in rated if j.verdict == "contradicted"]
     types = sum(1 for d in diags if d.code == "RC703")
     messages = sum(rec.topics[t].count for t in judged)
-    seconds = (rec.end - rec.start) / NS
+    seconds = (rec.closed - rec.opened) / NS
     held = f"{len(bad)} contradicted" if bad else "all met"
     line = (f"recording {Path(rec.path).name}: {plural(len(judged), 'topic')}, {plural(messages, 'message')} over "
             f"{seconds:.1f} s judged against {plural(len(rated), 'rate')}, {held}")
@@ -241,6 +265,7 @@ def _verdict(rec: Recording, diags: list[Diagnostic], js: list[Judgement], judge
         line += f", {skipped} not judged"
     doc = {"path": rec.path, "storage": rec.storage, "window": window, "tolerance": tolerance,
            "seconds": round(seconds, 6), "messages": rec.messages,
+           "bounds": "recorder" if rec.bounds else "messages",
            "judged": {"topics": judged, "messages": messages, "seconds": round(seconds, 6)},
            "promises": [_judgement_json(j) for j in js]}
     return RecordingVerdict(diags, js, line, doc)

@@ -43,14 +43,18 @@ def refuse_bag_options_alone(bag: Optional[str]) -> None:
 
 
 def judge_bag(system: System, bag: Optional[str], window: float, tolerance: float) -> Optional[RecordingVerdict]:
-    """The recording's verdict, or None without --bag; an unreadable recording is RC701, exit 2."""
+    """The recording's verdict, or None without --bag; an unreadable recording is RC701, and one
+    that judged nothing RC706: exit 2, a question not answered."""
     if bag is None:
         return None
     try:
         with status(f"reading {bag}…"):
-            return judge_recording(system, bag, window, tolerance)
+            verdict = judge_recording(system, bag, window, tolerance)
     except Unreadable as e:
         raise Failure([Diagnostic("RC701", Severity.ERROR, f"cannot read the recording {bag}: {e}",
                                   Span.unknown(bag), notes=("a rosbag2 recording is a directory with "
                                                             "metadata.yaml, or a .db3 (sqlite3) or .mcap file",))]) \
             from None
+    if not verdict.answered:
+        raise Failure(verdict.diagnostics)
+    return verdict

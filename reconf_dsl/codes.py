@@ -147,6 +147,8 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC704", "recording-topic-absent", "warning, `check --bag`: a modelled topic (or an environment's stream) is not "
                                         "in the recording: not judged, not evidence either way"),
     ("RC705", "recording-too-short", "warning, `check --bag`: the recording is shorter than the window: no rate judged"),
+    ("RC706", "recording-nothing-judged", "`check --bag`: the recording judged none of the model's promises (every "
+                                          "one RC704 or RC705): not answered, exit 2"),
 ))
 BY_CODE: dict[str, Code] = {c.code: c for c in CODES}
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Optional, Sequence
 
 DATA = Path(__file__).resolve().parent / "data" / "bag"
 START = 1_700_000_000 * 10**9
@@ -42,14 +42,21 @@ def message(store: Any, msgtype: str, i: int) -> bytes:
     return bytes(store.serialize_cdr(msg, msgtype))
 
 
-def write(path: Path, topics: Iterable[tuple[str, str, list[int]]], storage: str = "sqlite3") -> Path:
-    """A recording at `path` (a directory) of each (topic, type, log times from START), in time order."""
+def write(path: Path, topics: Iterable[tuple[str, str, list[int]]], storage: str = "sqlite3",
+          bounds: Optional[tuple[int, int]] = None) -> Path:
+    """A recording at `path` (a directory) of each (topic, type, log times from START), in time order;
+    with `bounds` (ns from START), the recorder's start and stop in custom_data, as reconf_ros.record
+    writes them."""
     from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from checker.bag import STARTED, STOPPED
     from rosbags.typesys import Stores, get_typestore
     store = get_typestore(Stores.ROS2_JAZZY)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     events = []
     with Writer(path, version=9, storage_plugin=plugin) as w:
+        for key, t in zip((STARTED, STOPPED), bounds or ()):
+            w.set_custom_data(key, str(START + t))
         for name, msgtype, times in topics:
             conn = w.add_connection(name, msgtype, typestore=store)
             events += [(t, name, i, conn, msgtype) for i, t in enumerate(times)]
