@@ -20,7 +20,7 @@ import sys
 import time
 from typing import Any, Optional
 
-from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse
+from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse, tool_node
 from .launcher import Launcher
 
 __all__ = ["main", "serve"]
@@ -96,7 +96,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
     server.listen(4)
     server.settimeout(0.0)
     launcher = Launcher() if launch else None
-    rt = Runtime("manager", namespace, timeout, node_name="reconf_manager")   # rclpy ends it on SIGINT, SIGTERM
+    rt = Runtime("manager", namespace, timeout, node_name=tool_node("manager"))   # rclpy ends it on SIGINT, SIGTERM
     from rclpy.executors import ExternalShutdownException
     print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
           flush=True)

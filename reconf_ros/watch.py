@@ -16,7 +16,7 @@ from typing import Any, Optional
 
 import click
 
-from .executor import STATUS_PREFIX, parse_status
+from .executor import STATUS_PREFIX, parse_status, tool_node
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -29,7 +29,7 @@ def main(out: Optional[str], duration: float, quiet: bool) -> None:
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     rclpy.init()
-    node = rclpy.create_node(f"reconf_watch_{os.getpid()}")
+    node = rclpy.create_node(tool_node("watch"))
     latest: dict[str, dict[str, Any]] = {}
     stop = {"now": False}
 

@@ -48,6 +48,8 @@ CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to
 DISCOVERY_ROUND = 3.5
 GRAPH_QUIET = 1.0
 STATUS_FRESH = 2.5    # s a status counts as a sign of life (nodes repeat theirs every second)
+ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
+TOOL_PREFIX = "_reconf_"    # reconf's own nodes: hidden (a leading underscore), never a component
 RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -407,6 +409,28 @@ def one(answers: dict[str, Any], key: str) -> Any:
     return answer
 
 
+def tool_node(tool: str) -> str:
+    """The node name of one of reconf's own tools (a plan script's runtime, the manager, discover
+    and drift, the status watcher, the recorder): hidden, as ROS hides a name with a leading
+    underscore, so that no reader of the graph takes it for a component (docs/runtime.md#discover)."""
+    safe = "".join(ch if ch.isalnum() else "_" for ch in tool)
+    return f"{TOOL_PREFIX}{safe}_{os.getpid()}"
+
+
+def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, dict[str, str]],
+              claimed: Iterable[str] = ()) -> Optional[str]:
+    """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
+    is not `claimed` and declares no other component; else the one node of own's namespace whose
+    status declares the component (`declared`), a new version's `X_2` (docs/executor.md#names)."""
+    claimed = set(claimed)
+    if own in graph and own not in claimed and statuses.get(own, {}).get("component", declared) == declared:
+        return own
+    ns = own.rsplit("/", 1)[0]
+    found = [f for f, st in statuses.items() if st.get("component") == declared and f in graph
+             and f.rsplit("/", 1)[0] == ns and f not in claimed]
+    return found[0] if len(found) == 1 else None
+
+
 class Runtime:
     """The ROS side: lifecycle and parameter services of each component's node, the graph, and
     the nodes' statuses on /diagnostics."""
@@ -431,12 +455,12 @@ class Runtime:
         self.statuses: dict[str, dict[str, str]] = {}   # node fqn -> its last status
         self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
         rclpy.init()
-        safe = "".join(ch if ch.isalnum() else "_" for ch in name)
-        self.node = rclpy.create_node(node_name or f"reconf_plan_{safe}_{os.getpid()}",
-                                      namespace=self.namespace or None)
+        self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
         self.started_at = time.monotonic()               # discovery began here
         self.graph_seen: set[str] = set()
         self.graph_since = self.started_at                # the graph last changed here
+        self.endpoints_seen: Any = None                   # every topic's types and endpoint counts
+        self.endpoints_at = 0.0                           # when they were last counted
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
 
@@ -495,6 +519,24 @@ class Runtime:
         if nodes != self.graph_seen:
             self.graph_seen, self.graph_since = nodes, time.monotonic()
         return nodes
+
+    def settled(self, want: Callable[[set[str]], set[str]], endpoints: bool = False) -> bool:
+        """Whether discovery has caught up (docs/executor.md#discovery): one announcement period
+        and a margin since it began, the nodes `want(graph)` seen, and the graph unchanged for
+        GRAPH_QUIET s. With `endpoints` (for reading them), every topic's publishers and
+        subscribers unchanged too, and every node heard on /diagnostics in the graph itself."""
+        nodes, now = self.graph(), time.monotonic()
+        if endpoints:
+            if now - self.endpoints_at < ENDPOINTS_POLL:
+                return False
+            self.endpoints_at = now
+            sig = frozenset((t, tuple(ty), self.node.count_publishers(t), self.node.count_subscribers(t))
+                            for t, ty in self.node.get_topic_names_and_types())
+            shown = {f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()}
+            if sig != self.endpoints_seen or not nodes <= shown:
+                self.endpoints_seen, self.graph_since = sig, now
+        return want(nodes) <= nodes and now - self.started_at >= DISCOVERY_ROUND and \
+            now - self.graph_since >= GRAPH_QUIET
 
     def client(self, srv_type: Any, name: str) -> Any:
         if name not in self.clients:
@@ -569,7 +611,10 @@ class Runtime:
         out: dict[str, Any] = {}
         for fqn, names in wanted.items():
             r = res[f"{fqn}/get_parameters"]
-            out[fqn] = r if isinstance(r, StepFailed) else self.values(fqn, names, r)
+            try:
+                out[fqn] = r if isinstance(r, StepFailed) else self.values(fqn, names, r)
+            except StepFailed as e:     # this node's answer, not the others'
+                out[fqn] = e
         return out
 
     def lifecycle(self, fqn: str) -> str:
@@ -675,17 +720,16 @@ class Executor:
             if c in self.placed:
                 continue
             if self.is_version(c):
-                found = [mine[self.created_mark(c)]] if self.created_mark(c) in mine else []
-            elif self.fqn(c) in graph and self.fqn(c) not in claimed:
-                continue
+                found = mine.get(self.created_mark(c))
             else:
-                found = [fqn for fqn, st in self.rt.statuses.items() if st.get("component") == self.declared(c)
-                         and fqn in graph and fqn.rsplit("/", 1)[0] == ns and fqn not in claimed]
-                if not found and self.fqn(c) in claimed:
+                found = find_node(self.fqn(c), self.declared(c), graph, self.rt.statuses, claimed)
+                if found == self.fqn(c):
+                    continue
+                if found is None and self.fqn(c) in claimed:
                     self.placed[c] = f"{self.declared(c)}@elsewhere"    # its name is a new version's node
-            if len(found) == 1:
-                self.placed[c] = found[0].rsplit("/", 1)[1]
-                claimed.add(found[0])
+            if found is not None:
+                self.placed[c] = found.rsplit("/", 1)[1]
+                claimed.add(found)
 
     def fresh_name(self, comp: str) -> str:
         """A node name for a new version: its component's name if no node has it, else the first
@@ -768,13 +812,10 @@ class Executor:
         start a second one)."""
         expected = set(expected)
 
-        def quiet() -> bool:
-            nodes, now = self.rt.graph(), time.monotonic()
+        def want(nodes: set[str]) -> set[str]:
             self.locate(expected, nodes)
-            want = {self.fqn(c) for c in expected}
-            return want <= nodes and now - self.rt.started_at >= DISCOVERY_ROUND and \
-                now - self.rt.graph_since >= GRAPH_QUIET
-        self.rt.wait(quiet, seconds)
+            return {self.fqn(c) for c in expected}
+        self.rt.wait(lambda: self.rt.settled(want), seconds)
 
     # --- the wire ---
     def wait_status(self, comp: str, cond: Callable[[dict[str, str]], bool], seconds: float) -> bool:
