@@ -240,3 +240,18 @@ def test_the_committed_recordings_are_the_kit_s(tmp_path: Path) -> None:
     with Reader(out) as a, Reader(DATA / "six_seconds.mcap") as b:
         assert [(c.topic, t) for c, t, _ in a.messages()] == [(c.topic, t) for c, t, _ in b.messages()]
     shutil.rmtree(out)
+
+
+def test_the_recorder_refuses_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An existing OUT, or a parent that is not a directory: exit 2 with a message, nothing written
+    (tests/ros/test_live_record.py runs the recorder's live failures)."""
+    from reconf_ros import record
+    (tmp_path / "rec").mkdir()
+    assert record.main([str(tmp_path / "rec"), "--topic", "/chatter", "--duration", "1"]) == 2
+    assert capsys.readouterr().err == f"{tmp_path / 'rec'} exists: a recording is written to a new directory\n"
+    assert record.main([str(tmp_path / "no" / "rec"), "--topic", "/chatter", "--duration", "1"]) == 2
+    assert "is not a directory: the recording cannot be written there" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rec"] and not any((tmp_path / "rec").iterdir())
+    with pytest.raises(record.Refused, match=r"^the type no_pkg/msg/Nothing has no Python message class here "
+                                             r"\(ModuleNotFoundError: No module named 'no_pkg'\): install its package$"):
+        record.message_class("no_pkg/msg/Nothing")
