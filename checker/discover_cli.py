@@ -1,35 +1,31 @@
 """`reconf discover`: the running ROS 2 system as an `.arch` (docs/runtime.md#discover)."""
 from __future__ import annotations
 
+import re
 import sys
 from typing import Optional
 
 import click
 
-from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.loader import Sources, load_text
-from reconf_dsl.span import Span
 
 from . import report
 from .command import console, guarded, plural, write_atomically
-from .discover import PLACEHOLDER, architecture
+from .discover import architecture, placeholders
 from .live_options import live_options, snapshot
 
+SYSTEM_NAME = re.compile(r"[^\W\d]\w*")
 
-def placeholders(text: str, file: str) -> list[Diagnostic]:
-    """One RC601 warning per `// placeholder:` comment of `text`, at its line."""
-    out = []
-    for i, line in enumerate(text.splitlines(), 1):
-        col = line.find(PLACEHOLDER)
-        if col >= 0:
-            out.append(Diagnostic("RC601", Severity.WARNING, line[col + len(PLACEHOLDER):],
-                                  Span(file, i, col + 1, i, len(line) + 1)))
-    return out
+
+def system_name_option(ctx: click.Context, param: click.Parameter, value: Optional[str]) -> Optional[str]:
+    if value is not None and not SYSTEM_NAME.fullmatch(value):
+        raise click.BadParameter(f"{value!r} is not a system name (a letter or _, then letters, digits or _)")
+    return value
 
 
 @click.command("discover")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the .arch here instead of stdout")
-@click.option("--system", "system_name", metavar="NAME", help="the system's name (default: the namespace's, "
+@click.option("--system", "system_name", metavar="NAME", callback=system_name_option, help="the system's name (default: the namespace's, "
                                                                "else `discovered`)")
 @live_options
 @guarded("discover")

@@ -10,8 +10,8 @@ import click
 from reconf_dsl.loader import Sources, load
 
 from . import formats, report
-from .command import EXIT_OK, EXIT_UNSAFE, emit_report, format_option, guarded, plural
-from .drift import KINDS, drift
+from .command import EXIT_OK, EXIT_UNSAFE, console, emit_report, format_option, guarded, plural
+from .drift import KINDS, deployed, drift
 from .inputs import exclude_option, expand, nothing_left, paths_argument
 from .live_options import live_options, snapshot
 from .report import ReportFormat
@@ -29,11 +29,13 @@ def drift_cmd(files: tuple[str, ...], exclude: tuple[str, ...], output_format: R
     """Compare PATHs' deployed configuration with the running system: components missing or
     extra, attachments, message types, modes, publishers on single topics, lifecycle states."""
     system = load(expand(files, exclude) or nothing_left(files), sources)
-    ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
     # the model's nodes are waited for, as a plan script waits for its plan's (docs/executor.md)
     snap = snapshot(namespace, settle, timeout, snapshot_in, snapshot_out,
-                    frozenset(f"{ns}/{c.name}" for c in system.components))
+                    frozenset(c.name for c in system.components))
     diags = drift(system, snap)
+    _, notes = deployed(system)
+    for note in notes:
+        console().print(f"note: {note}")
     verdict = "drift" if diags else "in sync"
     line = f"{system.name} — {plural(len(system.components), 'component')} against " \
            f"{plural(len(snap.nodes), 'node')}: " + (plural(len(diags), "difference") if diags else "no difference")
@@ -42,7 +44,7 @@ def drift_cmd(files: tuple[str, ...], exclude: tuple[str, ...], output_format: R
     human = f"[bold red]✗ drift[/]: {line}" if diags else f"[bold green]✓ in sync[/]: {line}"
     emit_report(formats.Report("drift", verdict, diags, cases, f"{verdict}: {line}"), output_format, sources,
                 lambda: report.document("drift", verdict, diags, system=system.name, files=list(system.files),
-                                        nodes=sorted(snap.nodes), settled=snap.settled,
+                                        nodes=sorted(snap.nodes), settled=snap.settled, deployed_degraded=notes,
                                         seconds={"settle": round(snap.settle_seconds, 3),
                                                  "read": round(snap.seconds - snap.settle_seconds, 3)}), human)
     sys.exit(EXIT_UNSAFE if diags else EXIT_OK)

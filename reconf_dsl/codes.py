@@ -125,9 +125,11 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC613", "drift-attachment", "`reconf drift`: a port attached elsewhere than the model attaches it, not "
                                   "attached, or attached to a connector the model does not have"),
     ("RC614", "drift-message-type", "`reconf drift`: a topic carries another message type than its connector's"),
-    ("RC615", "drift-mode", "`reconf drift`: a functionality degraded live, normal in the deployed configuration"),
+    ("RC615", "drift-mode", "`reconf drift`: a functionality's mode live is not the deployed configuration's"),
     ("RC616", "drift-single-publishers", "`reconf drift`: several publishers on a `single` topic or a service"),
     ("RC617", "drift-lifecycle", "`reconf drift`: a component's node is not active (or does not answer)"),
+    ("RC618", "drift-model", "`reconf drift`: a component's node runs another model than the architecture's "
+                             "(its `reconf.model`: ports, message types, functionalities, modes' predicates)"),
     ("RC621", "smh-not-yaml", "`reconf modes import`: the model file is not YAML"),
     ("RC622", "smh-not-a-model", "`reconf modes import`: YAML, but not an SMH model file of ROS 2 system_modes (a "
                                  "part without modes, a first mode other than `__DEFAULT__`, a node mode without "

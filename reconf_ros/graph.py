@@ -8,23 +8,22 @@ status reader); `Snapshot` itself is plain data that `checker.drift` compares wi
 from __future__ import annotations
 
 import json
-import os
 import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable, Optional
 
-__all__ = ["MODEL_PARAM", "NodeInfo", "Snapshot", "read_snapshot", "RosUnavailable"]
+__all__ = ["MODEL_PARAM", "NodeInfo", "Snapshot", "read_snapshot", "RosUnavailable", "parse_model"]
 
 MODEL_PARAM = "reconf.model"     # a reconf node's component as .arch text (read-only string)
 # the middleware's and reconf's own topics, not the application's
 HIDDEN_TOPICS = frozenset({"/rosout", "/parameter_events", "/diagnostics"})
 HIDDEN_SUFFIXES = ("/transition_event",)
-# services every node (or every lifecycle node) has
-STANDARD_SERVICES = ("describe_parameters", "get_parameter_types", "get_parameters", "list_parameters",
+# services every node (or every lifecycle node) has: neither a server nor a client of one is the
+# application's (a tool asking /talker/get_parameters is not a part of the system)
+STANDARD_SERVICES = frozenset({"describe_parameters", "get_parameter_types", "get_parameters", "list_parameters",
                      "set_parameters", "set_parameters_atomically", "get_state", "change_state",
                      "get_available_states", "get_available_transitions", "get_transition_graph",
-                     "get_type_description")
-POLL = 0.1     # s between two looks at the graph while it settles
+                     "get_type_description"})
 
 Progress = Callable[[str], None]
 
@@ -49,6 +48,7 @@ class NodeInfo:
     modes: dict[str, str] = field(default_factory=dict)
     ports: dict[str, list[str]] = field(default_factory=dict)
     pid: Optional[int] = None
+    unanswered: str = ""                 # why a read of the node got no answer ("": every read was answered)
 
     @property
     def name(self) -> str:
@@ -82,27 +82,34 @@ class Snapshot:
 
     @staticmethod
     def from_json(text: str) -> "Snapshot":
+        """A snapshot saved by `to_json`; ValueError, saying what is wrong, for anything else."""
         doc = json.loads(text)
-        nodes = {k: NodeInfo(**v) for k, v in doc.pop("nodes").items()}
-        return Snapshot(nodes=nodes, **doc)
+        if not isinstance(doc, dict) or not isinstance(doc.get("nodes"), dict) or \
+                not all(isinstance(v, dict) for v in doc["nodes"].values()):
+            raise ValueError("not a snapshot (a JSON object with `nodes`, as --save-snapshot writes)")
+        try:
+            nodes = {k: NodeInfo(**v) for k, v in doc.pop("nodes").items()}
+            return Snapshot(nodes=nodes, **doc)
+        except TypeError as e:     # a field that is not a snapshot's
+            raise ValueError(f"not a snapshot as --save-snapshot writes: {e}") from None
 
 
 def hidden_topic(name: str) -> bool:
     return name in HIDDEN_TOPICS or name.endswith(HIDDEN_SUFFIXES)
 
 
-def _own_services(fqn: str, services: dict[str, list[str]]) -> dict[str, list[str]]:
-    standard = {f"{fqn}/{s}" for s in STANDARD_SERVICES}
-    return {s: t for s, t in services.items() if s not in standard}
+def _application(services: dict[str, list[str]]) -> dict[str, list[str]]:
+    """The services that are not every node's (any node's: clients of another's count too)."""
+    return {s: t for s, t in services.items() if s.rsplit("/", 1)[1] not in STANDARD_SERVICES}
 
 
 def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.0,
                   progress: Progress = lambda _: None, expect: frozenset[str] = frozenset()) -> Snapshot:
-    """Wait for the graph to settle (bounded by `settle` s; the nodes `expect`ed seen too, as the
-    executor waits for a plan's), then read every node of `namespace`.
+    """Wait for the graph to settle (bounded by `settle` s; the nodes of the components `expect`ed
+    seen too, as the executor waits for a plan's), then read every node of `namespace`.
     Raises RosUnavailable when rclpy is not installed or does not start."""
     try:
-        from .executor import Runtime
+        from .executor import Runtime, tool_node
     except ImportError as e:     # pragma: no cover - the executor is standard library only
         raise RosUnavailable(str(e)) from None
     import importlib.util
@@ -110,7 +117,7 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
         raise RosUnavailable("rclpy is not installed: pip install 'reconf[ros]'")
     t0 = time.monotonic()
     try:
-        rt = Runtime("discover", namespace, timeout, node_name=f"reconf_discover_{os.getpid()}")
+        rt = Runtime("discover", namespace, timeout, node_name=tool_node("discover"))
     except Exception as e:       # rclpy.init() or the node: the middleware did not start
         raise RosUnavailable(f"ROS 2 did not start: {type(e).__name__}: {e}") from None
     try:
@@ -125,29 +132,14 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
 
 
 def _settle(rt: Any, seconds: float, expect: frozenset[str]) -> bool:
-    """Until one Fast DDS announcement period has passed, neither the nodes nor the topics'
-    endpoints have changed for GRAPH_QUIET s (the executor's rule, docs/executor.md), and every
-    node heard on /diagnostics is in the graph; or `seconds`."""
-    from .executor import DISCOVERY_ROUND, GRAPH_QUIET, STATUS_FRESH
-    node = rt.node
-    seen: list[Any] = [None, time.monotonic(), 0.0]     # signature, when it last changed, when last looked
+    """The executor's rule (`Runtime.settled`, docs/executor.md#discovery), endpoints included, each
+    expected component's node found as the executor finds it (`find_node`); or `seconds`."""
+    from .executor import find_node
 
-    def quiet() -> bool:
-        now = time.monotonic()
-        if now - seen[2] < POLL:
-            return False
-        seen[2] = now
-        topics = node.get_topic_names_and_types()
-        nodes = frozenset(node.get_node_names_and_namespaces())
-        named = {f"{ns.rstrip('/')}/{n}" for n, ns in nodes}
-        if not expect <= named or any(now - t <= STATUS_FRESH and fqn not in named for fqn, t in rt.heard.items()):
-            seen[1] = now      # a node heard on /diagnostics that the graph does not show yet
-        sig = (nodes,
-               frozenset((t, tuple(ty), node.count_publishers(t), node.count_subscribers(t)) for t, ty in topics))
-        if sig != seen[0]:
-            seen[0], seen[1] = sig, now
-        return now - rt.started_at >= DISCOVERY_ROUND and now - seen[1] >= GRAPH_QUIET
-    return bool(rt.wait(quiet, seconds))
+    def want(nodes: set[str]) -> set[str]:
+        own = {c: f"{rt.namespace}/{c}" for c in expect}
+        return {find_node(fqn, c, nodes, rt.statuses) or fqn for c, fqn in own.items()}
+    return bool(rt.wait(lambda: rt.settled(want, endpoints=True), seconds))
 
 
 def _endpoints(pairs: Any) -> dict[str, list[str]]:
@@ -168,10 +160,10 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
             info.publishers = _endpoints(node.get_publisher_names_and_types_by_node(name, node_ns))
             info.subscribers = _endpoints(node.get_subscriber_names_and_types_by_node(name, node_ns))
             servers = _endpoints(node.get_service_names_and_types_by_node(name, node_ns))
-            info.clients = _own_services(fqn, _endpoints(node.get_client_names_and_types_by_node(name, node_ns)))
+            info.clients = _application(_endpoints(node.get_client_names_and_types_by_node(name, node_ns)))
         except Exception:     # the node left between the two reads
             continue
-        info.servers = _own_services(fqn, servers)
+        info.servers = _application(servers)
         if f"{fqn}/get_state" in servers:
             info.lifecycle = "unresponsive"
         snap.nodes[fqn] = info
@@ -182,24 +174,22 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
 
 
 def _read_reconf(rt: Any, snap: Snapshot) -> None:
-    """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once."""
-    from .executor import STATUS_FRESH, StepFailed
-    # a reconf node's own status (at least once a second) says its lifecycle: asking get_state
-    # too would make and match one more client per node (1.4 s for 100 nodes)
-    now = time.monotonic()
-    fresh = {f: rt.status(f) for f in snap.nodes if now - rt.heard.get(f, -STATUS_FRESH) <= STATUS_FRESH}
-    for fqn, st in fresh.items():
-        if snap.nodes[fqn].lifecycle and st and st.get("lifecycle"):
-            snap.nodes[fqn].lifecycle = st["lifecycle"]
-    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle and f not in fresh])
+    """Lifecycle states (get_state, as the executor's `observe`), models, then the reconf nodes'
+    modes and attachments, each all at once. A node that does not answer is marked so."""
+    from .executor import StepFailed
+    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle])
     for fqn, label in states.items():
         snap.nodes[fqn].lifecycle = "unresponsive" if isinstance(label, StepFailed) else label
+        if isinstance(label, StepFailed):
+            snap.nodes[fqn].unanswered = f"get_state: {label}"
     models = rt.get_many({f: [MODEL_PARAM] for f, n in snap.nodes.items() if n.model is not None})
     wanted: dict[str, list[str]] = {}
     for fqn, values in models.items():
         info = snap.nodes[fqn]
-        text = None if isinstance(values, StepFailed) else values.get(MODEL_PARAM)
-        info.model = text if text else None
+        if isinstance(values, StepFailed):       # a reconf node or not: nobody can say
+            info.model, info.unanswered = None, info.unanswered or f"{MODEL_PARAM}: {values}"
+            continue
+        info.model = values.get(MODEL_PARAM) or None
         if info.model:
             funcs, ports = model_names(info.model)
             wanted[fqn] = [f"reconf.mode.{f}" for f in funcs] + [f"reconf.port.{p}" for p in ports]
@@ -207,23 +197,32 @@ def _read_reconf(rt: Any, snap: Snapshot) -> None:
         info.component = status.get("component")
         info.pid = int(status["pid"]) if status.get("pid", "").isdigit() else None
     for fqn, values in rt.get_many(wanted).items():
-        if isinstance(values, StepFailed):
-            continue
         info = snap.nodes[fqn]
+        if isinstance(values, StepFailed):
+            info.unanswered = info.unanswered or f"reconf.mode.*, reconf.port.*: {values}"
+            continue
         info.modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
         info.ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
 
 
-def model_names(text: str) -> tuple[list[str], list[str]]:
-    """The functionalities and ports of the (first) component in a reconf.model text."""
+def parse_model(text: str, where: str = "<reconf.model>") -> Optional[tuple[Any, Any]]:
+    """A reconf.model text as (its document, its first component); None if it does not parse or
+    declares no component."""
     from reconf_dsl.diagnostics import DiagnosticError
     from reconf_dsl.ir import Component
     from reconf_dsl.parser import parse_text
     try:
-        doc = parse_text(text, "<reconf.model>")
+        doc = parse_text(text, where)
     except DiagnosticError:
-        return [], []
+        return None
     comp = next((it for it in doc.items if isinstance(it, Component)), None)
-    if comp is None:
+    return None if comp is None else (doc, comp)
+
+
+def model_names(text: str) -> tuple[list[str], list[str]]:
+    """The functionalities and ports of the (first) component in a reconf.model text."""
+    parsed = parse_model(text)
+    if parsed is None:
         return [], []
+    comp = parsed[1]
     return [f.name for f in comp.functionalities], [p.name for p in comp.ports]

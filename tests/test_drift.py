@@ -165,6 +165,132 @@ def test_a_plain_node_is_a_placeholder_component() -> None:
     assert chatter is not None and [str(r) for r in chatter.subscribers] == ["counter.chatter", "listener.in"]
 
 
+SLOW = str(ROOT / "examples" / "chatter_slow.arch")
+UNPUBLISHED = str(ROOT / "examples" / "chatter_unpublished.arch")
+
+
+def test_a_node_running_another_model_is_rc618_saying_what_differs() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/talker"].model = deployed(SLOW).nodes["/talker"].model
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC618", 7)
+    assert "functionality talk: the model has (out) normal {out: std_msgs/msg/String @ 10 Hz}" in d.message
+    assert "the node (out) normal {out: std_msgs/msg/String @ 5 Hz}" in d.message
+    snap.nodes["/talker"].model = "component talker {"      # not a model at all
+    [d] = drift(load([CHATTER]), snap)
+    assert d.code == "RC618" and "does not parse" in d.message
+
+
+def test_the_same_model_with_other_aliases_and_units_is_no_drift() -> None:
+    snap = deployed(CHATTER)
+    node = snap.nodes["/talker"]
+    node.model = (node.model or "").replace("String", "Text").replace("msg/Text", "msg/String") \
+        .replace("10 Hz", "100 ms")
+    assert "message Text = std_msgs/msg/String" in node.model and "Text @ 100 ms" in node.model
+    assert codes(CHATTER, snap) == []
+
+
+def test_a_node_that_does_not_answer_is_rc617_and_nothing_else() -> None:
+    snap = deployed(CHATTER)
+    node = snap.nodes["/listener"]
+    node.model, node.ports, node.modes = None, {}, {}
+    node.unanswered = "reconf.model: no answer from /listener/get_parameters within 5.0 s"
+    [d] = drift(load([CHATTER]), snap)
+    assert (d.code, d.span.line) == ("RC617", 30) and "does not answer (reconf.model: no answer" in d.message
+    text = architecture(snap, "chatter")
+    assert "// placeholder: node /listener did not answer (reconf.model: no answer" in text
+    load_text(text, "<discovered>")
+
+
+def test_drift_compares_with_what_reconf_up_brings_about() -> None:
+    snap = deployed(UNPUBLISHED)              # listen can only be degraded: nobody publishes /chatter
+    assert codes(UNPUBLISHED, snap) == [("RC615", 10)]
+    [d] = drift(load([UNPUBLISHED]), snap)
+    assert "is normal live; the deployed configuration has it degraded" in d.message
+    snap.nodes["/listener"].modes["listen"] = "degraded"
+    assert codes(UNPUBLISHED, snap) == []
+    from checker.drift import deployed as expected
+    _, notes = expected(load([UNPUBLISHED]))
+    assert notes == ["listener.listen is degraded as deployed: it assumes String @ 10 Hz, which cannot hold there"]
+
+
+def test_tool_nodes_and_clients_of_standard_services_are_not_the_application() -> None:
+    from reconf_ros.executor import tool_node
+    from reconf_ros.graph import _application
+    assert tool_node("watch").startswith("_reconf_watch_")          # hidden: the graph reader skips it
+    assert _application({"/talker/get_parameters": ["rcl_interfaces/srv/GetParameters"],
+                         "/listener/get_state": ["lifecycle_msgs/srv/GetState"],
+                         "/add": ["example_interfaces/srv/AddTwoInts"]}) == {
+        "/add": ["example_interfaces/srv/AddTwoInts"]}
+
+
+def test_a_namespaced_snapshot_is_compared_in_its_namespace() -> None:
+    snap = deployed(CHATTER)
+    snap.namespace = "/robot"
+    snap.nodes = {f"/robot{k}": n for k, n in snap.nodes.items()}
+    for n in snap.nodes.values():
+        n.fqn = f"/robot{n.fqn}"
+    assert codes(CHATTER, snap) == []
+    snap.nodes["/listener"] = snap.nodes.pop("/robot/listener")     # in another namespace: not this system's
+    snap.nodes["/listener"].component = None
+    assert ("RC611", 30) in codes(CHATTER, snap)
+
+
+SERVICE = """system adder
+message Sum = example_interfaces/srv/AddTwoInts
+component server {
+  output sum: Sum
+  functionality serve (sum) { normal { sum: Sum } degraded { sum: nothing } }
+}
+component client {
+  input ask: Sum
+  functionality use (ask) { normal { assume Sum } degraded { } }
+}
+service /add: Sum { server.sum -> client.ask }
+"""
+
+
+def test_services_plain_servers_count_as_publishers_and_their_type_is_compared(tmp_path: Path) -> None:
+    arch = tmp_path / "adder.arch"
+    arch.write_text(SERVICE)
+    srv = ["example_interfaces/srv/AddTwoInts"]
+    snap = Snapshot(nodes={"/server": NodeInfo("/server", servers={"/add": srv}),
+                           "/client": NodeInfo("/client", clients={"/add": srv})})
+    assert codes(str(arch), snap) == []
+    snap.nodes["/other"] = NodeInfo("/other", servers={"/add": srv})
+    assert sorted(c for c, _ in codes(str(arch), snap)) == ["RC612", "RC616"]
+    del snap.nodes["/other"]
+    snap.nodes["/server"].servers["/add"] = ["example_interfaces/srv/Trigger"]
+    snap.nodes["/client"].clients["/add"] = ["example_interfaces/srv/Trigger"]
+    assert [c for c, _ in codes(str(arch), snap)] == ["RC614"]
+    del snap.nodes["/server"]
+    text = architecture(snap, "adder")
+    assert "// placeholder: /add has clients and no server in the graph" in text
+
+
+def test_one_ros_type_one_alias_whoever_names_it_first() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/camera"] = NodeInfo("/camera", publishers={"/image": ["sensor_msgs/msg/Image"]})
+    talker = snap.nodes["/talker"]         # a model naming another type Image, one naming String Text
+    talker.model = (talker.model or "").replace("message String = std_msgs/msg/String",
+                                                "message Image = my_msgs/msg/Image").replace("String", "Image")
+    listener = snap.nodes["/listener"]
+    listener.model = (listener.model or "").replace("String", "Text")
+    snap.topics["/chatter"] = ["my_msgs/msg/Image"]
+    for n in (talker, listener):
+        for side in (n.publishers, n.subscribers):
+            if "/chatter" in side:
+                side["/chatter"] = ["my_msgs/msg/Image"]
+    listener.model = listener.model.replace("std_msgs/msg/Text", "my_msgs/msg/Image")
+    found = load_text(architecture(snap, "chatter"), "<discovered>")
+    types = {m.name: m.ros_type for m in found.messages}
+    assert sorted(types.values()) == ["my_msgs/msg/Image", "sensor_msgs/msg/Image"]       # one alias each
+    camera, listen = found.component("camera"), found.component("listener")
+    assert camera is not None and listen is not None
+    assert types[camera.ports[0].message] == "sensor_msgs/msg/Image"
+    assert types[listen.ports[0].message] == "my_msgs/msg/Image"
+
+
 def reconf(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "checker", *args], capture_output=True, text=True, cwd=ROOT)
 
@@ -213,3 +339,29 @@ def test_discover_writes_an_arch_check_accepts_with_a_warning_per_placeholder(tm
     check = reconf("check", "--engine", "python", str(out))
     assert check.returncode == 0, check.stderr
     assert reconf("fmt", "--check", str(out)).returncode == 0
+
+
+def test_bad_snapshots_names_and_options_are_refused_clearly(tmp_path: Path) -> None:
+    odd = tmp_path / "odd.json"
+    odd.write_text("[1]")
+    res = reconf("drift", CHATTER, "--snapshot", str(odd))
+    assert res.returncode == 2 and "is not a snapshot" in res.stderr and "pip install" not in res.stderr, res.stderr
+    snap = tmp_path / "snap.json"
+    snap.write_text(deployed(CHATTER).to_json())
+    res = reconf("drift", CHATTER, "--snapshot", str(snap), "--settle", "3")
+    assert res.returncode == 2 and "--settle: read the live system, not a --snapshot" in res.stderr, res.stderr
+    res = reconf("discover", "--snapshot", str(snap), "--system", "my sys")
+    assert res.returncode == 2 and "'my sys' is not a system name" in res.stderr, res.stderr
+
+
+def test_nothing_read_and_discovery_unsettled_is_not_an_answer(tmp_path: Path) -> None:
+    empty = tmp_path / "empty.json"
+    empty.write_text(Snapshot(settled=False).to_json())
+    res = reconf("drift", CHATTER, "--snapshot", str(empty))
+    assert res.returncode == 2 and "error[RC602]" in res.stderr, res.stderr
+    assert "discovery did not settle and saw no node" in res.stderr
+    other = Snapshot(settled=False, nodes={"/spy": NodeInfo("/spy", subscribers={"/chatter": [STRING]})})
+    empty.write_text(other.to_json())
+    res = reconf("drift", CHATTER, "--snapshot", str(empty))
+    assert res.returncode == 2 and "saw none of the model's 2 nodes" in res.stderr, res.stderr
+    assert "pip install" not in res.stderr      # a snapshot: nothing to install
