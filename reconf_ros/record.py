@@ -24,6 +24,8 @@ from typing import Any, Callable, Optional
 
 from checker.bag import STARTED, STOPPED
 
+from .executor import tool_node
+
 __all__ = ["main", "EXIT_OK", "EXIT_FAILED", "EXIT_INTERRUPTED"]
 
 EXIT_OK, EXIT_FAILED, EXIT_INTERRUPTED = 0, 2, 130
@@ -149,7 +151,7 @@ def record(out: Path, topics: list[str], duration: float, storage: str, wait: fl
     import rclpy
     from rclpy.signals import SignalHandlerOptions
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    node = rclpy.create_node(f"_reconf_record_{os.getpid()}")     # hidden: a tool of reconf's, not a component
+    node = rclpy.create_node(tool_node("record"))     # hidden: a tool of reconf's, not a component
     rec: Optional[Recorder] = None
     try:
         print(f"waiting for the publishers of {', '.join(topics)} (at most {wait:g} s)", flush=True)
