@@ -27,6 +27,16 @@ rt.set("/listener", "reconf.mode.listen", "degraded")
 rt.set("/listener", "reconf.port.in", ["/elsewhere"])
 rt.close()
 """
+# an operator's node asking the talker for its parameters (a client of a standard service, no
+# topic of the application): neither drift nor discover takes it for a part of the system
+OPERATOR = """
+import rclpy
+from rcl_interfaces.srv import GetParameters
+rclpy.init()
+node = rclpy.create_node("operator")
+node.create_client(GetParameters, "/talker/get_parameters")
+rclpy.spin(node)
+"""
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +45,7 @@ def system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[LiveSyste
     try:
         live.watch()
         procs = live.deploy(CHATTER, group=False)
+        live.start([sys.executable, "-c", OPERATOR], "operator.log")
         live.wait_ready(timeout=30)
         yield live, procs
     finally:
@@ -52,7 +63,9 @@ def test_drift_on_the_system_as_deployed_is_none(system: tuple[LiveSystem, list[
     assert res.returncode == 0, res.stdout + res.stderr
     doc = json.loads(res.stdout)
     assert doc["verdict"] == "in sync" and doc["diagnostics"] == [] and doc["settled"]
-    assert {"/talker", "/listener"} <= set(doc["nodes"])
+    assert {"/talker", "/listener", "/operator"} <= set(doc["nodes"])     # the operator read, not extra
+    assert not any(n.rsplit("/", 1)[1].startswith("_") for n in doc["nodes"])   # reconf's own: hidden
+    assert doc["seconds"]["settle"] >= 3.5 and "s waiting for discovery" in res.stderr, res.stderr
 
 
 def test_discover_writes_the_deployed_part_and_a_plain_node_with_placeholders(
@@ -77,6 +90,7 @@ def test_discover_writes_the_deployed_part_and_a_plain_node_with_placeholders(
         ("heard", "output", "Int32", None), ("chatter", "input", "String", counter.ports[1].assumption)]
     assert counter.ports[1].assumption is not None and counter.ports[1].assumption.rate is None
     text = out.read_text()
+    assert found.component("operator") is None and "get_parameters" not in text
     assert "// placeholder: node /counter has no reconf.model" in text
     assert res.stderr.count("warning[RC601]") == text.count("// placeholder:") == 2, res.stderr
 
