@@ -71,7 +71,7 @@ class Snapshot:
     topics: dict[str, list[str]] = field(default_factory=dict)
     namespace: str = ""
     settled: bool = True
-    seconds: float = 0.0           # the whole reading, discovery included
+    seconds: float = 0.0           # the whole reading, from the start of discovery (after rclpy.init)
     settle_seconds: float = 0.0    # of which waiting for discovery to settle
 
     def publishers(self, topic: str) -> list[str]:
@@ -115,11 +115,11 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
     import importlib.util
     if importlib.util.find_spec("rclpy") is None:
         raise RosUnavailable("rclpy is not installed: pip install 'reconf[ros]'")
-    t0 = time.monotonic()
     try:
         rt = Runtime("discover", namespace, timeout, node_name=tool_node("discover"))
     except Exception as e:       # rclpy.init() or the node: the middleware did not start
         raise RosUnavailable(f"ROS 2 did not start: {type(e).__name__}: {e}") from None
+    t0 = rt.started_at        # rclpy.init() and the node are not part of the reading
     try:
         progress(f"waiting for discovery to settle (at most {settle:g} s)…")
         settled = _settle(rt, settle, expect)
