@@ -115,7 +115,9 @@ def test_unsafe_is_1(argv: list[str]) -> None:
     (["check", "--engine", "python", CHATTER, "--bag", MISSING], "RC701"),
     (["check", "--engine", "python", CHATTER, "--bag", BROKEN], "RC701"),
     (["check", "--engine", "python", CHATTER, "--window", "2"], "--window is only read with --bag"),
-], ids=["missing", "not-a-recording", "window-alone"])
+    (["check", "--engine", "python", os.path.join(ROOT, "examples", "robot.arch"), "--bag",
+      os.path.join(ROOT, "examples", "recordings", "chatter")], "RC706"),          # none of robot's topics in it
+], ids=["missing", "not-a-recording", "window-alone", "judges-nothing"])
 def test_a_recording_that_cannot_be_read_is_2(argv: list[str], said: str) -> None:
     r = invoke(argv)
     assert_clean(r, 2)
