@@ -174,10 +174,17 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
 
 
 def _read_reconf(rt: Any, snap: Snapshot) -> None:
-    """Lifecycle states (get_state, as the executor's `observe`), models, then the reconf nodes'
-    modes and attachments, each all at once. A node that does not answer is marked so."""
-    from .executor import StepFailed
-    states = rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle])
+    """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once.
+    A node's lifecycle state is the one its own status last said, when that status is fresh (it
+    publishes one on every change and each second: docs/control-interface.md#status), and is
+    asked by get_state otherwise: at 100 nodes a round of get_state calls took 1.5-3 s. A node
+    that does not answer is marked so."""
+    from .executor import STATUS_FRESH, StepFailed
+    now = time.monotonic()
+    said = {f: st["lifecycle"] for f, st in rt.statuses.items()
+            if f in snap.nodes and "lifecycle" in st and now - rt.heard.get(f, 0.0) <= STATUS_FRESH}
+    states: dict[str, Any] = dict(said)
+    states.update(rt.lifecycles([f for f, n in snap.nodes.items() if n.lifecycle and f not in said]))
     for fqn, label in states.items():
         snap.nodes[fqn].lifecycle = "unresponsive" if isinstance(label, StepFailed) else label
         if isinstance(label, StepFailed):
