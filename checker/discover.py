@@ -27,6 +27,8 @@ from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 from reconf_ros.graph import NodeInfo, Snapshot, parse_model
 
+from .naming import unique
+
 __all__ = ["architecture", "placeholders", "PLACEHOLDER"]
 
 PLACEHOLDER = "// placeholder: "
@@ -158,11 +160,7 @@ def _renamed(comp: Component, names: dict[str, str]) -> Component:
 def _name(text: str, used: set[str]) -> str:
     base = re.sub(r"\W", "_", text.strip("/")) or "port"
     base = base if re.match(r"[^\W\d]", base) else f"p_{base}"
-    name, k = base, 2
-    while name in used:
-        name, k = f"{base}_{k}", k + 1
-    used.add(name)
-    return name
+    return unique(base, used)
 
 
 def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:

@@ -19,6 +19,7 @@ from reconf_dsl.ir import Component, Predicate, System
 
 from ..actions import Snapshot, catalogue, failing_assumptions, is_valid
 from ..config import Configuration, FuncId
+from ..naming import unique
 from ..planning.plan import Goal, settle
 from . import DEFAULT, DEGRADED, DEGRADED_VALUE, NORMAL_VALUE, PARAM
 
@@ -75,21 +76,21 @@ def export(system: System, degrade_unsafe: bool = False) -> SmhExport:
     taken: set[str] = set()
     default_origin = ("every functionality normal: the deployed configuration" if not base.degraded else
                       "the deployed configuration is unsafe: every functionality normal that can be")
-    modes = [SystemMode(_unique(DEFAULT, taken), base.degraded, default_origin, base.why),
-             SystemMode(_unique(DEGRADED, taken), _funcs(comps), "every functionality degraded (assumes nothing)")]
+    modes = [SystemMode(unique(DEFAULT, taken), base.degraded, default_origin, base.why),
+             SystemMode(unique(DEGRADED, taken), _funcs(comps), "every functionality degraded (assumes nothing)")]
     for c in comps:
         own = frozenset((c.name, f.name) for f in c.functionalities)
         names = ", ".join(f.name for f in c.functionalities)
-        modes.append(_forced(system, base, own, _unique(f"{DEGRADED}_{c.name}", taken),
+        modes.append(_forced(system, base, own, unique(f"{DEGRADED}_{c.name}", taken),
                              f"component {c.name} degraded ({names})"))
         if len(c.functionalities) > 1:
             for f in c.functionalities:
                 modes.append(_forced(system, base, frozenset({(c.name, f.name)}),
-                                     _unique(f"{DEGRADED}_{c.name}_{f.name}", taken), f"{c.name}.{f.name} degraded"))
+                                     unique(f"{DEGRADED}_{c.name}_{f.name}", taken), f"{c.name}.{f.name} degraded"))
     for m in modes:
         if not is_valid(system, Configuration(config.components, m.degraded, config.roles)):
             raise AssertionError(f"system mode {m.name} is not a valid configuration")
-    name = _unique(system.name, {c.name for c in comps})   # SMH systems and nodes share one namespace
+    name = unique(system.name, {c.name for c in comps})   # SMH systems and nodes share one namespace
     skipped = [c.name for c in system.components if not c.functionalities]
     groups = [_by_component(m.degraded) for m in modes]
     return SmhExport(name, comps, skipped, {c.name: _node_modes(c, groups) for c in comps}, modes)
@@ -123,16 +124,16 @@ def _node_modes(c: Component, groups: list[dict[str, frozenset[str]]]) -> list[N
     combination a system mode needs (named after its functionalities, in declaration order)."""
     order = [f.name for f in c.functionalities]
     taken: set[str] = set()
-    out = [NodeMode(_unique(DEFAULT, taken), frozenset()), NodeMode(_unique(DEGRADED, taken), frozenset(order))]
+    out = [NodeMode(unique(DEFAULT, taken), frozenset()), NodeMode(unique(DEGRADED, taken), frozenset(order))]
     if len(order) > 1:
-        out += [NodeMode(_unique(f"{DEGRADED}_{f}", taken), frozenset({f})) for f in order]
+        out += [NodeMode(unique(f"{DEGRADED}_{f}", taken), frozenset({f})) for f in order]
     seen = {n.degraded for n in out}
     for g in groups:                       # each system mode's degraded functionalities, by component
         mine = g.get(c.name, frozenset())
         if mine not in seen:
             seen.add(mine)
             label = "_".join(f for f in order if f in mine)
-            out.append(NodeMode(_unique(f"{DEGRADED}_{label}", taken), mine))
+            out.append(NodeMode(unique(f"{DEGRADED}_{label}", taken), mine))
     return out
 
 
@@ -141,16 +142,6 @@ def _by_component(degraded: frozenset[FuncId]) -> dict[str, frozenset[str]]:
     for c, f in degraded:
         out.setdefault(c, set()).add(f)
     return {c: frozenset(fs) for c, fs in out.items()}
-
-
-def _unique(name: str, taken: set[str]) -> str:
-    """`name`, or `name_2`, `name_3`… when taken; the result is taken from then on."""
-    out, n = name, 1
-    while out in taken:
-        n += 1
-        out = f"{name}_{n}"
-    taken.add(out)
-    return out
 
 
 # --- the YAML text -------------------------------------------------------------------------

@@ -13,6 +13,7 @@ import re
 
 from reconf_dsl.diagnostics import Diagnostic, warning
 
+from ..naming import unique
 from . import DEGRADED_VALUE, PARAM
 from .read import Model, Part, SystemMode
 
@@ -151,12 +152,7 @@ def _ident(name: str, taken: set[str]) -> str:
     out = name if _NAME.fullmatch(name) else re.sub(r"\W", "_", name)
     if not out or not _NAME.match(out):
         out = "n_" + out
-    base, n = out, 1
-    while out in taken:
-        n += 1
-        out = f"{base}_{n}"
-    taken.add(out)
-    return out
+    return unique(out, taken)
 
 
 def _stem(file: str) -> str:
