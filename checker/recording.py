@@ -13,13 +13,14 @@ from pathlib import Path
 from typing import Any, Optional
 
 from reconf_dsl.diagnostics import Diagnostic, Severity
-from reconf_dsl.ir import Predicate, System, format_number
+from reconf_dsl.ir import Predicate, System
 from reconf_dsl.span import Span
 
 from .bag import Recording, Unreadable, open_recording
 from .formats import CheckCase
 from .rates import NS, RateMeter, Worst
 from .report import plural, span_json
+from .semantics import rate_text
 
 __all__ = ["Promise", "promises", "Judgement", "RecordingVerdict", "judge_recording", "Unreadable"]
 
@@ -235,13 +236,6 @@ def _contradiction(j: Judgement, tolerance: float) -> Diagnostic:
     notes = (f"the recording contradicts the model: rates down to {tolerance:g}% under the model's are taken as met "
              "(--tolerance), as log times are the recorder's receive times",)
     return Diagnostic("RC702", Severity.ERROR, j.evidence, j.promise.span, notes=notes)
-
-
-def rate_text(p: Predicate) -> str:
-    """`10 Hz`, or `10 Hz (every 100 ms)` for a period."""
-    assert p.rate is not None
-    written = f"{format_number(p.rate.value)} {p.rate.unit}"
-    return written if p.rate.unit in ("Hz", "kHz", "MHz") else f"{format_number(p.rate.hz)} Hz (every {written})"
 
 
 def hz_text(hz: float) -> str:

@@ -32,10 +32,11 @@ def shortfall(p: Predicate, q: Predicate) -> Optional[str]:
         return f"wrong type: {p.message}, not {q.message}"
     if p.hz is None:
         return f"no rate is promised and {q} needs one"
-    return f"rate too low: {_rate(p)} < {_rate(q)}"
+    return f"rate too low: {rate_text(p)} < {rate_text(q)}"
 
 
-def _rate(p: Predicate) -> str:
+def rate_text(p: Predicate) -> str:
+    """`10 Hz`, or `10 Hz (every 100 ms)` for a period."""
     assert p.rate is not None
     text = str(p).split(" @ ", 1)[1]
     if p.rate.unit in ("Hz", "kHz", "MHz"):
