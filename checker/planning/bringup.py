@@ -13,8 +13,8 @@ from typing import Optional
 from reconf_dsl.ir import System
 
 from ..config import Configuration
-from .chain import Fallback, plan_with_fallback
-from .operations import solve
+from .chain import Fallback
+from .operations import plan_problem
 from .plan import Goal, Plan, Problem, settle
 
 __all__ = ["EMPTY", "up_problem", "up_state", "down_problem", "plan_up", "plan_down"]
@@ -44,13 +44,9 @@ def down_problem(system: System) -> Problem:
                    removed=[c.name for c in system.components])
 
 
-def _plan(problem: Problem, strategy: str, fallback: Optional[Fallback]) -> Plan:
-    return solve(problem, strategy) if fallback is None else plan_with_fallback(problem, strategy, fallback)
-
-
 def plan_up(system: System, strategy: str = "default", fallback: Optional[Fallback] = None) -> Plan:
-    return _plan(up_problem(system), strategy, fallback)
+    return plan_problem(up_problem(system), strategy, fallback)
 
 
 def plan_down(system: System, strategy: str = "default", fallback: Optional[Fallback] = None) -> Plan:
-    return _plan(down_problem(system), strategy, fallback)
+    return plan_problem(down_problem(system), strategy, fallback)

@@ -30,7 +30,7 @@ from .improve import cost, improve
 from .paper import paper_steps
 from .plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
 
-__all__ = ["STRATEGIES", "solve", "ready", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
+__all__ = ["STRATEGIES", "solve", "plan_problem", "ready", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
            "remove_problem"]
 
 STRATEGIES = ("default", "paper", "exhaustive")
@@ -134,7 +134,7 @@ def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
     return theirs, "the paper's order, improved, was less disruptive here and is kept"
 
 
-def _plan(problem: Problem, strategy: str, fallback: Optional[Fallback]) -> Plan:
+def plan_problem(problem: Problem, strategy: str, fallback: Optional[Fallback]) -> Plan:
     """`strategy` alone, or with `fallback` the next strategies when it fails (`chain`)."""
     if fallback is None:
         return solve(problem, strategy)
@@ -174,7 +174,7 @@ def replace_problem(system: System, old: str, new: Union[str, Component],
 def plan_replace(system: System, old: str, new: Union[str, Component], strategy: str = "default",
                  config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
     """Replace deployed `old` by the version `new` (see `replace_problem`)."""
-    return _plan(replace_problem(system, old, new, config), strategy, fallback)
+    return plan_problem(replace_problem(system, old, new, config), strategy, fallback)
 
 
 def remove_problem(system: System, component: str, config: Optional[Configuration] = None) -> Problem:
@@ -188,7 +188,7 @@ def remove_problem(system: System, component: str, config: Optional[Configuratio
 
 def plan_remove(system: System, component: str, strategy: str = "default",
                 config: Optional[Configuration] = None, fallback: Optional[Fallback] = None) -> Plan:
-    return _plan(remove_problem(system, component, config), strategy, fallback)
+    return plan_problem(remove_problem(system, component, config), strategy, fallback)
 
 
 def plan_add(system: System, component: str, strategy: str = "default", *, source: System,
@@ -206,7 +206,7 @@ def plan_add(system: System, component: str, strategy: str = "default", *, sourc
     system = dc_replace(system, versions=system.versions + (comp,), connectors=system.connectors + tuple(missing))
     start = _start(system, config)
     goal = Goal(start.components | {component}, start.roles | roles)
-    return _plan(Problem(system, start, goal, added=[component]), strategy, fallback)
+    return plan_problem(Problem(system, start, goal, added=[component]), strategy, fallback)
 
 
 def plan_migrate(old: System, new: System, strategy: str = "default",
@@ -249,7 +249,7 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
                         for r in conn.roles}
     goal = Goal(frozenset(comp_names.values()), frozenset(roles))
     renames = {v: k for k, v in {**comp_names, **conn_names}.items() if k != v}
-    return _plan(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),
+    return plan_problem(Problem(system, start, goal, replaced=replaced, removed=removed, added=added, renames=renames),
                  strategy, fallback)
 
 
