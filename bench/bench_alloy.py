@@ -11,7 +11,7 @@ of the bridge), alloy (render, parse and judge every slice: `alloy_verdict`), of
 solve (the analyzer's commands), and the number of slices (modules) judged.
 Table (b): for each shape and size, the system of bench_plan (seed 0, its hub with a
 version), the hub replaced with `plan_replace`, then the plan verified as `reconf plan`
-does, with `checker.alloy_plan.alloy_evidence`: the plan in windows of consecutive steps,
+does, with `checker.planning.alloy_verify.alloy_evidence`: the plan in windows of consecutive steps,
 each module on the slice its window can affect (lean first), then every other component
 judged once in the first state. Columns: plan time, Alloy time (JVM start excluded), of
 which the analyzer's commands, the windows, the largest window's slice (components and
@@ -38,7 +38,7 @@ CHECK_CHILD = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from reconf_dsl.loader import load
-from checker.config import Configuration
+from checker.model.config import Configuration
 from checker.alloy import AlloyBridge
 from checker.alloy.instance import alloy_verdict, slices
 system = load([sys.argv[1]])
@@ -56,7 +56,7 @@ import json, sys, time
 from bench.gen import hub_component
 from reconf_dsl.loader import load
 from checker.alloy import AlloyBridge
-from checker.alloy_plan import alloy_evidence
+from checker.planning.alloy_verify import alloy_evidence
 from checker.planning import plan_replace
 system = load([sys.argv[1]])
 shape, n = sys.argv[2], int(sys.argv[3])
@@ -95,7 +95,7 @@ def _cli_wall(path: str, timeout: float) -> tuple[float, str]:
     """Wall seconds of `reconf check --engine alloy` in a fresh process, and a note
     ("" when it exited 0 or 1)."""
     reconf = os.path.join(os.path.dirname(sys.executable), "reconf")
-    cmd = [reconf] if os.path.exists(reconf) else [sys.executable, "-m", "checker.cli"]
+    cmd = [reconf] if os.path.exists(reconf) else [sys.executable, "-m", "checker"]
     start = time.perf_counter()
     try:
         proc = subprocess.run(cmd + ["check", "--engine", "alloy", path], capture_output=True, text=True,

@@ -7,11 +7,11 @@ Figures (one process, after imports):
   parse    load the generated .arch text (N servers, N clients, 2 hosts)
   expand   `checker.ftm.expand.expand` (every FTM into its computation graph)
   rules    `checker.ftm.rules.ftm_diagnostics` (the RC4xx rules)
-  check    `checker.semantics.evaluate` on the expanded architecture
+  check    `checker.model.semantics.evaluate` on the expanded architecture
   plan     `checker.ftm.transition.plan_transition` for service 0 (planning, suspension, and the
            step-by-step verification every plan passes in the Python engine)
   alloy    the same plan verified in the Alloy Analyzer as `reconf plan transition` does
-           (`checker.alloy_plan.alloy_evidence`): every state of the slice the plan can affect
+           (`checker.planning.alloy_verify.alloy_evidence`): every state of the slice the plan can affect
            valid and lossless, every step an instance of its action, and every other component
            judged once in the first state; JVM start shown apart
   check wall  `reconf check FILE` in a fresh process: both engines, the FTM rules in Alloy too
@@ -25,12 +25,12 @@ from __future__ import annotations
 import argparse
 import time
 
-from checker.config import Configuration
+from checker.model.config import Configuration
 from checker.ftm.expand import expand
 from checker.ftm.library import compose
 from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.transition import parse_ftm, plan_transition
-from checker.semantics import evaluate
+from checker.model.semantics import evaluate
 from reconf_dsl.loader import load_text
 
 
@@ -61,7 +61,7 @@ def _cli_wall(text: str, to: str, args: tuple[str, ...] = ()) -> float:
     with tempfile.NamedTemporaryFile("w", suffix=".arch", delete=False) as f:
         f.write(text)
     reconf = os.path.join(os.path.dirname(sys.executable), "reconf")
-    cmd = [reconf] if os.path.exists(reconf) else [sys.executable, "-m", "checker.cli"]
+    cmd = [reconf] if os.path.exists(reconf) else [sys.executable, "-m", "checker"]
     try:
         start = time.perf_counter()
         line = [*args, f.name] if args else ["plan", "transition", "server0", to, "-f", f.name]
@@ -105,7 +105,7 @@ def main() -> None:
     checked = 0.0
     if not args.no_alloy:
         from checker.alloy import AlloyBridge
-        from checker.alloy_plan import alloy_evidence
+        from checker.planning.alloy_verify import alloy_evidence
         AlloyBridge.get()
         t6 = time.perf_counter()
         evidence = alloy_evidence(tr.plan)

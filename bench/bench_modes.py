@@ -16,7 +16,7 @@ import os
 import tempfile
 import time
 
-from checker.smh.export import export, render
+from checker.reality.smh.export import export, render
 from reconf_dsl.loader import Sources, load
 
 from .gen import SHAPES, generate

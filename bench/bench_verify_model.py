@@ -10,7 +10,7 @@ import os
 import sys
 import time
 
-from checker.verify_model import VerifyReport, verify_model
+from checker.alloy.verify_model import VerifyReport, verify_model
 
 TARGETS = {6: 30.0, 7: 120.0}   # seconds for every command of the meta-model
 

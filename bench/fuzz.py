@@ -168,7 +168,7 @@ def run(seed: int, count: int, tally: Tally, progress: Optional[Callable[[int], 
     """Run `count` mutants through the commands; count what breaks the contract."""
     from click.testing import CliRunner
 
-    from checker.cli import main
+    from checker.cli.main import main
     os.environ.pop("RECONF_DEBUG", None)
     runner = CliRunner()
     with tempfile.TemporaryDirectory() as tmp:

@@ -198,7 +198,7 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
                     focus: Any = None, index: "SliceIndex | None" = None,
                     keep: Any = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
-    (checker.config.Configuration); see `_render`.
+    (checker.model.config.Configuration); see `_render`.
 
     With `focus` (a set of component names), the module is the slice that judges only
     those components: `valid` holds in it exactly when every assumption of the focus's
@@ -372,7 +372,7 @@ def _render(system: Any, configs: Sequence[Any], module_name: str, plan: bool,
             binary: bool = False, protocols: list[tuple[str, str]] | None = None,
             handover: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
     """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
-    configurations (checker.config.Configuration).
+    configurations (checker.model.config.Configuration).
 
     Returns the text and a map from each atom name to what it stands for:
     ("component", c), ("port", c, p), ("functionality", c, f), ("connector", k),

@@ -31,7 +31,7 @@ from typing import Any, Optional
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
 from reconf_ros.executor import PlanStates
 
-__all__ = ["FORMAT_VERSION", "model_data", "plan_document", "render_plan_script", "system_at", "system_from_model_data",
+__all__ = ["FORMAT_VERSION", "model_data", "render_plan_script", "system_at", "system_from_model_data",
            "state_at"]
 
 FORMAT_VERSION = 2
@@ -80,12 +80,6 @@ def model_data(system: System) -> dict[str, Any]:
             + [_component(c, False) for c in system.versions],
             "connectors": [_connector(c) for c in system.connectors],
             "hosts": [h.name for h in system.hosts]}
-
-
-def plan_document(plan: Any, *, fingerprint: str, evidence: dict[str, Any]) -> dict[str, Any]:
-    """Assemble a plan document from a `checker.planning.Plan` and what the caller established."""
-    return {"format_version": FORMAT_VERSION, "system": plan.system.name, "fingerprint": fingerprint,
-            "evidence": evidence, "plan": plan.to_dict(), "model": model_data(plan.system)}
 
 
 def _dump(value: Any, depth: int = 0, expand: int = 3) -> str:

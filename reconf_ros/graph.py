@@ -3,7 +3,7 @@
 for reconf nodes their model (`reconf.model`), modes and attachments.
 
 ROS is imported only inside `read_snapshot`, through the executor's `Runtime` (its retries, its
-status reader); `Snapshot` itself is plain data that `checker.drift` compares without ROS.
+status reader); `Snapshot` itself is plain data that `checker.reality.drift` compares without ROS.
 """
 from __future__ import annotations
 

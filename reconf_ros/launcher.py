@@ -113,7 +113,7 @@ def serve(fd: int) -> int:
     import rclpy.executors  # noqa: F401
     import rclpy.lifecycle  # noqa: F401
     from . import component, generic, runner  # noqa: F401
-    from checker.report import render_text  # noqa: F401
+    from checker.reports.report import render_text  # noqa: F401
     from codegen.ros2 import system_at  # noqa: F401
     from reconf_dsl.loader import load  # noqa: F401
     conn = socket.socket(fileno=fd)

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from checker.bag import STARTED, STOPPED
+from checker.reality.bag import STARTED, STOPPED
 
 from .executor import tool_node
 

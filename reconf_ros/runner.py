@@ -127,7 +127,7 @@ def _from_plan(path: str, name: str) -> Component:
 
 
 def _load(path: str) -> "System":
-    from checker.report import render_text
+    from checker.reports.report import render_text
     from reconf_dsl.diagnostics import DiagnosticError
     from reconf_dsl.loader import Sources
     sources = Sources()

@@ -49,7 +49,7 @@ def write(path: Path, topics: Iterable[tuple[str, str, list[int]]], storage: str
     writes them."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
-    from checker.bag import STARTED, STOPPED
+    from checker.reality.bag import STARTED, STOPPED
     from rosbags.typesys import Stores, get_typestore
     store = get_typestore(Stores.ROS2_JAZZY)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3

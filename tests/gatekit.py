@@ -8,7 +8,7 @@ from typing import Union
 
 from click.testing import CliRunner
 
-from checker.cli import main
+from checker.cli.main import main
 
 
 def gate(*args: str, fmt: str = "json", engine: str = "python") -> tuple[int, str, str]:

@@ -7,8 +7,8 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
-from checker.actions import Upgrade, effect, preconditions
-from checker.config import Configuration
+from checker.model.actions import Upgrade, effect, preconditions
+from checker.model.config import Configuration
 from reconf_dsl import ir
 
 TYPES = ["M", "N", "sig"]

@@ -5,9 +5,9 @@ from __future__ import annotations
 from hypothesis import HealthCheck, given, settings
 
 from checker.alloy import alloy_verdict
-from checker.config import Configuration
-from checker.engines import python_failing
-from checker.semantics import evaluate
+from checker.model.config import Configuration
+from checker.alloy.engines import python_failing
+from checker.model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

@@ -7,9 +7,9 @@ import re
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.config import Configuration
-from checker.semantics import evaluate
+from checker.cli.main import main
+from checker.model.config import Configuration
+from checker.model.semantics import evaluate
 from reconf_dsl.loader import load, load_text
 from tests.examples_table import EXAMPLES, Example
 

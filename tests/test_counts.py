@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.report import agree, plural
+from checker.cli.main import main
+from reconf_dsl.words import agree, plural
 from reconf_dsl.loader import load
 from tests.examples_table import BY_NAME, ROOT
 
@@ -74,14 +74,14 @@ def test_duplex_on_too_few_hosts(tmp_path: Path) -> None:
 
 
 def _replay(states: int) -> str:
-    from codegen.ros2 import plan_document
+    from checker.reports.plan_document import plan_document
     from checker.planning import plan_migrate, plan_replace
     from reconf_ros.executor import replay
     system = load([CHATTER])
     plan = plan_replace(system, "talker", "talker_v2") if states > 1 else plan_migrate(system, system)
     assert len(plan.states) == states
     out = io.StringIO()
-    assert replay(plan_document(plan, fingerprint="f", evidence={}), out)
+    assert replay(plan_document("replace", plan.system, plan, {}, model=True), out)
     return out.getvalue()
 
 
@@ -99,7 +99,8 @@ def test_executor_plural() -> None:
 def test_verify_model_summary(rows: int, said: str) -> None:
     from rich.console import Console
 
-    from checker.verify_model import CommandRow, VerifyReport, _render_text
+    from checker.alloy.verify_model import CommandRow, VerifyReport
+    from checker.cli.verify_model import _render_text
     report = VerifyReport(3, "sat4j", [CommandRow(f"c{i}", "run", "3", "instance", "instance", True, 0.1, "sat4j",
                                                   bounds={"A": "<= 3"}) for i in range(rows)], wall=1.0)
     out = io.StringIO()

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from checker.discover import architecture
-from checker.drift import drift
+from checker.reality.discover import architecture
+from checker.reality.drift import drift
 from reconf_dsl.loader import load, load_text
 from reconf_ros.graph import NodeInfo, Snapshot
 from reconf_ros.model import components_to_arch
@@ -209,7 +209,7 @@ def test_drift_compares_with_what_reconf_up_brings_about() -> None:
     assert "is normal live; the deployed configuration has it degraded" in d.message
     snap.nodes["/listener"].modes["listen"] = "degraded"
     assert codes(UNPUBLISHED, snap) == []
-    from checker.drift import deployed as expected
+    from checker.reality.drift import deployed as expected
     _, notes = expected(load([UNPUBLISHED]))
     assert notes == ["listener.listen is degraded as deployed: it assumes String @ 10 Hz, which cannot hold there"]
 

@@ -11,7 +11,7 @@ import sys
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
+from checker.cli.main import main
 from tests.examples_table import BY_NAME
 
 HERE = os.path.dirname(os.path.abspath(__file__))

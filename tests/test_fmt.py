@@ -16,9 +16,9 @@ from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from checker.cli import main
-from checker.command import write_atomically
-from checker.inputs import expand
+from checker.cli.main import main
+from checker.cli.common import write_atomically
+from checker.cli.inputs import expand
 from reconf_dsl import ir
 from reconf_dsl.formatter import format_document
 from reconf_dsl.lexer import MASTER
@@ -482,11 +482,11 @@ def test_cli_fmt_a_file_it_cannot_write_is_bad_input(tmp_path: Path) -> None:
 
 def test_cli_fmt_a_write_that_fails_is_bad_input(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """As root can write anywhere, the failure is made to happen: a read-only file system."""
-    import checker.command
+    import checker.cli.common
 
     def refuse(path: str) -> tuple[int, str]:
         raise OSError(errno.EROFS, os.strerror(errno.EROFS), path)
-    monkeypatch.setattr(checker.command, "_create_beside", refuse)
+    monkeypatch.setattr(checker.cli.common, "_create_beside", refuse)
     src = _write(tmp_path / "x.arch", MESSY)
     other = _write(tmp_path / "y.arch", "system s\nmessage M std\n")
     r = _fmt_cli(str(src), str(other))

@@ -10,10 +10,10 @@ import jsonschema
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.formats import Report
-from checker.formats.github import escape_data, escape_property, to_github
-from checker.progress import enabled
+from checker.cli.main import main
+from checker.reports.formats import Report
+from checker.reports.formats.github import escape_data, escape_property, to_github
+from checker.reports.progress import enabled
 from reconf_dsl.diagnostics import Related, error
 from reconf_dsl.span import Span
 from tests.examples_table import BY_NAME, EXAMPLES, Example
@@ -147,7 +147,7 @@ def test_plan_pictures_per_step(tmp_path) -> None:
 
 
 def test_degraded_is_orange_in_a_step() -> None:
-    from checker.pictures import step_pictures
+    from checker.reports.pictures import step_pictures
     from checker.planning import plan_migrate
     from reconf_dsl.loader import load
     p = plan_migrate(load([BY_NAME["chatter"].file]), load([BY_NAME["redundant"].file]))

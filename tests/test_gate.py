@@ -11,12 +11,12 @@ import jsonschema
 import pytest
 
 from checker.ftm.library import LIBRARY
-from checker.policy import coverage, load_policy
+from checker.gate.policy import coverage, load_policy
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import FtmExpr
 from click.testing import CliRunner
 
-from checker.cli import main
+from checker.cli.main import main
 from tests.examples_table import BY_NAME, ROOT, path
 from tests.gatekit import gate, git
 from tests.test_formats import sarif_schema

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from bench.gen import generate
-from checker import gate_comment
-from checker.command import EXIT_CHANGES
+import checker.gate.comment as gate_comment
+from checker.cli.common import EXIT_CHANGES
 from tests.examples_table import BY_NAME
 from tests.gatekit import gate
 from tests.test_formats import validate_sarif
@@ -141,7 +141,7 @@ def mermaid_blocks(md: str) -> list[str]:
 
 
 def test_the_picture_shows_the_changed_neighbourhood_of_a_300_component_system(here, dag300) -> None:
-    from checker.pictures import plan_picture
+    from checker.reports.pictures import plan_picture
     from checker.planning import plan_migrate
     from codegen.graph import to_mermaid
     from reconf_dsl.loader import load
@@ -182,7 +182,7 @@ def test_neighbourhood_keeps_changed_components_their_topics_and_the_components_
 
 
 def test_the_comment_stays_under_githubs_limit_whatever_it_holds() -> None:
-    from checker.gate_comment import COMMENT_LIMIT, comment, failure_comment
+    from checker.gate.comment import COMMENT_LIMIT, comment, failure_comment
     from reconf_dsl.diagnostics import error
     from reconf_dsl.span import Span
     many = [error("RC201", "x" * 200, Span("a.arch", i + 1, 1, i + 1, 2)) for i in range(2_000)]

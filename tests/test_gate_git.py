@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from checker.gate import _CatFile, resolve, revisions
+from checker.gate.revisions import _CatFile, resolve, revisions
 from tests.gatekit import NODES, ROBOT, SPLIT, gate, git, write_tree
 from tests.test_formats import validate_sarif
 
@@ -128,9 +128,9 @@ def test_policy_from_a_revision(repo) -> None:
 
 
 def test_a_file_over_the_limit_is_refused_unread(repo, monkeypatch) -> None:
-    import checker.gate
+    import checker.gate.revisions
     from reconf_dsl.diagnostics import DiagnosticError
-    monkeypatch.setattr(checker.gate, "MAX_FILE_BYTES", 1024 * 1024)
+    monkeypatch.setattr(checker.gate.revisions, "MAX_FILE_BYTES", 1024 * 1024)
     tracemalloc.start()
     try:
         with revisions() as revs, pytest.raises(DiagnosticError) as e:

@@ -9,8 +9,8 @@ import xml.etree.ElementTree as ET
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.policy import load_policy, locate
+from checker.cli.main import main
+from checker.gate.policy import load_policy, locate
 from reconf_dsl.diagnostics import DiagnosticError
 from tests.examples_table import BY_NAME
 from tests.gatekit import gate
@@ -131,7 +131,7 @@ def test_reconf_toml_reads_both_places_and_refuses_a_key_given_twice(here) -> No
 
 
 def test_allow_unsafe_base_is_read() -> None:
-    from checker.policy import parse_policy
+    from checker.gate.policy import parse_policy
     assert parse_policy({"allow-unsafe-base": True}, "p.toml").allow_unsafe_base is True
     assert parse_policy({}, "p.toml").allow_unsafe_base is False
     assert parse_policy({}, "p.toml").to_json()["allow-unsafe-base"] is False

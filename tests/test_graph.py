@@ -10,11 +10,10 @@ from typing import Optional
 
 import pytest
 from click.testing import CliRunner
-
-from checker import pictures
-from checker.cli import main
-from checker.config import Configuration
-from checker.pictures import picture
+from checker.reports import pictures
+from checker.cli.main import main
+from checker.model.config import Configuration
+from checker.reports.pictures import picture
 from codegen.graph import GraphNode, Picture, to_dot, to_mermaid
 from reconf_dsl.loader import load
 from tests.examples_table import BY_NAME, EXAMPLES, ROOT, Example
@@ -105,7 +104,7 @@ def _picture_of(nodes: int) -> Picture:
 
 
 def test_the_limit_is_on_the_largest_picture(monkeypatch: pytest.MonkeyPatch) -> None:
-    from checker.command import Failure, draw
+    from checker.cli.common import Failure, draw
     monkeypatch.setattr(pictures, "to_svg", lambda dot: "<svg/>")
     limit = pictures.SVG_MAX_NODES
     assert draw([_picture_of(limit), _picture_of(3)], "svg") == "<svg/><svg/>"

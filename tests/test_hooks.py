@@ -13,8 +13,8 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.hooks import roots_of
+from checker.cli.main import main
+from checker.cli.hooks import roots_of
 from tests.examples_table import ROOT
 from tests.gatekit import MESSAGES, NODES, SPLIT, git, write_tree
 
@@ -76,7 +76,7 @@ def test_a_staged_include_that_breaks_its_system_fails_the_hook(repo) -> None:
 
 def test_roots_and_files_no_system_includes(repo, monkeypatch) -> None:
     monkeypatch.chdir(repo)
-    from checker.hooks import repository_files
+    from checker.cli.hooks import repository_files
     files = repository_files(str(repo))
     assert roots_of(["sys/common/messages.arch"], files) == (["sys/robot.arch"], [])
     assert roots_of(["sys/robot.arch", "sys/parts/nodes.arch"], files) == (["sys/robot.arch"], [])

@@ -40,7 +40,7 @@ def reconf(*args: str, cwd: Optional[Path] = None, stdin: Optional[int] = None, 
     """`reconf ARGS` in a fresh, memory-bounded process; `code` runs before the command line does."""
     environ = {k: v for k, v in os.environ.items() if k not in ("RECONF_ALLOW_INCLUDES_OUTSIDE", "RECONF_DEBUG")}
     environ.update({"NO_COLOR": "1", "PYTHONPATH": str(ROOT)}, **(env or {}))
-    program = f"{code}\nfrom checker.cli import main\nmain()"
+    program = f"{code}\nfrom checker.cli.main import main\nmain()"
     return subprocess.run([sys.executable, "-c", program, *args], cwd=cwd or ROOT, stdin=stdin, input=input,
                           capture_output=True, text=True, timeout=120, env=environ, preexec_fn=_bounded)
 

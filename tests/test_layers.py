@@ -1,5 +1,5 @@
 """Every module imports on its own: no import cycle, and no command module that works only
-when `checker.cli` has been imported first (commands share `checker.command`; `checker.cli`
+when `checker.cli.main` has been imported first (commands share `checker.cli.common`; `checker.cli.main`
 imports the commands to register them)."""
 from __future__ import annotations
 
@@ -38,8 +38,17 @@ def _modules() -> list[str]:
 
 def test_every_module_imports_alone() -> None:
     modules = _modules()
-    assert "checker.gate" in modules and "checker.plan_cli" in modules and "checker.command" in modules
+    assert "checker.gate.change" in modules and "checker.cli.plan" in modules and "checker.cli.common" in modules
     r = subprocess.run([sys.executable, "-c", SCRIPT, *modules], cwd=ROOT, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "", r.stdout
+
+
+def test_imports_keep_the_layers() -> None:
+    """The import contract of pyproject.toml ([tool.importlinter]; docs/architecture.md): each
+    layer of checker imports only from the layers below it, imports inside functions included."""
+    lint = Path(sys.executable).with_name("lint-imports")
+    r = subprocess.run([str(lint), "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "0 broken" in r.stdout and "3 kept" in r.stdout, r.stdout

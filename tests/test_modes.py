@@ -14,9 +14,9 @@ import pytest
 import yaml
 from click.testing import CliRunner, Result
 
-from checker.cli import main
-from checker.config import Configuration
-from checker.semantics import evaluate
+from checker.cli.main import main
+from checker.model.config import Configuration
+from checker.model.semantics import evaluate
 from reconf_dsl.loader import Sources, load
 from tests.examples_table import EXAMPLES, ROOT
 
@@ -199,7 +199,7 @@ def test_a_machine_report_needs_a_file_for_the_model() -> None:
 @pytest.mark.parametrize("arch", ALL, ids=lambda p: os.path.relpath(p, ROOT))
 def test_what_a_degradation_forces_is_settles_least_set(arch: str) -> None:
     from checker.planning.plan import Goal, settle
-    from checker.smh.export import export
+    from checker.reality.smh.export import export
     system = load([arch], Sources())
     exp = export(system, degrade_unsafe=True)
     base = exp.modes[0].degraded

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from checker.cli import main
-from checker.rates import RateMeter, Worst
+from checker.cli.main import main
+from checker.reality.rates import RateMeter, Worst
 from tests import bagkit
 
 DATA = bagkit.DATA

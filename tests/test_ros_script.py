@@ -1,5 +1,5 @@
 """ROS 2 plan scripts (`codegen.ros2`): they compile, pass pyflakes, are deterministic, and their
-`--dry-run` judges every state exactly as `checker.semantics.evaluate` does (differential test).
+`--dry-run` judges every state exactly as `checker.model.semantics.evaluate` does (differential test).
 Applying a plan is tested on real ROS 2 nodes in tests/ros.
 
 Golden scripts: `python -m tests.test_ros_script` rewrites tests/golden/ros2/ (see `golden_scripts`).
@@ -7,7 +7,6 @@ Golden scripts: `python -m tests.test_ros_script` rewrites tests/golden/ros2/ (s
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 import re
@@ -19,12 +18,13 @@ from typing import Any, Iterator, Optional
 
 import pytest
 
-from checker.actions import Action, Degrade, Detach, Upgrade
-from checker.config import Configuration
+from checker.model.actions import Action, Degrade, Detach, Upgrade
+from checker.model.config import Configuration
 from checker.planning import Plan, plan_replace
 from checker.planning.plan import Goal, run_actions
-from checker.semantics import evaluate
-from codegen.ros2 import FORMAT_VERSION, model_data, plan_document, render_plan_script
+from checker.model.semantics import evaluate
+from checker.reports.plan_document import plan_document
+from codegen.ros2 import FORMAT_VERSION, model_data, render_plan_script
 from reconf_dsl.ir import Predicate, Rate, System
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES, Example
@@ -33,10 +33,6 @@ ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "golden" / "ros2"
 CHATTER = ROOT / "examples" / "chatter.arch"
 ROBOT = ROOT / "examples" / "robot.arch"
-
-
-def fingerprint(path: Path) -> str:
-    return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def chatter_plan(strategy: str) -> Plan:
@@ -60,8 +56,9 @@ CASES = {"chatter_paper": (CHATTER, lambda: chatter_plan("paper")),
 def case_doc(name: str) -> tuple[Plan, dict[str, Any]]:
     source, make = CASES[name]
     plan = make()
-    doc = plan_document(plan, fingerprint=fingerprint(source),
-                        evidence={"python_engine": f"all {len(plan.states)} states valid"})
+    label = "replace talker" if name.startswith("chatter") else "replace motor_controller"
+    doc = plan_document(label, load([str(source)]), plan,
+                        {"python_engine": f"all {len(plan.states)} states valid"}, model=True)
     return plan, doc
 
 
@@ -150,7 +147,7 @@ def test_golden(name: str) -> None:
     assert render_plan_script(case_doc(name)[1]) == expected, "run `python -m tests.test_ros_script` and review"
 
 
-# --- dry run: differential against checker.semantics ---------------------------------------
+# --- dry run: differential against checker.model.semantics ---------------------------------------
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_dry_run_agrees_with_engine(name: str, tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES, SOLVER_TABLE
-from checker.cli import main
+from checker.cli.main import main
 from tests.examples_table import BY_NAME, ROOT
 
 
@@ -58,7 +58,7 @@ def test_an_unknown_solver_is_a_usage_error_naming_the_choices(args: list[str]) 
 
 
 def test_solver_names_are_not_case_sensitive() -> None:
-    from checker.verify_model import verify_model_cmd
+    from checker.cli.verify_model import verify_model_cmd
     opt = next(p for p in verify_model_cmd.params if p.name == "solver")
     assert opt.type.convert("Glucose", opt, None) == "glucose"   # type: ignore[union-attr]
 

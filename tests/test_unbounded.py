@@ -9,13 +9,12 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
-
-from checker import unbounded
-from checker.actions import (Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue,
+from checker.model import unbounded
+from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue,
                              effect, is_valid, preconditions)
-from checker.config import Configuration
-from checker.cli import main
-from checker.unbounded import ASSERTIONS, WEAKENINGS, prove, satisfiable
+from checker.model.config import Configuration
+from checker.cli.main import main
+from checker.model.unbounded import ASSERTIONS, WEAKENINGS, prove, satisfiable
 from reconf_dsl.ir import NOTHING, Predicate, System, satisfies
 from reconf_dsl.loader import load
 from tests.examples_table import BY_NAME
@@ -116,7 +115,7 @@ def test_the_command_without_z3_exits_2(monkeypatch: pytest.MonkeyPatch) -> None
 # --- the encoding is the engine's semantics ---------------------------------------------
 # An architecture and a configuration become a finite structure for the encoding's symbols
 # (closed, distinct domains; every relation and function fixed); z3's reading of validity and
-# of each action's preconditions there is held to the verdicts of checker.actions.
+# of each action's preconditions there is held to the verdicts of checker.model.actions.
 
 class _Structure:
     def __init__(self, system: System, config: Configuration) -> None:
@@ -217,7 +216,7 @@ def _candidates(system: System, config: Configuration) -> list[Action]:
     return out
 
 
-# What checker.actions asks beyond the encoding's preconditions (each makes it safer still):
+# What checker.model.actions asks beyond the encoding's preconditions (each makes it safer still):
 # one publisher on a `single` connector, a present component for a detached port, and for an
 # upgrade that rule (iii) holds, which the DSL already checks. None weakens what is proved.
 EXTRAS = ("takes a single publisher", "is not in the system", "rule iii")

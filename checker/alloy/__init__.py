@@ -3,13 +3,13 @@
     from checker.alloy import AlloyBridge
     outcomes = AlloyBridge.get().run({"main.als": text}, "main.als")
 """
-from .bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
-from .errors import AlloyError, AlloyTimeout, AlloyUnavailable
-from .instance import AlloyPlanVerdict, AlloyVerdict, alloy_plan_verdict, alloy_verdict
-from .jvm import find_jar, find_jvm
-from .metamodel import metamodel_modules
-from .spans import dsl_span_for
-from .worker import run_with_timeout
+from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
+from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
+from checker.alloy.instance import AlloyPlanVerdict, AlloyVerdict, alloy_plan_verdict, alloy_verdict
+from checker.alloy.jvm import find_jar, find_jvm
+from checker.alloy.metamodel import metamodel_modules
+from checker.alloy.spans import dsl_span_for
+from checker.alloy.worker import run_with_timeout
 
 __all__ = [
     "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend", "dsl_span_for",

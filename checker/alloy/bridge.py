@@ -11,9 +11,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, NamedTuple, Protocol
 
-from .errors import AlloyError, AlloyUnavailable
-from .jvm import ensure_jvm
-from .split import Split, skeleton_key, split_module
+from checker.alloy.errors import AlloyError, AlloyUnavailable
+from checker.alloy.jvm import ensure_jvm
+from checker.alloy.split import Split, skeleton_key, split_module
 
 VFS = "/alloyvfs/"
 # parsed skeletons kept for the next modules (a plan's windows share one, a check's slices another)

@@ -5,10 +5,10 @@ import time
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from .bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
-from .errors import AlloyError
-from .parallel import Job, helper_for, judge, judge_many
-from .spans import with_span
+from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
+from checker.alloy.errors import AlloyError
+from checker.alloy.parallel import Job, helper_for, judge, judge_many
+from checker.alloy.spans import with_span
 
 MAIN = "instance.als"
 
@@ -69,10 +69,10 @@ def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> lis
 def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
                   bridge: AlloyBridge | None = None, slice_size: int = SLICE,
                   only: Any = None, keep: Any = None) -> AlloyVerdict:
-    """Judge `config` (checker.config.Configuration) of `system` (reconf_dsl.ir.System)
+    """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
     in Alloy, through instance modules rendered from the shared semantics. With `only` (a
     set of component names), judge the assumptions of those components alone. `keep`
-    (checker.semantics.witnesses) lets a slice show a wide connector's witness alone; a
+    (checker.model.semantics.witnesses) lets a slice show a wide connector's witness alone; a
     slice that is not valid so is judged again with every publisher."""
     from codegen.alloy import render_instance, slice_index
 

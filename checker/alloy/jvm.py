@@ -7,7 +7,7 @@ import re
 import threading
 from pathlib import Path
 
-from .errors import AlloyUnavailable
+from checker.alloy.errors import AlloyUnavailable
 
 JAR_ENV = "RECONF_ALLOY_JAR"
 HEAP_ENV = "RECONF_ALLOY_XMX"

@@ -71,7 +71,7 @@ def _claim(batch: Any, counter: Any, mine: int, size: int) -> int:
 def _serve(jobs: Any, results: Any, batch: Any, counter: Any, solver: str) -> None:
     """The helper: start an analyzer, then judge modules of each batch it is sent."""
     try:
-        from .bridge import AlloyBridge
+        from checker.alloy.bridge import AlloyBridge
         bridge = AlloyBridge.get()
     except BaseException:  # noqa: BLE001 - the main process judges what the helper does not
         return
@@ -174,7 +174,7 @@ def judge_many(work: list[Job], solver: str, bridge: Any = None,
     many modules the helper took. `on_error(i, err)` gives the exception to raise for an
     error in module i."""
     helper = helper_for(len(work), solver, minimum) if bridge is None else None
-    from .bridge import AlloyBridge
+    from checker.alloy.bridge import AlloyBridge
     bridge = bridge or AlloyBridge.get()
 
     def mine(i: int) -> Judged:

@@ -14,7 +14,7 @@ from typing import Any, Mapping, Optional
 
 from reconf_dsl.span import Span
 
-from .errors import AlloyError
+from checker.alloy.errors import AlloyError
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 

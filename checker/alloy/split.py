@@ -23,7 +23,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from .spans import IDENTIFIER
+from checker.alloy.spans import IDENTIFIER
 
 _ONE_SIG = re.compile(r"^one sig ([\w, ]+?) extends (\w+) \{\}$", re.M)
 # a top-level fun or pred without parameters, as the templates write them

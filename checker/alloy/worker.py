@@ -9,14 +9,14 @@ import multiprocessing as mp
 import queue
 from typing import Any, Mapping, Sequence
 
-from .bridge import DEFAULT_SOLVER, CommandOutcome
-from .errors import AlloyError, AlloyTimeout, AlloyUnavailable
+from checker.alloy.bridge import DEFAULT_SOLVER, CommandOutcome
+from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
 
 
 def _work(out: Any, modules: dict[str, str], main: str, command: str | None, solver: str,
           evals: Sequence[str]) -> None:
     try:
-        from .bridge import AlloyBridge
+        from checker.alloy.bridge import AlloyBridge
 
         outcomes = AlloyBridge.get().run(modules, main, command, solver)
         for o in outcomes:

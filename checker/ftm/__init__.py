@@ -28,11 +28,11 @@ The encoding, in one place:
 
 See docs/ftm.md.
 """
-from .expand import expand, expand_component, to_text
-from .library import LIBRARY, Composition, all_compositions, compose
-from .rules import ftm_diagnostics
-from .select import profile, select
-from .transition import plan_ftm_migrate, plan_transition
+from checker.ftm.expand import expand, expand_component, to_text
+from checker.ftm.library import LIBRARY, Composition, all_compositions, compose
+from checker.ftm.rules import ftm_diagnostics
+from checker.ftm.select import profile, select
+from checker.ftm.transition import plan_ftm_migrate, plan_transition
 
 __all__ = ["LIBRARY", "Composition", "all_compositions", "compose", "expand", "expand_component", "to_text",
            "ftm_diagnostics", "profile", "select", "plan_transition", "plan_ftm_migrate"]

@@ -12,8 +12,8 @@ from typing import Optional
 
 from reconf_dsl import ir
 
-from .library import LIBRARY, Composition, all_compositions, compose, layers
-from .select import Profile, profile
+from checker.ftm.library import LIBRARY, Composition, all_compositions, compose, layers
+from checker.ftm.select import Profile, profile
 
 __all__ = ["ftm_rules_text", "instance_text", "AlloyFtmVerdict", "alloy_ftm_verdict", "alloy_profiles"]
 

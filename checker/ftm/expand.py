@@ -39,7 +39,7 @@ from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError, error
 from reconf_dsl.span import NO_SPAN, Span
 
-from .library import Composition, compose, roles
+from checker.ftm.library import Composition, compose, roles
 
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
            "protocols", "node_prefix", "ExpansionInfo"]

@@ -13,9 +13,9 @@ from typing import Iterable, Optional
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
 
-from .expand import protected_connector
-from .library import compose
-from .select import judge, profile
+from checker.ftm.expand import protected_connector
+from checker.ftm.library import compose
+from checker.ftm.select import judge, profile
 
 __all__ = ["ftm_diagnostics", "ftm_findings", "in_order"]
 

@@ -14,7 +14,7 @@ from typing import Optional
 
 from reconf_dsl import ir
 
-from .library import BANDWIDTH, Composition, all_compositions, bandwidth_rank
+from checker.ftm.library import BANDWIDTH, Composition, all_compositions, bandwidth_rank
 
 __all__ = ["Profile", "profile", "Reason", "Candidate", "judge", "select"]
 

@@ -37,14 +37,14 @@ from reconf_dsl import ir
 from reconf_dsl.ir import satisfies
 from reconf_dsl.parser import parse_text
 
-from ..actions import (Action, Attach, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, failing_assumptions,
+from checker.model.actions import (Action, Attach, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, failing_assumptions,
                        preconditions)
-from ..config import Configuration, FuncId
-from ..planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
-from ..planning.plan import settle, verify
-from ..semantics import evaluate
-from .expand import ExpansionInfo, expand
-from .library import LAYER_ORDER
+from checker.model.config import Configuration, FuncId
+from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
+from checker.planning.plan import settle, verify
+from checker.model.semantics import evaluate
+from checker.ftm.expand import ExpansionInfo, expand
+from checker.ftm.library import LAYER_ORDER
 
 __all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
            "suspension_problems", "client_side_ok", "protocols", "reaches_protocol", "handover",
@@ -424,7 +424,7 @@ def _with_rule_notes(t: Transition, target: ir.System, only: Optional[set[str]] 
     """`t` with a warning for every FTM rule (RC402–RC407) the target architecture breaks: the
     plan is safe, but the mechanism it moves to does not hold under the component's declared
     faults, characteristics or resources (`reconf check` reports the same as errors)."""
-    from .rules import ftm_diagnostics
+    from checker.ftm.rules import ftm_diagnostics
 
     for d in ftm_diagnostics(target, only):
         t.plan.notes.append(f"warning: the target breaks an FTM rule: {d.code} {d.message}")

@@ -12,10 +12,10 @@ from typing import Optional
 
 from reconf_dsl.ir import System
 
-from ..config import Configuration
-from .chain import Fallback
-from .operations import plan_problem
-from .plan import Goal, Plan, Problem, settle
+from checker.model.config import Configuration
+from checker.planning.chain import Fallback
+from checker.planning.operations import plan_problem
+from checker.planning.plan import Goal, Plan, Problem, settle
 
 __all__ = ["EMPTY", "up_problem", "up_state", "down_problem", "plan_up", "plan_down"]
 

@@ -11,7 +11,7 @@ plan: `NoPlanFound` then carries every attempt, and its reasons say the decisive
 exhaustive search decides whether a plan exists; see `checker.planning.exhaustive`).
 
 The exhaustive search decides: when it proves that no plan exists, the chain stops there.
-The Alloy planner (`checker.alloy.planner`) comes last, when the caller has Alloy
+The Alloy planner (`checker.planning.alloy_search`) comes last, when the caller has Alloy
 (`Fallback.alloy`) and the system is small, for what the exhaustive search could not decide
 within its budget (or a plan of it that was refused): it searches traces of at most
 `max_steps` steps, in which any port may be attached to any connector, in a worker process
@@ -22,8 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
-from .exhaustive import Budget, Impossible, SearchTooLarge
-from .plan import NoSafePlan, Plan, Problem
+from checker.planning.exhaustive import Budget, Impossible, SearchTooLarge
+from checker.planning.plan import NoSafePlan, Plan, Problem
 
 __all__ = ["CHAIN", "Attempt", "Fallback", "NoPlanFound", "plan_with_fallback"]
 
@@ -85,7 +85,7 @@ class NoPlanFound(NoSafePlan):
 
 def _strategies(first: str, fallback: Fallback, problem: Problem) -> list[str]:
     if first not in CHAIN:
-        from .operations import STRATEGIES
+        from checker.planning.operations import STRATEGIES
         raise ValueError(f"unknown strategy {first!r}; choose one of {', '.join(STRATEGIES)}")
     chain = list(CHAIN[CHAIN.index(first):])
     size = len(problem.system.components) + len(problem.system.versions)
@@ -109,8 +109,8 @@ class _Unavailable(Exception):
 def _alloy_work(out: Any, problem: Problem, max_steps: int) -> None:
     """In a worker process: the steps of the first Alloy plan, or why there is none."""
     try:
-        from ..alloy.errors import AlloyUnavailable
-        from ..alloy.planner import alloy_search
+        from checker.alloy.errors import AlloyUnavailable
+        from checker.planning.alloy_search import alloy_search
     except ImportError as e:
         out.put(("unavailable", str(e)))
         return
@@ -130,7 +130,7 @@ def _alloy(problem: Problem, fallback: Fallback) -> Plan:
     import multiprocessing as mp
     import queue
 
-    from .plan import verify
+    from checker.planning.plan import verify
     ctx = mp.get_context("spawn")
     out = ctx.Queue()
     proc = ctx.Process(target=_alloy_work, args=(out, problem, fallback.max_steps), daemon=True)
@@ -157,7 +157,7 @@ def _alloy(problem: Problem, fallback: Fallback) -> Plan:
 
 
 def _run(problem: Problem, strategy: str, fallback: Fallback) -> Plan:
-    from .operations import solve
+    from checker.planning.operations import solve
 
     if strategy == "alloy":
         return _alloy(problem, fallback)
@@ -168,7 +168,7 @@ def plan_with_fallback(problem: Problem, strategy: str = "default", fallback: Fa
     """Plan `problem`, starting with `strategy` and going on along `CHAIN` (see the module
     docstring). Raises NoSafePlan when the start or the target is impossible (no strategy is
     tried), NoPlanFound when every strategy failed."""
-    from .operations import ready
+    from checker.planning.operations import ready
 
     problem = ready(problem)
     attempts: list[Attempt] = []

@@ -38,11 +38,11 @@ from typing import Optional
 
 from reconf_dsl.ir import System
 
-from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
+from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
                        effect)
-from ..config import Configuration, FuncId
-from .improve import cost, improve
-from .plan import Goal, NoSafePlan
+from checker.model.config import Configuration, FuncId
+from checker.planning.improve import cost, improve
+from checker.planning.plan import Goal, NoSafePlan
 
 __all__ = ["default_steps"]
 

@@ -8,8 +8,8 @@ from dataclasses import replace as dc_replace
 
 from reconf_dsl.ir import System
 
-from ..actions import failing_assumptions, satisfies
-from ..config import Configuration
+from checker.model.actions import failing_assumptions, satisfies
+from checker.model.config import Configuration
 
 
 def missing_environment(old: System, new: System, old_name: str = "the deployed architecture",

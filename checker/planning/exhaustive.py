@@ -6,7 +6,7 @@ component, remove a leaving one, attach a wanted attachment, detach an unwanted 
 degrade or upgrade a *relevant* functionality (`relevant`). So every attachment and every
 component changes at most once, towards the target: "reachable" below means reachable by
 safe steps of this kind. A plan that attaches a port where neither the start nor the target
-has it is outside this space (the Alloy planner, `checker.alloy.planner`, searches those too,
+has it is outside this space (the Alloy planner, `checker.planning.alloy_search`, searches those too,
 up to a number of steps).
 
 **Relevant functionalities.** A functionality normal in the start and in the target, of a
@@ -67,12 +67,12 @@ from typing import Callable, Iterator, Optional
 
 from reconf_dsl.ir import Functionality, Predicate, System
 
-from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, _Catalogue, catalogue,
+from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, _Catalogue, catalogue,
                        check, effect, satisfies)
-from ..config import Configuration, FuncId
-from ..report import plural
-from .plan import Goal, NoSafePlan, state_weight
-from .relaxed import Relaxation, reachable
+from checker.model.config import Configuration, FuncId
+from reconf_dsl.words import plural
+from checker.planning.plan import Goal, NoSafePlan, state_weight
+from checker.planning.relaxed import Relaxation, reachable
 
 __all__ = ["Budget", "Impossible", "Search", "SearchTooLarge", "exhaustive_search", "exhaustive_steps", "relevant"]
 
@@ -276,7 +276,7 @@ class _Space:
         """How far `config` seems from the goal, to order the reachability search (not a bound):
         the steps `bound` counts, and for each unwanted attachment whose detach is refused the
         functionalities it would degrade (`default._closure`), twice if they must come back."""
-        from .default import _closure
+        from checker.planning.default import _closure
 
         st = Snapshot(self.cat, config)
         need: set[FuncId] = set()
@@ -414,7 +414,7 @@ def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: 
     """Decide whether a plan exists and find the least disruptive one the budget allows (see the
     module docstring). Raises NoSafePlan, saying how it knows, when none exists, and
     SearchTooLarge when the budget ran out first."""
-    from .improve import cost, improve
+    from checker.planning.improve import cost, improve
 
     clock = _Clock(budget)
     space = _Space(system, start, goal)

@@ -13,10 +13,10 @@ from typing import Iterator, Optional, Sequence
 
 from reconf_dsl.ir import System
 
-from ..actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
-from ..config import Configuration
-from .plan import Goal, next_weight, state_weight
-from .states import States
+from checker.model.actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
+from checker.model.config import Configuration
+from checker.planning.plan import Goal, next_weight, state_weight
+from checker.planning.states import States
 
 __all__ = ["improve", "cost"]
 

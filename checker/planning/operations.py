@@ -20,15 +20,15 @@ from typing import Optional, Union
 
 from reconf_dsl.ir import Component, Connector, System
 
-from ..actions import Action, catalogue, failing_assumptions, satisfies
-from ..config import Configuration, Role
-from .chain import Fallback, plan_with_fallback
-from .default import default_steps
-from .environment import missing_environment
-from .exhaustive import Budget, exhaustive_search
-from .improve import cost, improve
-from .paper import paper_steps
-from .plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
+from checker.model.actions import Action, catalogue, failing_assumptions, satisfies
+from checker.model.config import Configuration, Role
+from checker.planning.chain import Fallback, plan_with_fallback
+from checker.planning.default import default_steps
+from checker.planning.environment import missing_environment
+from checker.planning.exhaustive import Budget, exhaustive_search
+from checker.planning.improve import cost, improve
+from checker.planning.paper import paper_steps
+from checker.planning.plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
 
 __all__ = ["STRATEGIES", "solve", "plan_problem", "ready", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
            "remove_problem"]

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 from reconf_dsl.ir import System
 
-from ..actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, affected_connectors,
+from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, affected_connectors,
                        catalogue, check, effect)
-from ..config import Configuration, FuncId
-from .plan import NoSafePlan, Problem
+from checker.model.config import Configuration, FuncId
+from checker.planning.plan import NoSafePlan, Problem
 
 __all__ = ["paper_steps"]
 

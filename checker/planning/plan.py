@@ -16,15 +16,15 @@ from typing import TYPE_CHECKING, Any, Iterable, Optional, Sequence
 
 from reconf_dsl.ir import System
 
-from ..actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalogue, catalogue, effect,
+from checker.model.actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalogue, catalogue, effect,
                        failing_assumptions, preconditions)
-from ..config import Configuration, FuncId, Role
-from ..semantics import evaluate
-from .states import States
-from ..report import plural
+from checker.model.config import Configuration, FuncId, Role
+from checker.model.semantics import evaluate
+from checker.planning.states import States
+from reconf_dsl.words import plural
 
 if TYPE_CHECKING:
-    from .chain import Attempt
+    from checker.planning.chain import Attempt
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",

@@ -11,11 +11,11 @@ from dataclasses import replace as dc_replace
 
 from reconf_dsl.ir import System
 
-from ..actions import Degrade, effect
-from ..config import Configuration
-from .operations import solve
-from .plan import Goal, Plan, Problem, disruption, settle
-from .states import States
+from checker.model.actions import Degrade, effect
+from checker.model.config import Configuration
+from checker.planning.operations import solve
+from checker.planning.plan import Goal, Plan, Problem, disruption, settle
+from checker.planning.states import States
 
 __all__ = ["plan_recovery"]
 

@@ -28,9 +28,9 @@ from typing import Optional
 
 from reconf_dsl.ir import Functionality, Predicate, System
 
-from ..actions import catalogue, satisfies
-from ..config import Configuration, FuncId, Role
-from .plan import Goal
+from checker.model.actions import catalogue, satisfies
+from checker.model.config import Configuration, FuncId, Role
+from checker.planning.plan import Goal
 
 __all__ = ["Relaxation", "reachable"]
 

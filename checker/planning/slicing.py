@@ -9,7 +9,7 @@ in the plan, so what they offer T ∪ R is exactly what they offer in the whole 
 Why the slice suffices: a component outside T ∪ R reads only connectors on which no component
 of T ever publishes, and only T changes modes or attachments, so its assumptions hold in every
 state exactly when they hold in the first (which the Python engine checks on the whole
-architecture, as it checks every state, and Alloy in `checker.alloy_plan`). The assumptions of T ∪ R, and the preconditions of
+architecture, as it checks every state, and Alloy in `checker.planning.alloy_verify`). The assumptions of T ∪ R, and the preconditions of
 each action (on the acting component and on the readers of the connectors it affects, all in
 T ∪ R), depend only on connectors whose every publisher is in the slice.
 
@@ -34,9 +34,9 @@ from typing import Callable
 
 from reconf_dsl import ir
 
-from ..actions import Snapshot, catalogue
-from ..config import Configuration
-from .plan import Plan
+from checker.model.actions import Snapshot, catalogue
+from checker.model.config import Configuration
+from checker.planning.plan import Plan
 
 __all__ = ["PlanSlicer", "affected", "slice_plan", "stable_connectors"]
 

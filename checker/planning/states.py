@@ -14,8 +14,8 @@ from typing import Iterator, Optional, Sequence, Union, overload
 
 from reconf_dsl.ir import System
 
-from ..actions import Action, effect
-from ..config import Configuration
+from checker.model.actions import Action, effect
+from checker.model.config import Configuration
 
 __all__ = ["States", "EVERY"]
 

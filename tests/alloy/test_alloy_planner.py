@@ -7,8 +7,8 @@ from dataclasses import replace
 import pytest
 
 from checker.alloy import AlloyBridge
-from checker.alloy.planner import alloy_plan, alloy_search, plan_with_alloy, render_planner
-from checker.config import Configuration
+from checker.planning.alloy_search import alloy_plan, alloy_search, plan_with_alloy, render_planner
+from checker.model.config import Configuration
 from checker.planning.operations import ready, solve
 from checker.planning.plan import Goal, NoSafePlan, Problem, verify
 from reconf_dsl.ir import System

@@ -6,9 +6,9 @@ import pytest
 from bench.gen import generate
 from checker.alloy import AlloyBridge, alloy_verdict
 from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted
-from checker.config import Configuration
-from checker.engines import python_failing
-from checker.semantics import evaluate
+from checker.model.config import Configuration
+from checker.alloy.engines import python_failing
+from checker.model.semantics import evaluate
 from reconf_dsl.loader import load_text
 
 
@@ -65,12 +65,12 @@ def test_a_helper_only_where_it_pays(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_plan_windows_judged_by_two_analyzers_give_the_same_evidence(monkeypatch: pytest.MonkeyPatch,
                                                                      bridge: AlloyBridge) -> None:
     import checker.alloy.parallel
-    import checker.alloy_plan
-    from checker.alloy_plan import alloy_evidence
+    import checker.planning.alloy_verify
+    from checker.planning.alloy_verify import alloy_evidence
     from tests.alloy.test_plan_slices import _break, hub_plan
 
     plan = hub_plan("dag", 40)
-    monkeypatch.setattr(checker.alloy_plan, "WINDOW_BUDGET", 200)
+    monkeypatch.setattr(checker.planning.alloy_verify, "WINDOW_BUDGET", 200)
     monkeypatch.setattr(checker.alloy.parallel, "MIN_MODULES", 2)
     monkeypatch.delenv(ENV, raising=False)
     together = alloy_evidence(plan)

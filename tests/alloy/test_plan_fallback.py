@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from bench.gen import generate
 from checker.alloy import AlloyBridge
-from checker.cli import main
+from checker.cli.main import main
 from checker.planning import Fallback, plan_with_fallback
 from checker.planning.exhaustive import Budget
 from checker.planning.operations import replace_problem

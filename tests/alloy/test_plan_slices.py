@@ -12,9 +12,9 @@ from click.testing import CliRunner
 
 from bench.gen import generate, hub_component
 from checker.alloy import AlloyBridge
-from checker.alloy_plan import _window, alloy_evidence
-from checker.cli import main
-from checker.config import Configuration
+from checker.planning.alloy_verify import _window, alloy_evidence
+from checker.cli.main import main
+from checker.model.config import Configuration
 from checker.planning import Plan, plan_replace
 from checker.planning.slicing import PlanSlicer, affected, slice_plan, stable_connectors
 from reconf_dsl.loader import load_text
@@ -71,8 +71,8 @@ def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "o
                                                                       bridge: AlloyBridge) -> None:
     import os
 
-    import checker.alloy_plan
-    monkeypatch.setattr(checker.alloy_plan, "MODULE_BUDGET", 10)
+    import checker.planning.alloy_verify
+    monkeypatch.setattr(checker.planning.alloy_verify, "MODULE_BUDGET", 10)
     path = os.path.join(str(tmp_path), "dag.arch")
     with open(path, "w") as f:
         f.write(generate("dag", 30, 0, version=True))
@@ -97,10 +97,10 @@ def test_a_plan_too_large_for_the_analyzer_is_not_shown_as_verified(tmp_path: "o
 
 def test_a_long_plan_is_verified_in_windows_with_the_whole_verdict(monkeypatch: pytest.MonkeyPatch,
                                                                     bridge: AlloyBridge) -> None:
-    import checker.alloy_plan
+    import checker.planning.alloy_verify
 
     plan = hub_plan("dag", 40)
-    monkeypatch.setattr(checker.alloy_plan, "WINDOW_BUDGET", 200)
+    monkeypatch.setattr(checker.planning.alloy_verify, "WINDOW_BUDGET", 200)
     seen: list[str] = []
     windows = alloy_evidence(plan, progress=seen.append)
     assert windows["valid"], windows["reason"]
@@ -130,7 +130,7 @@ def test_a_refuted_lean_window_is_decided_on_narrower_full_windows(monkeypatch: 
                                                                     bridge: AlloyBridge) -> None:
     """Alloy refuting every lean slice (as it may, for what a lean slice leaves out): the
     full slices decide, on windows narrow enough for them, and the plan is verified."""
-    import checker.alloy_plan as ap
+    import checker.planning.alloy_verify as ap
 
     plan = hub_plan("fanin", 60)
     assert slice_plan(plan, lean=True).stable
@@ -151,7 +151,7 @@ def test_a_refuted_lean_window_is_decided_on_narrower_full_windows(monkeypatch: 
 
 def test_a_step_beyond_the_analyzer_is_not_run_rather_than_retried_forever(monkeypatch: pytest.MonkeyPatch,
                                                                            bridge: AlloyBridge) -> None:
-    import checker.alloy_plan as ap
+    import checker.planning.alloy_verify as ap
     from checker.alloy.errors import AlloyError
 
     def too_many_atoms(*args: object, **kw: object) -> tuple[str, float, str]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from checker.alloy import AlloyBridge, AlloyError, dsl_span_for
-from checker.config import Configuration
+from checker.model.config import Configuration
 from codegen.alloy import mangle, render_instance, render_plan
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

@@ -8,7 +8,7 @@ from checker.alloy import split as split_mod
 from checker.alloy.errors import AlloyError
 from checker.alloy.spans import IDENTIFIER
 from checker.alloy.split import split_module
-from checker.config import Configuration
+from checker.model.config import Configuration
 from checker.planning import plan_replace
 from codegen.alloy import render_plan
 from reconf_dsl.loader import load

@@ -5,7 +5,7 @@ import json
 
 from click.testing import CliRunner
 
-from checker.ftm.cli import ftm_group, transition_cmd
+from checker.cli.ftm import ftm_group, transition_cmd
 from reconf_dsl.loader import load_text
 
 from .conftest import EXAMPLES

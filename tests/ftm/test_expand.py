@@ -5,12 +5,12 @@ from dataclasses import replace
 
 import pytest
 
-from checker.config import Configuration
+from checker.model.config import Configuration
 from checker.ftm.expand import expand, to_text
 from checker.ftm.library import LIBRARY, all_compositions, compose
 from checker.ftm.select import nodes
 from checker.ftm.transition import parse_ftm
-from checker.semantics import evaluate
+from checker.model.semantics import evaluate
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.loader import load_text
 

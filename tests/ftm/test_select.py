@@ -184,7 +184,7 @@ def test_check_judges_the_ftm_rules_in_alloy_too(edit: tuple[str, str], key: str
 
     from click.testing import CliRunner
 
-    from checker.cli import main
+    from checker.cli.main import main
     text = open(f"{EXAMPLES}/client_server_pbr.arch").read()
     assert edit[0] in text
     path = tmp_path / "x.arch"
@@ -204,9 +204,9 @@ def test_check_refuses_to_answer_when_the_engines_disagree_on_the_ftm_rules(monk
 
     from click.testing import CliRunner
 
-    import checker.ftm.alloy_rules as rules
-    from checker.cli import main
-    real = rules.alloy_ftm_verdict
-    monkeypatch.setattr(rules, "alloy_ftm_verdict", lambda s: replace(real(s), contradicted=frozenset({"server"})))
+    import checker.ftm.judge as judging
+    from checker.cli.main import main
+    real = judging.alloy_ftm_verdict
+    monkeypatch.setattr(judging, "alloy_ftm_verdict", lambda s: replace(real(s), contradicted=frozenset({"server"})))
     r = CliRunner().invoke(main, ["check", f"{EXAMPLES}/client_server_pbr.arch"])
     assert r.exit_code == 2 and "RC300" in r.output and "FTM rules" in r.output, r.output

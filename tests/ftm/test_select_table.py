@@ -6,7 +6,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from checker.ftm.cli import columns, ftm_group
+from checker.cli.ftm import columns, ftm_group
 
 from .conftest import EXAMPLES
 

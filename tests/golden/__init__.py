@@ -8,7 +8,7 @@ from typing import Callable, Iterator
 
 from click.testing import CliRunner
 
-from checker.cli import main
+from checker.cli.main import main
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 TESTS = os.path.dirname(HERE)

@@ -13,8 +13,8 @@ from typing import Optional
 from reconf_dsl.ir import (Component, Connector, EnvGuarantee, Functionality, Guarantee, MessageType, Mode, Port,
                            PortRef, Predicate, Rate, System)
 
-from checker.actions import is_valid
-from checker.config import Configuration
+from checker.model.actions import is_valid
+from checker.model.config import Configuration
 
 TYPES = ("A", "B")
 RATES = (5, 10, 20)

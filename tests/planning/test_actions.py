@@ -7,10 +7,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from checker.actions import (Action, ActionRefused, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict,
+from checker.model.actions import (Action, ActionRefused, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict,
                              apply, effect, is_valid, preconditions)
-from checker.config import Configuration
-from checker.semantics import evaluate
+from checker.model.config import Configuration
+from checker.model.semantics import evaluate
 
 from .gen import random_system
 from .systems import talker_system

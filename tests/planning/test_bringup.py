@@ -11,7 +11,7 @@ import pytest
 
 from checker.planning import Fallback, NoPlanFound, NoSafePlan, verify
 from checker.planning.bringup import EMPTY, plan_down, plan_up, up_state
-from checker.semantics import evaluate
+from checker.model.semantics import evaluate
 from reconf_dsl.loader import Sources, load
 
 from ..examples_table import EXAMPLES

@@ -9,9 +9,9 @@ import pytest
 from click.testing import CliRunner
 
 from bench.gen import build, generate, render
-from checker.cli import main
-from checker.actions import action_from_dict
-from checker.config import Configuration
+from checker.cli.main import main
+from checker.model.actions import action_from_dict
+from checker.model.config import Configuration
 from checker.planning import Fallback, NoPlanFound, Plan, plan_replace, plan_with_fallback
 from checker.planning.exhaustive import Budget, Impossible, _astar, _Clock, _Space, exhaustive_search
 from checker.planning.improve import cost

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from checker.actions import is_valid
+from checker.model.actions import is_valid
 from checker.planning import NoSafePlan, plan_migrate
 from reconf_dsl.loader import load
 from tests.examples_table import path

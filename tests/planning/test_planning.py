@@ -6,11 +6,11 @@ from dataclasses import replace
 
 import pytest
 
-from checker.actions import Attach, Degrade, Detach, preconditions
-from checker.config import Configuration
+from checker.model.actions import Attach, Degrade, Detach, preconditions
+from checker.model.config import Configuration
 from checker.planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from checker.planning.plan import disruption
-from checker.semantics import evaluate
+from checker.model.semantics import evaluate
 from reconf_dsl.ir import PortRef
 from reconf_dsl.loader import load
 

@@ -7,8 +7,8 @@ from itertools import pairwise
 
 import pytest
 
-from checker.actions import effect
-from checker.config import Configuration
+from checker.model.actions import effect
+from checker.model.config import Configuration
 from checker.planning import plan_replace
 from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning import states as states_module

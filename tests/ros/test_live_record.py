@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from checker.bag import STARTED, STOPPED
+from checker.reality.bag import STARTED, STOPPED
 from reconf_ros.livetest import LiveSystem
 
 from .conftest import example

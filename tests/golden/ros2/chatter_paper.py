@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 7 steps, strategy paper.
 
-Architecture fingerprint: sha256:5bc97ad99df9fe1a7fed734cb36636cc7ccf3a42921b5ff81f085136b36ad5b5
+Architecture fingerprint: sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
     python3 this_file.py               apply the plan to the running system (needs rclpy)
@@ -1434,10 +1434,19 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
     return Executor(doc, args).apply(args.from_step)
 
 DOC = json.loads(r"""{
+ "command": "plan",
+ "degradation": {
+  "functionalities": {
+   "listener.listen": 6,
+   "talker_v2.talk": 1
+  },
+  "longest": 6,
+  "longest_functionality": "listener.listen"
+ },
  "evidence": {
   "python_engine": "all 8 states valid"
  },
- "fingerprint": "sha256:5bc97ad99df9fe1a7fed734cb36636cc7ccf3a42921b5ff81f085136b36ad5b5",
+ "fingerprint": "sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981",
  "format_version": 2,
  "model": {
   "components": [
@@ -1510,6 +1519,7 @@ DOC = json.loads(r"""{
   ],
   "name": "chatter"
  },
+ "operation": "replace talker",
  "plan": {
   "changes": [
    {"add": {"degraded": [["listener", "listen"]]}},
@@ -1541,7 +1551,9 @@ DOC = json.loads(r"""{
   "strategy": "paper",
   "verification": "full"
  },
- "system": "chatter"
+ "system": "chatter",
+ "tool": "reconf",
+ "verdict": "plan"
 }""")
 
 if __name__ == "__main__":

@@ -1,0 +1,150 @@
+"""Two engines, one verdict: Alloy proves, the Python engine explains, and they must agree.
+
+A disagreement is an internal error (exit 2) that shows both verdicts: it means the
+meta-model, the instance generator or the Python engine is wrong, and no answer is given."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.ir import System
+from reconf_dsl.span import Span
+
+from checker.model.config import Configuration
+from checker.model.semantics import Evaluation, evaluate, witnesses
+
+Failing = tuple[tuple[str, str, int], ...]
+
+# A connector with more publishers than this is shown in a slice by one witness that
+# satisfies it (checker.model.semantics.witnesses): a 20,000-component fan-in's hub read 10,000
+# publishers, and its slice took the analyzer 80 s of a 137 s check.
+WIDE = 16
+
+
+class EngineUnavailable(Exception):
+    def __init__(self, diagnostic: Diagnostic):
+        self.diagnostic = diagnostic
+
+
+class AlloyTooLarge(EngineUnavailable):
+    """The system is beyond what this Alloy build can translate (its atom capacity, or the heap)."""
+
+
+class EnginesDisagree(Exception):
+    def __init__(self, diagnostic: Diagnostic):
+        self.diagnostic = diagnostic
+
+
+@dataclass
+class Judgement:
+    python: Evaluation
+    valid: bool
+    engines: dict[str, Any] = field(default_factory=dict)
+    warnings: list[Diagnostic] = field(default_factory=list)
+
+    def how(self) -> str:
+        al = self.engines.get("alloy")
+        if al is None:
+            return " (Python engine)"
+        if al.get("verdict") == "not run":
+            return " (Python engine; too large for Alloy, see the warning)"
+        if "python" not in self.engines:
+            return f" (Alloy, {al['solver']})"
+        return f" (proved by Alloy, {al['solver']}; explained by the Python engine)"
+
+    def timing(self) -> tuple[list[tuple[str, float]], dict[str, str]]:
+        """Where the judgement's wall time went, in order (the Python engine, Alloy's start,
+        rendering the modules, the analyzer judging them), and what the analyzer's part was
+        made of (see `report.timing_note`)."""
+        out: list[tuple[str, float]] = []
+        if "python" in self.engines:
+            out.append(("Python engine", self.engines["python"]["seconds"]))
+        al = self.engines.get("alloy", {}).get("timing")
+        if not al:
+            return out, {}
+        out += [("Alloy start", al["start"]), ("rendering", al["render"]), ("Alloy", al["judging"])]
+        by = f"{al['processes']} processes, " if al["processes"] > 1 else ""
+        summed = " summed" if al["processes"] > 1 else ""
+        detail = (f"{al['slices']} module{'s' if al['slices'] != 1 else ''}, {by}"
+                  f"front end {al['front_end']:.2f} s, solving {al['solve']:.2f} s{summed}")
+        return out, {"Alloy": detail}
+
+
+def python_failing(ev: Evaluation) -> Failing:
+    return tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
+
+
+def judge(system: System, config: Configuration, engine: str = "both", solver: str = "glucose") -> Judgement:
+    started = time.perf_counter()
+    ev = evaluate(system, config)
+    engines: dict[str, Any] = {}
+    if engine in ("both", "python"):
+        engines["python"] = {"verdict": "safe" if ev.valid else "unsafe",
+                             "seconds": round(time.perf_counter() - started, 4),
+                             "unsatisfied": [list(x) for x in python_failing(ev)]}
+    if engine == "python":
+        return Judgement(ev, ev.valid, engines)
+    try:
+        valid, failing, info = alloy_judgement(system, config, solver)
+    except AlloyTooLarge as e:
+        if engine != "both":
+            raise
+        # Both engines were asked for, the Python one has answered: say plainly that this answer
+        # has no Alloy proof behind it, rather than refuse to answer.
+        engines["alloy"] = {"verdict": "not run", "reason": e.diagnostic.message}
+        return Judgement(ev, ev.valid, engines, [e.diagnostic])
+    engines["alloy"] = info
+    if engine == "both" and (valid != ev.valid or failing != python_failing(ev)):
+        raise EnginesDisagree(Diagnostic(
+            "RC300", Severity.ERROR,
+            f"the engines disagree: Python says {'safe' if ev.valid else 'unsafe'}, "
+            f"Alloy says {'safe' if valid else 'unsafe'}", system.span,
+            notes=(f"Python: unsatisfied {list(python_failing(ev)) or 'none'}",
+                   f"Alloy: unsatisfied {list(failing) or 'none'}",
+                   "this is a bug in reconf: please report it with the .arch file")))
+    return Judgement(ev, valid, engines)
+
+
+def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple[bool, Failing, dict[str, Any]]:
+    from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
+    try:
+        v = alloy_verdict(system, config, solver=solver, keep=witnesses(system, config, WIDE))
+    except AlloyUnavailable as e:
+        raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
+                                           notes=("or use --engine python",))) from None
+    except Exception as e:  # noqa: BLE001 - Java errors arrive as JPype exceptions
+        if not _too_large(e):
+            if isinstance(e, AlloyError):
+                raise EngineUnavailable(Diagnostic(
+                    "RC302", Severity.ERROR, f"Alloy rejected the generated module: {e}",
+                    getattr(e, "span", None) or Span.unknown(e.module or "<alloy>"),
+                    notes=("this is a bug in reconf: please report it",))) from None
+            raise
+        raise AlloyTooLarge(Diagnostic(
+            "RC303", Severity.WARNING,
+            f"{system.name} is too large for the Alloy Analyzer here ({_first_line(e)}); "
+            "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
+            notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
+    from checker.alloy.bridge import AlloyBridge
+    used = AlloyBridge.get().solver_used(solver)
+    return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
+                                                    "seconds": round(v.seconds, 4), "solver": used,
+                                                    "timing": v.timing(),
+                                                    "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
+
+
+def _too_large(e: BaseException) -> bool:
+    text = f"{type(e).__name__}: {e}"
+    return "capacity exceeded" in text or "OutOfMemoryError" in text
+
+
+def _first_line(e: BaseException) -> str:
+    return (str(e).strip().splitlines() or [type(e).__name__])[0][:160]
+
+
+def unavailable_diagnostic(e: Exception) -> Optional[Diagnostic]:
+    if isinstance(e, (EngineUnavailable, EnginesDisagree)):
+        return e.diagnostic
+    return None

@@ -1,0 +1,272 @@
+"""`reconf plan replace|remove|add|migrate`: plan, verify, show like `terraform plan`, emit a ROS 2 script.
+
+Every plan shown has been checked step by step by the Python engine; with Alloy available
+(the default) it is also checked as a whole by the Alloy Analyzer before it is shown. A
+strategy that finds no plan, or whose plan Alloy refutes, hands over to the next
+(`checker.planning.chain`); the plan shown says which strategy produced it.
+"""
+from __future__ import annotations
+
+import glob
+import json
+import os
+import sys
+from dataclasses import replace as dc_replace
+from typing import Any, Callable, Optional, Sequence
+
+import click
+from rich.markup import escape
+
+from reconf_dsl.ir import System
+from codegen.ros2 import FORMAT_VERSION
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.loader import Sources, load
+from reconf_dsl.span import Span
+from checker.cli.common import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from checker.cli.plan_options import with_common, with_plan_options
+from checker.ftm.change import has_ftm, plan_change, planned_on
+from checker.reports.plan_document import plan_document
+from checker.reports.progress import status
+from checker.planning import (Attempt, Fallback, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace)
+from checker.planning.plan import BadRequest, degradation, unknown
+from checker.reports.report import OutputFormat
+from reconf_dsl.words import agree
+
+
+
+def default_files() -> list[str]:
+    env = os.environ.get("RECONF_ARCH")
+    if env:
+        return [env]
+    found = sorted(glob.glob("*.arch"))
+    if len(found) == 1:
+        return found
+    raise click.UsageError("say which architecture to plan on with -f FILE "
+                           f"({'no' if not found else 'several'} .arch files here)")
+
+
+@click.group()
+def plan() -> None:
+    """Plan a reconfiguration as a verified sequence of the six actions.
+
+    \b
+    Symbols: + create  - remove  → attach  × detach  ↓ degrade  ↑ upgrade
+    """
+
+
+@plan.command("replace")
+@click.argument("component")
+@click.option("--with", "replacement", help="the new version (default: the one declared `replaces COMPONENT`)")
+@click.option("--from", "source", type=click.Path(dir_okay=False), help="take the new version from this file")
+@with_common
+@guarded("plan")
+def replace_cmd(component: str, replacement: Optional[str], source: Optional[str], sources: Sources,
+                **opts: Any) -> None:
+    """Replace COMPONENT by a new version of it."""
+    system = load(list(opts["files"]) or default_files(), sources)
+    new: Any = replacement
+    if source is not None:
+        other = load([source], sources)
+        name = replacement or component
+        new = other.component(name)
+        if new is None:
+            raise unknown("component", name, [c.name for c in other.components + other.versions], source)
+        if system.component(new.name) is not None:
+            new = dc_replace(new, name=f"{new.name}@new")
+    elif new is None:
+        versions = [v.name for v in system.versions if v.replaces == component]
+        if len(versions) != 1:
+            if system.component(component) is None:
+                raise unknown("deployed component", component, [c.name for c in system.components], system.name)
+            raise BadRequest(f"{component} has {'no declared new version' if not versions else 'several: '}"
+                             f"{', '.join(versions)}; say which with --with, or take one from a file with --from")
+        new = versions[0]
+    label = f"replace {component} with {new if isinstance(new, str) else new.name}"
+    run(label, system, lambda fb: plan_replace(system, component, new, opts["strategy"], fallback=fb), sources,
+        chain=True, **opts)
+
+
+@plan.command("remove")
+@click.argument("component")
+@with_common
+@guarded("plan")
+def remove_cmd(component: str, sources: Sources, **opts: Any) -> None:
+    """Remove COMPONENT, degrading what depends on it."""
+    system = load(list(opts["files"]) or default_files(), sources)
+    run(f"remove {component}", system, lambda fb: plan_remove(system, component, opts["strategy"], fallback=fb),
+        sources, chain=True, **opts)
+
+
+@plan.command("add")
+@click.argument("component")
+@click.option("--from", "source", required=True, type=click.Path(dir_okay=False),
+              help="the file declaring COMPONENT and its attachments")
+@with_common
+@guarded("plan")
+def add_cmd(component: str, source: str, sources: Sources, **opts: Any) -> None:
+    """Add COMPONENT as declared in another file, with its attachments there."""
+    system = load(list(opts["files"]) or default_files(), sources)
+    other = load([source], sources)
+    run(f"add {component}", system,
+        lambda fb: plan_add(system, component, opts["strategy"], source=other, fallback=fb), sources, chain=True,
+        **opts)
+
+
+@plan.command("migrate")
+@click.argument("old", type=click.Path(dir_okay=False))
+@click.argument("new", type=click.Path(dir_okay=False))
+@with_plan_options
+@guarded("plan")
+def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
+    """Move the deployed OLD architecture to NEW: any mix of added, removed, replaced and rewired
+    components and changed guarantees."""
+    a, b = load([old], sources), load([new], sources)
+    label = f"migrate {os.path.basename(old)} → {os.path.basename(new)}"
+    deployed, target = planned_on(a, b)
+    run(label, deployed, lambda fb=None: plan_change(a, b, opts["strategy"], fb), sources, target=target,
+        chain=not has_ftm(a, b), **opts)
+
+
+def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
+        use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
+        target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
+        detailed_exitcode: bool = False, chain: bool = False,
+        apply: Optional[Callable[[dict[str, Any]], int]] = None) -> None:
+    """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
+    `checker.planning.chain`: a strategy that finds no plan, or whose plan Alloy refutes, hands
+    over to the next; otherwise `make()` plans alone and a refuted plan means no plan. With
+    `apply` and no `output`, the verified plan's script document is handed to `apply`, whose
+    answer is the exit status (`reconf up`, `reconf down`)."""
+    from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence      # the Alloy side loads only when a plan is made
+
+    fmt = output_format
+
+    def judge(p: Plan, say: Callable[[str], None]) -> dict[str, Any]:
+        say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
+        return alloy_evidence(p, progress=say)
+
+    with status("planning…") as say:
+        verdicts = PlanVerdicts(lambda p: judge(p, say)) if use_alloy else None
+        try:
+            if chain:
+                p = make(Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy or engine == "alloy",
+                                  max_steps=max_steps, progress=say))
+            else:
+                p = make()
+            if engine == "alloy":
+                p = alloy_planned(p, max_steps)
+        except NoPlanFound as e:
+            return no_plan(label, e.reasons, fmt, attempts=e.attempts)
+        except NoSafePlan as e:
+            return no_plan(label, e.reasons, fmt)
+        evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
+        if verdicts is not None:
+            evidence["alloy"] = verdicts.evidence(p)
+    if use_alloy:
+        if evidence["alloy"].get("verdict") == "not run":      # not answered: not "unsafe" (docs/exit-codes.md)
+            raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
+                                      f"{evidence['alloy']['reason']}", Span.unknown("<alloy>"),
+                                      notes=("`--no-alloy` relies on the Python engine's step-by-step "
+                                             "verification alone",))])
+        if not evidence["alloy"].get("valid", False):
+            return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
+                           p, evidence, attempts=p.attempts)
+    doc = plan_document(label, system, p, evidence, target)
+    if output or apply is not None:
+        from codegen.ros2 import render_plan_script
+        script_doc = plan_document(label, system, p, evidence, target, model=True)
+        if output:
+            write_atomically(output, render_plan_script(script_doc))
+    if fmt is OutputFormat.JSON:
+        click.echo(json.dumps(doc, indent=2))
+    else:
+        show(label, p, evidence, output)
+    code = apply(script_doc) if apply is not None and not output else EXIT_OK
+    sys.exit(EXIT_CHANGES if code == EXIT_OK and detailed_exitcode and p.steps else code)
+
+
+def alloy_planned(p: Plan, max_steps: int) -> Plan:
+    """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
+    from checker.planning.alloy_search import plan_with_alloy
+    from checker.planning import Problem
+    planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
+    planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
+                         f"in {plural(len(p.steps), 'step')}")
+    return planned
+
+
+def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -> None:
+    out = console()
+    after = ""
+    if p.attempts:
+        tried = [a.strategy for a in p.attempts]
+        after = f"; {' and '.join([', '.join(tried[:-1]), tried[-1]] if len(tried) > 1 else tried)} failed, see below"
+    out.print(f"reconf will {label} in {plural(len(p.steps), 'step')} (strategy [bold]{p.strategy}[/]{after}):\n")
+    styles = {"create": "green", "remove": "red", "attach": "cyan", "detach": "magenta", "degrade": "yellow",
+              "upgrade": "blue"}
+    for i, a in enumerate(p.steps, 1):
+        out.print(f"  {i:>3}. [{styles[a.kind]}]{a.symbol}[/] {a.describe()}", markup=True)
+    counts: dict[str, int] = {}
+    for a in p.steps:
+        counts[a.kind] = counts.get(a.kind, 0) + 1
+    deg = degradation(p)
+    parts = ", ".join(f"{n} {k}" for k, n in counts.items()) or "nothing to do"
+    out.print(f"\n[bold]Plan:[/] {plural(len(p.steps), 'action')} ({parts}); "
+              f"{plural(len(deg['functionalities']), 'functionality', 'functionalities')} degraded; longest degradation "
+              f"{plural(deg['longest'], 'step')}"
+              + (f" ({deg['longest_functionality']})" if deg["longest_functionality"] else "") + ".")
+    out.print(f"[bold]Disruption:[/] {p.disruption} (Σ criticality × steps degraded)")
+    py = evidence["python"]
+    states = py["states"]
+    out.print("[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, "
+              + (f"all {states} states valid" if states != 1 else "the 1 state is valid"))
+    al = evidence.get("alloy")
+    if al:
+        out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "
+                  f"{plural(al['transitions'], 'transition')} "
+                  f"{agree(al['transitions'], 'is an instance of its action', 'are instances of their actions')} "
+                  f"({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
+        if al.get("slice"):
+            sl = al["slice"]
+            once = sl["judged_once"]
+            if sl.get("windows", 1) > 1:
+                where = (f"in {sl['windows']} windows of consecutive steps, each on the components it can "
+                         f"affect (at most {sl['components']})")
+                reads = f"{agree(once, 'reads', 'read')} nothing the first window changes"
+            else:
+                where, reads = f"on the {plural(sl['components'], 'component')} the plan can affect", \
+                    f"{agree(once, 'reads', 'read')} nothing it changes"
+            out.print(f"                ({where}; {agree(once, 'the 1 other', f'the other {once}')} {reads} and "
+                      f"{agree(once, 'was', 'were')} judged once)")
+        if al.get("lossless"):
+            out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
+    else:
+        out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
+    for attempt in p.attempts:
+        out.print(f"[dim]note: {escape(attempt.describe())}[/]")
+    for note in p.notes:
+        if note.startswith("warning: "):
+            out.print(f"[yellow]{escape(note)}[/]")
+        else:
+            out.print(f"[dim]note: {escape(note)}[/]")
+    if output:
+        out.print(f"Wrote {output}: run it with `python3 {output}` (or `--dry-run` to replay it without ROS).")
+
+
+def no_plan(label: str, reasons: list[str], fmt: OutputFormat, p: Optional[Plan] = None,
+            evidence: Optional[dict[str, Any]] = None, attempts: Sequence[Attempt] = ()) -> None:
+    if fmt is OutputFormat.JSON:
+        doc: dict[str, Any] = {"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan",
+                               "operation": label, "verdict": "no-plan", "reasons": reasons,
+                               "evidence": evidence or {}}
+        if attempts:
+            doc["attempts"] = [a.to_dict() for a in attempts]
+        click.echo(json.dumps(doc, indent=2))
+    else:
+        out = console()
+        out.print(f"[bold red]✗ no safe plan[/] to {label}:")
+        for r in reasons:
+            out.print(f"  - {r}", markup=False)
+    sys.exit(EXIT_UNSAFE)
+
+

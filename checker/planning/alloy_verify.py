@@ -1,0 +1,339 @@
+"""The Alloy half of a plan's verification: every state valid, every step an instance of the
+action the plan says it is, with that action's preconditions (the meta-model's predicates)."""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import replace as dc_replace
+from typing import Any, Callable, Optional
+
+from codegen.alloy import TERNARY_ATOMS
+
+from checker.alloy.errors import AlloyError
+from checker.planning import Plan
+from reconf_dsl.words import plural
+
+
+# states x components of a plan module past which it is not run (about a minute of work here)
+MODULE_BUDGET = 40_000
+# states x components of one window of a plan (see alloy_evidence): the analyzer's time grows
+# with states x slice, so narrower windows cost less in all, down to where the per-window work
+# (slicing, writing and parsing the module) takes over; measured on the DAG plan of bench_alloy
+WINDOW_BUDGET = 750
+
+
+def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:
+    return {"engine": "alloy", "valid": False, "verdict": "not run", "reason": reason, "states": len(plan.states),
+            "transitions": len(plan.steps), "solver": solver, "seconds": round(seconds, 3)}
+
+
+class PlanVerdicts:
+    """Alloy's evidence on each plan a fallback chain finds (`planning.Fallback.accept`): a plan
+    Alloy refutes hands over to the next strategy; one it could not verify is not refuted (the
+    caller reports RC303). Each plan is judged once by `judge`, its evidence kept for the plan
+    document."""
+
+    def __init__(self, judge: Callable[[Plan], dict[str, Any]]) -> None:
+        self._judge = judge
+        self._seen: dict[int, tuple[Plan, dict[str, Any]]] = {}
+
+    def evidence(self, plan: Plan) -> dict[str, Any]:
+        seen = self._seen.get(id(plan))
+        if seen is not None and seen[0] is plan:
+            return seen[1]
+        found = self._judge(plan)
+        self._seen[id(plan)] = (plan, found)
+        return found
+
+    def refused(self, plan: Plan) -> Optional[str]:
+        found = self.evidence(plan)
+        if found.get("verdict") == "not run" or found.get("valid", False):
+            return None
+        return f"Alloy refuted the plan: {found.get('reason', 'unknown')}"
+
+
+def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
+                   progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Evidence for the plan document; `valid` is False (with a `reason`) when Alloy refutes it.
+
+    With `slice_` (the default), the plan is verified in *windows*: runs of consecutive
+    steps, each module holding the window's states on the part of the architecture the
+    window can affect (`checker.planning.slicing`), lean first (readers of connectors that
+    stay satisfied left out, one witness per connector among the untouched publishers),
+    then, if Alloy refutes the lean slice, the full one, whose verdict stands. A window is
+    as long as keeps its module within `WINDOW_BUDGET` state-components (halved until it
+    does, or until the analyzer can index it).
+
+    Why windows suffice: every state of the plan is judged in the window that holds it
+    (a window's last state is the next one's first), every step in its window, and
+    validity is local to components. A window's module judges the assumptions of its
+    slice's core (`affected`: not the stubs, whose assumptions it strips). A component
+    outside the core reads nothing the window changes, or (lean slice) only connectors the
+    module proves satisfied in every state, so its validity is the same in all the
+    window's states. So a component some window judges is valid in every state: before the
+    first window that judges it, it was valid exactly when at that window's start, where it
+    is judged; after each window that judges it, it stays valid until the next. The
+    components no window judges never change validity: they are judged once, in the first
+    configuration.
+
+    A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
+    every state. The windows are judged at once, by two analyzers where that pays
+    (`checker.alloy.parallel`), until one is refuted; from there one at a time, as above.
+    `progress` is told how many windows there are, then which steps each window judged one
+    at a time holds. Raises the
+    bridge's AlloyUnavailable when Java or the jar is missing."""
+    if not slice_ or not plan.steps:
+        return _whole(plan, solver)
+    from checker.alloy import alloy_verdict
+    from checker.planning.slicing import PlanSlicer
+
+    seconds = 0.0
+    texts: list[str] = []
+    reason, kinds, widths, largest = "", set(), [], 0
+    slicer = PlanSlicer(plan)
+    judged: set[str] = set()  # the components some window's slice judges
+    k, width = 0, len(plan.steps)
+    # the windows judged at once (by two analyzers where that pays) as long as their lean
+    # slices are proved; from the first that is not, one at a time as below
+    windows, too_big = _windows(plan, slicer)
+    if progress is not None:
+        progress(f"verifying {plural(len(plan.steps), 'step')} in {plural(len(windows), 'window')} in the Alloy "
+                 "Analyzer…")
+    proved = 0
+    for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows, solver)):
+        if not ok:
+            break
+        seconds += spent
+        texts.append(text)
+        kinds.add("lean")
+        widths.append(width)
+        largest = max(largest, _size(lean))
+        judged |= core
+        proved += 1
+    if proved < len(windows):
+        k, width = windows[proved][0], windows[proved][1]
+    elif too_big:
+        return _not_run(plan, solver, seconds, too_big)
+    else:
+        k = len(plan.steps)
+    while k < len(plan.steps) and not reason:
+        width = min(width, len(plan.steps) - k)
+        window = _window(plan, k, width)
+        lean, lean_core = slicer.slice(window, lean=True)
+        if width > 1 and _oversized(lean):
+            width = _narrower(width, lean)
+            continue
+        if _cost(lean) > MODULE_BUDGET:
+            return _not_run(plan, solver, seconds, _too_big(lean))
+        if progress is not None:
+            progress(f"verifying steps {k + 1}–{k + width} of {len(plan.steps)} in the Alloy Analyzer "
+                     f"({_size(lean)} components)…")
+        try:
+            reason, spent, text = _judge(plan, lean, solver, k, binary=width == 1)
+            target, core = lean, lean_core
+            if reason:
+                # refuted on the lean slice, maybe only for what it left out: the full slice
+                # decides, on narrower windows if it does not fit this one
+                seconds += spent
+                texts.append(text)
+                target, core = slicer.slice(window)
+                if width > 1 and _oversized(target):
+                    width, reason = _narrower(width, target), ""
+                    continue
+                if _cost(target) > MODULE_BUDGET:
+                    return _not_run(plan, solver, seconds, _too_big(target))
+                reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
+        except AlloyError as err:
+            if not _capacity(err):
+                raise
+            if width == 1:
+                return _not_run(plan, solver, seconds, f"the plan module of step {k + 1} has more atoms than the "
+                                "Alloy Analyzer can index, even with binary relations")
+            width, reason = width // 2, ""
+            continue
+        seconds += spent
+        texts.append(text)
+        kinds.add("lean" if target is lean else "full")
+        widths.append(width)
+        largest = max(largest, _size(target))
+        judged |= core
+        k += width
+        width *= 2
+    outside = set(plan.states[0].components) - judged
+    if not reason and outside:
+        first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
+        seconds += first.seconds
+        texts += list(first.texts)
+        if not first.valid:
+            reason = "the initial configuration is not valid"
+    evidence = _evidence(plan, solver, reason, seconds, texts)
+    evidence["slice"] = {"components": largest, "judged_once": len(outside), "windows": len(widths),
+                         "kind": "full" if "full" in kinds else "lean"}
+    return evidence
+
+
+def _windows(plan: Plan, slicer: Any) -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
+    """The windows `alloy_evidence` judges when every lean slice is proved: (first step,
+    steps, lean slice, its core) each, up to the first past `MODULE_BUDGET`, and then why
+    the plan cannot be verified ("" when none is)."""
+    out: list[tuple[int, int, Plan, set[str]]] = []
+    k, width = 0, len(plan.steps)
+    while k < len(plan.steps):
+        width = min(width, len(plan.steps) - k)
+        lean, core = slicer.slice(_window(plan, k, width), lean=True)
+        if width > 1 and _oversized(lean):
+            width = _narrower(width, lean)
+            continue
+        if _cost(lean) > MODULE_BUDGET:
+            return out, _too_big(lean)
+        out.append((k, width, lean, core))
+        k += width
+        width *= 2
+    return out, ""
+
+
+def _judge_at_once(plan: Plan, windows: list[tuple[int, int, Plan, set[str]]],
+                   solver: str) -> list[tuple[bool, float, str]]:
+    """`check PlanSafe` of each window's lean module, all in one batch of the analyzers
+    (`checker.alloy.parallel`), up to the first module that needs binary relations: per
+    window, whether it is proved, the solver's seconds and the module. Empty when the batch
+    fails (the windows are then judged one at a time, where each error is reported)."""
+    from codegen.alloy import render_plan
+
+    from checker.alloy.instance import PLAN_MAIN
+    from checker.alloy.parallel import Job, judge_many
+
+    texts = []
+    for _, _, lean, _ in windows:
+        if _oversized(lean):
+            break
+        text, _ = render_plan(lean.system, lean.states, serving=lean.serving, stable=lean.stable, binary=False,
+                              protocols=lean.protocols, handover=lean.handover)
+        texts.append(text)
+    try:
+        judged, _, _ = judge_many([Job(PLAN_MAIN, text, "PlanSafe") for text in texts], solver)
+    except Exception:  # noqa: BLE001 - judged one at a time below, with the error where it is
+        return []
+    return [(not v.satisfiable, v.solve, text) for v, text in zip(judged, texts)]
+
+
+def _whole(plan: Plan, solver: str) -> dict[str, Any]:
+    """The plan judged in one module on its whole architecture."""
+    if _cost(plan) > MODULE_BUDGET:
+        return _not_run(plan, solver, 0.0, _too_big(plan))
+    try:
+        reason, seconds, text = _judge(plan, plan, solver)
+    except AlloyError as err:
+        if not _capacity(err):
+            raise
+        return _not_run(plan, solver, 0.0, f"the plan module of {len(plan.states)} states of {_size(plan)} "
+                        "components has more atoms than the Alloy Analyzer can index")
+    return _evidence(plan, solver, reason, seconds, [text])
+
+
+def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
+    from checker.alloy.bridge import AlloyBridge
+
+    used = AlloyBridge.get().solver_used(solver)
+    evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
+                "transitions": len(plan.steps), "solver": used, "seconds": round(seconds, 3),
+                "module_hash": "sha256:" + hashlib.sha256("\n".join(texts).encode("utf-8")).hexdigest()}
+    if plan.serving or plan.handover:
+        evidence["lossless"] = [f"{proxy} serves {conn}" for conn, proxy in plan.serving] + \
+            [f"{proxy} serves {conn} while it publishes on it" for conn, proxy in plan.handover]
+    return evidence
+
+
+def _window(plan: Plan, k: int, width: int) -> Plan:
+    """Steps k .. k + width - 1 of `plan`, with the states around them."""
+    return dc_replace(plan, steps=plan.steps[k:k + width], states=plan.states[k:k + width + 1],
+                      stable=[], notes=[])
+
+
+def _atoms(target: Plan) -> int:
+    """About how many atoms the plan module of `target` has (an estimate, to choose window
+    sizes; the analyzer's capacity error is the final word): states, components, ports,
+    functionalities, connectors, and per datum its message and rate (a module with ternary
+    relations has no guarantee atoms)."""
+    system = target.system
+    count = len(target.states) + len(system.connectors) + 24
+    data: set[Any] = {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
+    for c in system.components + system.versions:
+        count += 1 + len(c.ports) + len(c.functionalities)
+        data |= {p.assumption for p in c.ports if p.kind == "input"}
+        for f in c.functionalities:
+            outs = [p for p in f.ports if (q := c.port(p)) is not None and q.kind == "output"]
+            data |= {m.guarantee(p) for m in (f.normal, f.degraded) if m is not None for p in outs}
+            data |= set(f.normal.assumptions) if f.normal is not None else set()
+    return count + 3 * len(data)
+
+
+def _cost(target: Plan) -> int:
+    """A module's size in state-components."""
+    return len(target.states) * _size(target)
+
+
+def _oversized(target: Plan) -> bool:
+    """Whether a window's module is past `WINDOW_BUDGET` or too large for ternary relations."""
+    return _cost(target) > WINDOW_BUDGET or _atoms(target) > TERNARY_ATOMS
+
+
+def _narrower(width: int, target: Plan) -> int:
+    """A narrower window than `width` steps, about as wide as the budget allows `target`'s slice."""
+    return max(1, min(width // 2, WINDOW_BUDGET // (2 * _size(target))))
+
+
+def _capacity(err: AlloyError) -> bool:
+    """Whether the analyzer refused a module for its number of atoms."""
+    return "capacity exceeded" in str(err)
+
+
+def _size(plan: Plan) -> int:
+    return len(plan.system.components) + len(plan.system.versions)
+
+
+def _too_big(target: Plan) -> str:
+    # the module lists every state: past this, the analyzer takes minutes or fails
+    return (f"the plan module would list {len(target.states)} states of {_size(target)} components, beyond what "
+            f"the Alloy Analyzer verifies in reasonable time ({MODULE_BUDGET:,} state-components)")
+
+
+def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool = True) -> tuple[str, float, str]:
+    """Alloy's verdict on `target` (the plan, or a slice of its steps from `offset` on):
+    why it is refused ("" when it is not), the analyzer's time, and the module. With
+    `binary`, a module with too many atoms for ternary relations is written with binary
+    ones (about 3x slower to translate) rather than refused."""
+    from checker.alloy import alloy_plan_verdict
+
+    def run(binary_roles: bool) -> Any:
+        return alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
+                                  stable=target.stable, binary=binary_roles, protocols=target.protocols,
+                                  handover=target.handover)
+
+    try:
+        verdict = run(False)
+    except AlloyError as err:
+        if not _capacity(err) or not binary:
+            raise
+        verdict = run(True)  # too many atoms for the ternary roles: binary relations instead
+
+    def after(i: int) -> str:
+        """State i of the module, in the plan's words."""
+        n = offset + i
+        return "the initial configuration" if n == 0 else f"the state after step {n} ({plan.steps[n - 1].describe()})"
+
+    for i, ok in enumerate(verdict.valid):
+        if not ok:
+            return f"{after(i)} is not valid", verdict.seconds, verdict.text
+    for i, (action, did) in enumerate(zip(plan.steps[offset:], verdict.steps), offset + 1):
+        if action.kind not in did:
+            return (f"step {i} ({action.describe()}) is not an instance of {action.kind}: "
+                    + ("its preconditions fail" if not did else f"Alloy sees {', '.join(did)}")), \
+                verdict.seconds, verdict.text
+    for i, ok in enumerate(verdict.lossless):
+        if not ok:
+            return (f"a client request could be lost in {after(i)}: a proxy is absent "
+                    "or its requests reach no protocol"), verdict.seconds, verdict.text
+    for i, ok in enumerate(verdict.stable):
+        if not ok:
+            return (f"a connector the slice relies on is unsatisfied in {after(i)}"), verdict.seconds, verdict.text
+    return "", verdict.seconds, verdict.text
