@@ -17,11 +17,13 @@ from reconf_dsl.ir import System
 from reconf_dsl.span import Span
 from reconf_dsl.words import agree
 
-from checker.reports import formats, report
+from checker.reports import formats
 from reconf_dsl.words import plural
 from checker.model.config import Configuration
 from checker.alloy.engines import EngineUnavailable
 from checker.planning.plan import degraded_runs
+from checker.gate.check import check_system
+from checker.model.actions import failing_assumptions
 from checker.gate.policy import Policy, covered, coverage, ftm_names
 from checker.reports.progress import status
 
@@ -200,22 +202,18 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
 
 def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str,
                  allow_unsafe_base: bool = False) -> Outcome:
-    from checker.model.actions import failing_assumptions
-    from checker.alloy.engines import judge
-    from checker.ftm.judge import judge_ftm
     out = Outcome()
     ftm_findings(old, new, policy, out)
     with status(f"checking {new.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
-        judged = judge(new, Configuration.initial(new), engine, solver)
-        ftm, _ = judge_ftm(new, engine)         # the head is judged as `reconf check` judges it
-    broken = [d for d in ftm if d.is_error]
-    out.safe, out.engines = judged.valid and not broken, judged.engines
-    out.cases[:0] = report.assumption_cases(new.name, judged.python)
-    out.diagnostics[:0] = ftm + [report.assumption_diagnostic(r) for r in judged.python.unsatisfied]
+        head = check_system(new, engine, solver)        # the head is judged as `reconf check` judges it
+    broken = [d for d in head.ftm if d.is_error]
+    out.safe, out.engines = head.safe, head.engines
+    out.cases[:0] = head.cases()
+    out.diagnostics[:0] = head.diagnostics
     base_failing = failing_assumptions(old, Configuration.initial(old))
     out.base_safe = not base_failing
     if not out.safe:
-        failing = len(judged.python.unsatisfied)
+        failing = len(head.judged.python.unsatisfied)
         notes: tuple[str, ...] = ((f"{plural(failing, 'assumption')} {agree(failing, 'does', 'do')} not "
                                    f"hold; see above",) if failing else ())
         notes += ((f"{plural(len(broken), 'fault-tolerance rule')} {agree(len(broken), 'is', 'are')} "
