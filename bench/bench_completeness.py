@@ -45,7 +45,8 @@ from typing import Iterator, Optional
 
 from checker.planning import Fallback, NoPlanFound, NoSafePlan, plan_with_fallback, solve
 from checker.planning.exhaustive import Budget, exhaustive_search
-from checker.planning.operations import ready, remove_problem, replace_problem
+from checker.planning.operations import remove_problem, replace_problem
+from checker.planning.plan import ready
 from checker.planning.plan import Problem, verify
 from reconf_dsl.loader import load_text
 

@@ -30,6 +30,8 @@ from typing import Any, Optional
 
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
 from reconf_ros.executor import PlanStates
+from reconf_dsl.ir import Rate
+from reconf_dsl.ir import EnvGuarantee, Guarantee, Host, MessageType, Port, PortRef
 
 __all__ = ["FORMAT_VERSION", "model_data", "render_plan_script", "system_at", "system_from_model_data",
            "state_at"]
@@ -157,7 +159,6 @@ def system_at(plan_doc: dict[str, Any], index: int = -1) -> System:
 
 def _predicate_back(p: Optional[dict[str, Any]]) -> Optional[Predicate]:
     from fractions import Fraction
-    from reconf_dsl.ir import Rate
     if p is None:
         return None
     if p["message"] is None:
@@ -168,7 +169,6 @@ def _predicate_back(p: Optional[dict[str, Any]]) -> Optional[Predicate]:
 def system_from_model_data(model: dict[str, Any]) -> System:
     """The inverse of `model_data` (spans and layout aside): a plan document's model as IR, so a
     run report can be planned from (`reconf recover`)."""
-    from reconf_dsl.ir import EnvGuarantee, Guarantee, Host, MessageType, Port, PortRef
 
     def mode(m: Optional[dict[str, Any]], kind: Any) -> Optional[Mode]:
         if m is None:

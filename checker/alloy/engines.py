@@ -14,6 +14,8 @@ from reconf_dsl.span import Span
 
 from checker.model.config import Configuration
 from checker.model.semantics import Evaluation, evaluate, witnesses
+from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
+from checker.alloy.bridge import AlloyBridge
 
 Failing = tuple[tuple[str, str, int], ...]
 
@@ -108,7 +110,6 @@ def judge(system: System, config: Configuration, engine: str = "both", solver: s
 
 
 def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple[bool, Failing, dict[str, Any]]:
-    from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
     try:
         v = alloy_verdict(system, config, solver=solver, keep=witnesses(system, config, WIDE))
     except AlloyUnavailable as e:
@@ -127,7 +128,6 @@ def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple
             f"{system.name} is too large for the Alloy Analyzer here ({_first_line(e)}); "
             "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
             notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
-    from checker.alloy.bridge import AlloyBridge
     used = AlloyBridge.get().solver_used(solver)
     return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
                                                     "seconds": round(v.seconds, 4), "solver": used,

@@ -1,5 +1,6 @@
 """Exceptions of the Alloy bridge."""
 from __future__ import annotations
+from reconf_dsl.span import Span
 
 
 class AlloyUnavailable(RuntimeError):
@@ -16,7 +17,6 @@ class AlloyError(Exception):
     """
 
     def __init__(self, message: str, module: str | None = None, line: int = 0, column: int = 0):
-        from reconf_dsl.span import Span
 
         self.span: Span | None = None
         self.message = message

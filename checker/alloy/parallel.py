@@ -17,6 +17,7 @@ import os
 import queue
 import time
 from typing import Any, Callable, NamedTuple, Optional
+from checker.alloy.bridge import AlloyBridge
 
 # below this many modules in a batch the helper's start-up (about 1.5 s) is not paid back
 MIN_MODULES = 24
@@ -71,7 +72,6 @@ def _claim(batch: Any, counter: Any, mine: int, size: int) -> int:
 def _serve(jobs: Any, results: Any, batch: Any, counter: Any, solver: str) -> None:
     """The helper: start an analyzer, then judge modules of each batch it is sent."""
     try:
-        from checker.alloy.bridge import AlloyBridge
         bridge = AlloyBridge.get()
     except BaseException:  # noqa: BLE001 - the main process judges what the helper does not
         return
@@ -174,7 +174,6 @@ def judge_many(work: list[Job], solver: str, bridge: Any = None,
     many modules the helper took. `on_error(i, err)` gives the exception to raise for an
     error in module i."""
     helper = helper_for(len(work), solver, minimum) if bridge is None else None
-    from checker.alloy.bridge import AlloyBridge
     bridge = bridge or AlloyBridge.get()
 
     def mine(i: int) -> Judged:

@@ -9,6 +9,7 @@ from typing import Any, Callable
 from checker.alloy import AlloyBridge, CommandOutcome, metamodel_modules
 from checker.alloy.bridge import DEFAULT_SOLVER
 from checker.alloy.metamodel import MAIN
+from checker.alloy import parallel
 
 STATES = ("Pre", "Post")
 
@@ -143,7 +144,6 @@ def verify_model(scope: int = 5, solver: str = DEFAULT_SOLVER,
                  modules: dict[str, str] | None = None) -> VerifyReport:
     """Run every command of the meta-model (checks at `scope`), in two processes where there
     are two cores (`checker.alloy.parallel`); raises AlloyUnavailable."""
-    from checker.alloy import parallel
 
     started = time.perf_counter()
     bridge = AlloyBridge.get()

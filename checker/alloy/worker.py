@@ -11,12 +11,12 @@ from typing import Any, Mapping, Sequence
 
 from checker.alloy.bridge import DEFAULT_SOLVER, CommandOutcome
 from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
+from checker.alloy.bridge import AlloyBridge
 
 
 def _work(out: Any, modules: dict[str, str], main: str, command: str | None, solver: str,
           evals: Sequence[str]) -> None:
     try:
-        from checker.alloy.bridge import AlloyBridge
 
         outcomes = AlloyBridge.get().run(modules, main, command, solver)
         for o in outcomes:

@@ -15,6 +15,7 @@ from checker.reports import formats, report
 from checker.reports.progress import status
 from checker.reports.report import ReportFormat
 from reconf_dsl.loader import Sources, load
+from checker.gate.check import check_system
 
 
 @click.command()
@@ -34,7 +35,6 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     input → connector → each attached output and why it falls short. With --bag, also judges
     every rate and message type against a rosbag2 recording (docs/recordings.md).
     """
-    from checker.gate.check import check_system     # the engines load when a check is made: start-up time
 
     refuse_bag_options_alone(bag)
     age = report.process_age()     # the interpreter's start-up and imports

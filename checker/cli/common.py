@@ -26,6 +26,10 @@ from checker.ftm.expand import FtmRuleBroken
 from checker.planning.plan import BadRequest
 from checker.reports.progress import status
 from checker.reports.report import OutputFormat, ReportFormat
+from checker.reports.pictures import format_of_output
+from codegen.graph import to_dot, to_mermaid
+from checker.reports.pictures import SVG_MAX_NODES, GraphvizUnavailable, largest, to_svg
+from checker.reports.pictures import series, stale
 
 EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_CHANGES = 3          # only with --detailed-exitcode: a safe plan with at least one step
@@ -181,7 +185,6 @@ force_option = click.option(
 
 def picture_format_for(picture_format: Optional[str], output: Optional[str]) -> str:
     """--format, or what -o's extension says; a contradiction between them is RC013."""
-    from checker.reports.pictures import format_of_output
     try:
         return format_of_output(picture_format, output)
     except ValueError as e:
@@ -191,9 +194,7 @@ def picture_format_for(picture_format: Optional[str], output: Optional[str]) -> 
 def draw(pics: list[Any], picture_format: str, force: bool = False) -> str:
     """Pictures as one text: DOT graphs one after the other, SVG documents, or Mermaid blocks.
     SVG of a picture over SVG_MAX_NODES nodes is refused (RC012) unless `force`."""
-    from codegen.graph import to_dot, to_mermaid
 
-    from checker.reports.pictures import SVG_MAX_NODES, GraphvizUnavailable, largest, to_svg
     if picture_format == "mermaid" and len(pics) == 1:
         return to_mermaid(pics[0])
     if picture_format in ("mermaid", "markdown"):
@@ -228,7 +229,6 @@ def draw(pics: list[Any], picture_format: str, force: bool = False) -> str:
 def write_pictures(texts: list[str], picture_format: str, output: Optional[str], numbered: bool = False) -> None:
     """One text to stdout or OUTPUT. With `numbered` (a series, one picture per step) the texts go
     to OUTPUT's stem with -01, -02…, and files of an earlier, longer series there are removed."""
-    from checker.reports.pictures import series, stale
     if not output:
         click.echo("".join(texts) if picture_format in ("dot", "svg") else "\n".join(texts), nl=False)
         return

@@ -25,6 +25,11 @@ from reconf_dsl.words import plural
 from checker.ftm.expand import expand, to_text
 from checker.ftm.library import compose
 from checker.ftm.select import Candidate, profile, select
+from checker.ftm.alloy_rules import alloy_profiles
+from codegen.graph import to_dot
+from checker.reports.pictures import picture
+from checker.cli.plan import run
+from checker.ftm.transition import parse_ftm, plan_transition
 
 __all__ = ["ftm_group", "transition_cmd"]
 
@@ -65,7 +70,6 @@ def select_cmd(component: str, files: tuple[str, ...], use_alloy: bool, output_f
     cands = select(prof)
     alloy: dict[str, Any] = {}
     if use_alloy:
-        from checker.ftm.alloy_rules import alloy_profiles
         verdict = alloy_profiles({component: prof}, {})
         mine = {str(c.composition) for c in cands if c.valid}
         theirs = set(verdict.valid[component])
@@ -136,9 +140,7 @@ def expand_cmd(files: tuple[str, ...], picture_format: Optional[str], output: Op
                output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Print FILES with every FTM expanded into its computation graph (Proxy, Protocol, Before,
     Proceed, After, crash detectors, Recovery, CA) as DSL text that re-parses, and as DOT."""
-    from codegen.graph import to_dot
 
-    from checker.reports.pictures import picture
     picture_format = _expand_format(picture_format, output)
     system = load(list(files), sources)
     expanded, infos = expand(system)
@@ -188,8 +190,6 @@ def transition_cmd(component: str, new_ftm: str, hosts: Optional[str], sources: 
     """Change COMPONENT's FTM to NEW_FTM (`LFR`, `PBR(TR)`, `SEC(PBR(TR))`, `none`): a verified plan
     that keeps the nodes both graphs share, suspends each protocol while its neighbourhood is
     substituted and resumes it after; clients are never left unserved."""
-    from checker.cli.plan import run
-    from checker.ftm.transition import parse_ftm, plan_transition
 
     system = load(_files(opts["files"]), sources)
     expr = None if new_ftm.lower() == "none" else parse_ftm(new_ftm)

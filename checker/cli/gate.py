@@ -26,6 +26,8 @@ from checker.reports.report import ReportFormat
 
 from checker.gate.change import judge_change
 from checker.gate.revisions import GIT_PREFIX, Revisions, rename_sources, resolve, revisions, split_ref
+from checker.gate.comment import failure_comment
+from checker.gate.comment import comment
 
 
 
@@ -61,7 +63,6 @@ class ReportsNotWritten(Failure):
 
 def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic], base: str, head: str) -> None:
     """Bad input: every report file still holds a valid document, which says why nothing was judged."""
-    from checker.gate.comment import failure_comment
     summary = plural(sum(1 for d in diags if d.is_error), "error")
 
     def render(fmt: str) -> str:
@@ -143,7 +144,6 @@ def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -
 def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
              reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
              sources: Sources) -> None:
-    from checker.gate.comment import comment
     with revisions() as revs:
         try:
             policy = gate_policy(policy_file, revs, sources)

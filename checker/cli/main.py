@@ -21,6 +21,7 @@ from checker.cli.plan import plan
 from checker.cli.recover import recover_cmd
 from checker.cli.verify_model import verify_model_cmd
 from reconf_dsl.loader import ALLOW_OUTSIDE_ENV
+from reconf_dsl import loader
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -37,7 +38,6 @@ def main(allow_includes_outside: bool) -> None:
                   that cannot be written, or an internal error,
                 3 with --detailed-exitcode: a safe change with steps.
     """
-    from reconf_dsl import loader
     loader.settings.allow_includes_outside = allow_includes_outside
 
 

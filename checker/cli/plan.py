@@ -31,6 +31,10 @@ from checker.planning import (Attempt, Fallback, NoPlanFound, NoSafePlan, Plan, 
 from checker.planning.plan import BadRequest, degradation, unknown
 from checker.reports.report import OutputFormat
 from reconf_dsl.words import agree
+from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence
+from checker.planning.alloy_search import plan_with_alloy
+from checker.planning import Problem
+from codegen.ros2 import render_plan_script
 
 
 
@@ -137,7 +141,6 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
     over to the next; otherwise `make()` plans alone and a refuted plan means no plan. With
     `apply` and no `output`, the verified plan's script document is handed to `apply`, whose
     answer is the exit status (`reconf up`, `reconf down`)."""
-    from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence      # the Alloy side loads only when a plan is made
 
     fmt = output_format
 
@@ -173,7 +176,6 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
                            p, evidence, attempts=p.attempts)
     doc = plan_document(label, system, p, evidence, target)
     if output or apply is not None:
-        from codegen.ros2 import render_plan_script
         script_doc = plan_document(label, system, p, evidence, target, model=True)
         if output:
             write_atomically(output, render_plan_script(script_doc))
@@ -187,8 +189,6 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
 
 def alloy_planned(p: Plan, max_steps: int) -> Plan:
     """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
-    from checker.planning.alloy_search import plan_with_alloy
-    from checker.planning import Problem
     planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
     planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
                          f"in {plural(len(p.steps), 'step')}")

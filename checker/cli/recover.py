@@ -15,6 +15,7 @@ from checker.model.config import Configuration
 from checker.cli.plan import run
 from checker.cli.plan_options import with_plan_options
 from checker.planning.recovery import plan_recovery
+from codegen.ros2 import state_at, system_from_model_data
 
 
 def _config(doc: dict[str, Any]) -> Configuration:
@@ -41,7 +42,6 @@ def read_report(path: str) -> dict[str, Any]:
 @guarded("recover")
 def recover_cmd(report: str, back: bool, sources: Sources, **opts: Any) -> None:
     """Plan from what a failed run observed to the plan's target (or, --back, its start)."""
-    from codegen.ros2 import state_at, system_from_model_data
     doc = read_report(report)
     plan_doc = doc["plan_document"]
     system = system_from_model_data(plan_doc["model"])

@@ -14,6 +14,8 @@ from reconf_dsl import ir
 
 from checker.ftm.library import LIBRARY, Composition, all_compositions, compose, layers
 from checker.ftm.select import Profile, profile
+from checker.alloy import AlloyBridge
+from checker.alloy.bridge import atom_name as atom
 
 __all__ = ["ftm_rules_text", "instance_text", "AlloyFtmVerdict", "alloy_ftm_verdict", "alloy_profiles"]
 
@@ -94,8 +96,6 @@ def alloy_profiles(profiles: dict[str, Profile], attached: dict[str, Optional[Co
                    hosts: Optional[dict[str, int]] = None) -> AlloyFtmVerdict:
     """Alloy's judgement of named profiles (and of the composition attached to each, if any;
     of how it is written and on how many hosts, if given)."""
-    from checker.alloy import AlloyBridge
-    from checker.alloy.bridge import atom_name as atom
 
     names = list(profiles)
     text, cands = instance_text([profiles[n] for n in names], [attached.get(n) for n in names],

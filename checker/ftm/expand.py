@@ -40,6 +40,7 @@ from reconf_dsl.diagnostics import DiagnosticError, error
 from reconf_dsl.span import NO_SPAN, Span
 
 from checker.ftm.library import Composition, compose, roles
+from reconf_dsl.formatter import format_document
 
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
            "protocols", "node_prefix", "ExpansionInfo"]
@@ -351,7 +352,6 @@ def protocols(info: ExpansionInfo) -> list[str]:
 
 def to_text(system: ir.System) -> str:
     """The architecture as DSL text (it re-parses to an equal System)."""
-    from reconf_dsl.formatter import format_document
 
     items: list[ir.Item] = [*system.messages, *system.environment, *system.hosts, *system.components,
                             *system.versions, *system.connectors]

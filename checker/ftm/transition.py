@@ -45,6 +45,7 @@ from checker.planning.plan import settle, verify
 from checker.model.semantics import evaluate
 from checker.ftm.expand import ExpansionInfo, expand
 from checker.ftm.library import LAYER_ORDER
+from checker.ftm.rules import ftm_diagnostics
 
 __all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
            "suspension_problems", "client_side_ok", "protocols", "reaches_protocol", "handover",
@@ -424,7 +425,6 @@ def _with_rule_notes(t: Transition, target: ir.System, only: Optional[set[str]] 
     """`t` with a warning for every FTM rule (RC402–RC407) the target architecture breaks: the
     plan is safe, but the mechanism it moves to does not hold under the component's declared
     faults, characteristics or resources (`reconf check` reports the same as errors)."""
-    from checker.ftm.rules import ftm_diagnostics
 
     for d in ftm_diagnostics(target, only):
         t.plan.notes.append(f"warning: the target breaks an FTM rule: {d.code} {d.message}")

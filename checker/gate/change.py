@@ -26,6 +26,12 @@ from checker.gate.check import check_system
 from checker.model.actions import failing_assumptions
 from checker.gate.policy import Policy, covered, coverage, ftm_names
 from checker.reports.progress import status
+from checker.planning.alloy_verify import PlanVerdicts
+from checker.reports.plan_document import plan_document
+from checker.ftm.change import plan_change, planned_on
+from checker.planning import Fallback, NoSafePlan
+from checker.alloy import AlloyError, AlloyUnavailable
+from checker.planning.alloy_verify import alloy_evidence as evidence
 
 
 
@@ -101,10 +107,6 @@ def func_span(systems: list[System], component: str, functionality: str) -> Opti
 
 
 def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, solver: str, out: Outcome) -> None:
-    from checker.planning.alloy_verify import PlanVerdicts
-    from checker.reports.plan_document import plan_document
-    from checker.ftm.change import plan_change, planned_on
-    from checker.planning import Fallback, NoSafePlan
 
     verdicts = PlanVerdicts(lambda p: alloy_evidence(p, solver)) if use_alloy else None
     with status(f"planning the migration {old.name} → {new.name}…"):
@@ -155,8 +157,6 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
 
 
 def alloy_evidence(p: Any, solver: str) -> dict[str, Any]:
-    from checker.alloy import AlloyError, AlloyUnavailable
-    from checker.planning.alloy_verify import alloy_evidence as evidence
     try:
         return evidence(p, solver)
     except AlloyUnavailable as e:

@@ -19,6 +19,7 @@ from codegen.graph import Picture, to_mermaid
 from reconf_dsl.diagnostics import Diagnostic
 
 from reconf_dsl.words import plural
+from checker.reports.pictures import plan_picture
 
 MERMAID_LIMIT = 50_000          # Mermaid's default maxTextSize: over it, nothing is drawn
 COMMENT_LIMIT = 65_536          # GitHub's limit on the body of a comment
@@ -84,7 +85,6 @@ def _findings(diagnostics: list[Diagnostic], budget: int) -> str:
 
 
 def _picture(plan: Any, budget: int) -> str:
-    from checker.reports.pictures import plan_picture
     whole = plan_picture(plan)
     part = neighbourhood(whole)
     def count(pic: Picture) -> int:       # a replaced component and its replacement are one

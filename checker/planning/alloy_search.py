@@ -315,8 +315,8 @@ def alloy_plan(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLV
 
 def plan_with_alloy(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER) -> Plan:
     """Plan `problem` in Alloy and check the result step by step with the Python engine;
-    the same checks of the start and the target as `operations.solve` come first."""
-    from checker.planning.operations import ready
+    the same checks of the start and the target as `strategies.solve` come first."""
+    from checker.planning.plan import ready
 
     problem = ready(problem)
     search = alloy_search(problem, max_steps, solver)

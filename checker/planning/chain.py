@@ -23,41 +23,15 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 from checker.planning.exhaustive import Budget, Impossible, SearchTooLarge
-from checker.planning.plan import NoSafePlan, Plan, Problem
+from checker.planning.plan import Attempt, NoSafePlan, Plan, Problem, ready, verify
+from checker.planning.strategies import STRATEGIES, solve
 
 __all__ = ["CHAIN", "Attempt", "Fallback", "NoPlanFound", "plan_with_fallback"]
 
-CHAIN = ("default", "paper", "exhaustive", "alloy")
+CHAIN = (*STRATEGIES, "alloy")      # the registry's order, then the Alloy planner
 
 ALLOY_COMPONENTS = 40
 """Components (deployed and declared versions) beyond which the Alloy planner is not tried."""
-
-
-@dataclass(frozen=True)
-class Attempt:
-    """A strategy that gave no accepted plan: `outcome` is "no plan" (it found none), "none
-    exists" (it proved that no plan exists, by `how`: "relaxation" or "search"), "gave up" (its
-    budget ran out), "refuted" (the caller refused its plan) or "unavailable"; `reasons` say
-    why."""
-
-    strategy: str
-    outcome: str
-    reasons: tuple[str, ...]
-    how: str = ""
-
-    def describe(self) -> str:
-        said = "; ".join(r.removeprefix(f"{self.strategy}: ") for r in self.reasons)
-        if self.outcome == "no plan":
-            said = "found no plan" + (f": {said}" if said else "")
-        elif self.outcome == "unavailable":
-            said = "unavailable" + (f": {said}" if said else "")
-        return f"{self.strategy}: {said or self.outcome}"
-
-    def to_dict(self) -> dict[str, object]:
-        out: dict[str, object] = {"strategy": self.strategy, "outcome": self.outcome, "reasons": list(self.reasons)}
-        if self.how:
-            out["proved_by"] = self.how
-        return out
 
 
 @dataclass(frozen=True)
@@ -85,7 +59,6 @@ class NoPlanFound(NoSafePlan):
 
 def _strategies(first: str, fallback: Fallback, problem: Problem) -> list[str]:
     if first not in CHAIN:
-        from checker.planning.operations import STRATEGIES
         raise ValueError(f"unknown strategy {first!r}; choose one of {', '.join(STRATEGIES)}")
     chain = list(CHAIN[CHAIN.index(first):])
     size = len(problem.system.components) + len(problem.system.versions)
@@ -130,7 +103,6 @@ def _alloy(problem: Problem, fallback: Fallback) -> Plan:
     import multiprocessing as mp
     import queue
 
-    from checker.planning.plan import verify
     ctx = mp.get_context("spawn")
     out = ctx.Queue()
     proc = ctx.Process(target=_alloy_work, args=(out, problem, fallback.max_steps), daemon=True)
@@ -157,8 +129,6 @@ def _alloy(problem: Problem, fallback: Fallback) -> Plan:
 
 
 def _run(problem: Problem, strategy: str, fallback: Fallback) -> Plan:
-    from checker.planning.operations import solve
-
     if strategy == "alloy":
         return _alloy(problem, fallback)
     return solve(problem, strategy, fallback.budget)
@@ -168,8 +138,6 @@ def plan_with_fallback(problem: Problem, strategy: str = "default", fallback: Fa
     """Plan `problem`, starting with `strategy` and going on along `CHAIN` (see the module
     docstring). Raises NoSafePlan when the start or the target is impossible (no strategy is
     tried), NoPlanFound when every strategy failed."""
-    from checker.planning.operations import ready
-
     problem = ready(problem)
     attempts: list[Attempt] = []
     for name in _strategies(strategy, fallback, problem):

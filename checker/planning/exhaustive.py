@@ -73,6 +73,8 @@ from checker.model.config import Configuration, FuncId
 from reconf_dsl.words import plural
 from checker.planning.plan import Goal, NoSafePlan, state_weight
 from checker.planning.relaxed import Relaxation, reachable
+from checker.planning.improve import cost, improve
+from checker.planning.default import _closure
 
 __all__ = ["Budget", "Impossible", "Search", "SearchTooLarge", "exhaustive_search", "exhaustive_steps", "relevant"]
 
@@ -276,7 +278,6 @@ class _Space:
         """How far `config` seems from the goal, to order the reachability search (not a bound):
         the steps `bound` counts, and for each unwanted attachment whose detach is refused the
         functionalities it would degrade (`default._closure`), twice if they must come back."""
-        from checker.planning.default import _closure
 
         st = Snapshot(self.cat, config)
         need: set[FuncId] = set()
@@ -414,7 +415,6 @@ def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: 
     """Decide whether a plan exists and find the least disruptive one the budget allows (see the
     module docstring). Raises NoSafePlan, saying how it knows, when none exists, and
     SearchTooLarge when the budget ran out first."""
-    from checker.planning.improve import cost, improve
 
     clock = _Clock(budget)
     space = _Space(system, start, goal)

@@ -1,4 +1,5 @@
-"""Reconfigurations to plan: replace, remove, add, migrate; and the one entry point `solve`.
+"""Reconfigurations to plan: replace, remove, add, migrate, each as a `Problem` planned by a
+strategy (`checker.planning.strategies`) or through the fallback chain.
 
 Every plan is checked step by step with `semantics.evaluate` (`plan.verify`) before it is
 returned. Each `plan_*` plans with the strategy it is given alone, or, given a `Fallback`,
@@ -20,71 +21,16 @@ from typing import Optional, Union
 
 from reconf_dsl.ir import Component, Connector, System
 
-from checker.model.actions import Action, catalogue, failing_assumptions, satisfies
 from checker.model.config import Configuration, Role
 from checker.planning.chain import Fallback, plan_with_fallback
-from checker.planning.default import default_steps
+from checker.planning.strategies import solve
 from checker.planning.environment import missing_environment
-from checker.planning.exhaustive import Budget, exhaustive_search
-from checker.planning.improve import cost, improve
-from checker.planning.paper import paper_steps
-from checker.planning.plan import BadRequest, Goal, NoSafePlan, Plan, Problem, settle, unknown, verify
+from checker.planning.plan import BadRequest, Goal, NoSafePlan, Plan, Problem, unknown
 
-__all__ = ["STRATEGIES", "solve", "plan_problem", "ready", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
+__all__ = ["plan_problem", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",
            "remove_problem"]
 
-STRATEGIES = ("default", "paper", "exhaustive")
 RENAMED = "@new"
-
-
-def _steps(problem: Problem, strategy: str, budget: Budget) -> tuple[list[Action], Optional[str]]:
-    """The steps of `strategy` for `problem` (its goal settled), and a note on how they were found."""
-    if strategy == "paper":
-        return paper_steps(problem), None
-    if strategy == "exhaustive":
-        search = exhaustive_search(problem.system, problem.start, problem.goal, budget)
-        return search.steps, search.note()
-    if strategy == "default":
-        return _default(problem)
-    raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
-
-
-def ready(problem: Problem) -> Problem:
-    """Refuse an invalid start or an impossible target; the problem with its goal `settle`d."""
-    s, cat = problem.system, catalogue(problem.system)
-    bad = failing_assumptions(s, problem.start)
-    if bad:
-        raise NoSafePlan([f"the current configuration is not valid: {c}.{f} assumes {a}, which does not hold"
-                          for c, f, a in bad])
-    reasons = [f"the target needs {c}, which is not declared" for c in sorted(problem.goal.components)
-               if c not in cat.comps]
-    if reasons:
-        raise NoSafePlan(reasons)
-    pubs: dict[str, list[str]] = {}
-    short: list[str] = []
-    for n, c, p in problem.goal.roles:
-        port = cat.comps[c].port(p)
-        if port is None or port.kind != "output" or n not in cat.conns:
-            continue
-        pubs.setdefault(n, []).append(f"{c}.{p}")
-        want = cat.conns[n].guarantee
-        best = [f.normal.guarantee(p) for f in cat.comps[c].functionalities if p in f.ports and f.normal]
-        if not any(satisfies(g, want) for g in best):
-            short.append(f"{c}.{p} guarantees at best {' or '.join(map(str, best)) or 'nothing'}, which does not "
-                         f"satisfy {want} of {n}")
-    for conn in s.connectors:
-        if conn.single_publisher and len(pubs.get(conn.name, [])) > 1:
-            reasons.append(f"in the target, {conn.name} takes a single publisher but has "
-                           f"{', '.join(sorted(pubs[conn.name]))}")
-    if reasons:
-        raise NoSafePlan(reasons)
-    goal = settle(s, problem.goal)
-    if short and goal.degraded:
-        # A publisher that can never serve its topic is a mistake in the target, not a degradation to plan.
-        said = [w.removeprefix("it ").replace("cannot hold in the target", "would not hold") for _, w in goal.why]
-        raise NoSafePlan([f"in the target, {c}.{f} {w}" for ((c, f), _), w in zip(goal.why, said)]
-                         + [f"in the target, {x}" for x in sorted(short)])
-    return dc_replace(problem, goal=goal)
 
 
 class _NoPort:
@@ -92,46 +38,6 @@ class _NoPort:
 
 
 _NO_PORT = _NoPort()
-
-
-def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()) -> Plan:
-    """Plan `problem` with `strategy` alone (`checker.planning.chain` goes on to the next
-    strategy when one fails).
-
-    `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
-    so it is never worse than `paper`; `budget` bounds the `exhaustive` search."""
-    problem = ready(problem)
-    steps, note = _steps(problem, strategy, budget)
-    plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
-    if note:
-        plan.notes.append(note)
-    return plan
-
-
-def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
-    """The default strategy's plan, or the paper's (locally improved) when that is less disruptive."""
-    system, start, goal = problem.system, problem.start, problem.goal
-    reasons: list[str] = []
-    mine: Optional[list[Action]] = None
-    try:
-        mine = default_steps(system, start, goal)
-    except NoSafePlan as e:
-        reasons += e.reasons
-    try:
-        theirs = paper_steps(problem)
-    except NoSafePlan as e:
-        if mine is None:
-            raise NoSafePlan(reasons + e.reasons) from None
-        return mine, None
-    mine_cost = None if mine is None else cost(system, start, mine, goal)
-    theirs_cost = cost(system, start, theirs, goal)
-    if mine is not None and mine_cost is not None and (theirs_cost is None or mine_cost < theirs_cost):
-        return mine, None
-    theirs = improve(system, start, theirs, goal)
-    improved = cost(system, start, theirs, goal)
-    if mine is not None and mine_cost is not None and (improved is None or mine_cost <= improved):
-        return mine, None
-    return theirs, "the paper's order, improved, was less disruptive here and is kept"
 
 
 def plan_problem(problem: Problem, strategy: str, fallback: Optional[Fallback]) -> Plan:

@@ -11,20 +11,18 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, field
+from dataclasses import replace as dc_replace
 from itertools import pairwise
-from typing import TYPE_CHECKING, Any, Iterable, Optional, Sequence
+from typing import Any, Iterable, Optional, Sequence
 
 from reconf_dsl.ir import System
 
 from checker.model.actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalogue, catalogue, effect,
-                       failing_assumptions, preconditions)
+                       failing_assumptions, preconditions, satisfies)
 from checker.model.config import Configuration, FuncId, Role
 from checker.model.semantics import evaluate
 from checker.planning.states import States
 from reconf_dsl.words import plural
-
-if TYPE_CHECKING:
-    from checker.planning.chain import Attempt
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
@@ -349,3 +347,68 @@ class Problem:
     removed: list[str] = field(default_factory=list)
     added: list[str] = field(default_factory=list)
     renames: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """A strategy that gave no accepted plan: `outcome` is "no plan" (it found none), "none
+    exists" (it proved that no plan exists, by `how`: "relaxation" or "search"), "gave up" (its
+    budget ran out), "refuted" (the caller refused its plan) or "unavailable"; `reasons` say
+    why."""
+
+    strategy: str
+    outcome: str
+    reasons: tuple[str, ...]
+    how: str = ""
+
+    def describe(self) -> str:
+        said = "; ".join(r.removeprefix(f"{self.strategy}: ") for r in self.reasons)
+        if self.outcome == "no plan":
+            said = "found no plan" + (f": {said}" if said else "")
+        elif self.outcome == "unavailable":
+            said = "unavailable" + (f": {said}" if said else "")
+        return f"{self.strategy}: {said or self.outcome}"
+
+    def to_dict(self) -> dict[str, object]:
+        out: dict[str, object] = {"strategy": self.strategy, "outcome": self.outcome, "reasons": list(self.reasons)}
+        if self.how:
+            out["proved_by"] = self.how
+        return out
+
+
+def ready(problem: Problem) -> Problem:
+    """Refuse an invalid start or an impossible target; the problem with its goal `settle`d."""
+    s, cat = problem.system, catalogue(problem.system)
+    bad = failing_assumptions(s, problem.start)
+    if bad:
+        raise NoSafePlan([f"the current configuration is not valid: {c}.{f} assumes {a}, which does not hold"
+                          for c, f, a in bad])
+    reasons = [f"the target needs {c}, which is not declared" for c in sorted(problem.goal.components)
+               if c not in cat.comps]
+    if reasons:
+        raise NoSafePlan(reasons)
+    pubs: dict[str, list[str]] = {}
+    short: list[str] = []
+    for n, c, p in problem.goal.roles:
+        port = cat.comps[c].port(p)
+        if port is None or port.kind != "output" or n not in cat.conns:
+            continue
+        pubs.setdefault(n, []).append(f"{c}.{p}")
+        want = cat.conns[n].guarantee
+        best = [f.normal.guarantee(p) for f in cat.comps[c].functionalities if p in f.ports and f.normal]
+        if not any(satisfies(g, want) for g in best):
+            short.append(f"{c}.{p} guarantees at best {' or '.join(map(str, best)) or 'nothing'}, which does not "
+                         f"satisfy {want} of {n}")
+    for conn in s.connectors:
+        if conn.single_publisher and len(pubs.get(conn.name, [])) > 1:
+            reasons.append(f"in the target, {conn.name} takes a single publisher but has "
+                           f"{', '.join(sorted(pubs[conn.name]))}")
+    if reasons:
+        raise NoSafePlan(reasons)
+    goal = settle(s, problem.goal)
+    if short and goal.degraded:
+        # A publisher that can never serve its topic is a mistake in the target, not a degradation to plan.
+        said = [w.removeprefix("it ").replace("cannot hold in the target", "would not hold") for _, w in goal.why]
+        raise NoSafePlan([f"in the target, {c}.{f} {w}" for ((c, f), _), w in zip(goal.why, said)]
+                         + [f"in the target, {x}" for x in sorted(short)])
+    return dc_replace(problem, goal=goal)

@@ -13,7 +13,7 @@ from reconf_dsl.ir import System
 
 from checker.model.actions import Degrade, effect
 from checker.model.config import Configuration
-from checker.planning.operations import solve
+from checker.planning.strategies import solve
 from checker.planning.plan import Goal, Plan, Problem, disruption, settle
 from checker.planning.states import States
 

@@ -1,0 +1,2 @@
+"""Reports for people and machines: text with source snippets, JSON documents, SARIF, GitHub and JUnit
+(`formats`), pictures, the plan document, progress lines."""

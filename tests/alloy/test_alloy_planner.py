@@ -9,7 +9,8 @@ import pytest
 from checker.alloy import AlloyBridge
 from checker.planning.alloy_search import alloy_plan, alloy_search, plan_with_alloy, render_planner
 from checker.model.config import Configuration
-from checker.planning.operations import ready, solve
+from checker.planning.plan import ready
+from checker.planning.strategies import solve
 from checker.planning.plan import Goal, NoSafePlan, Problem, verify
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load

@@ -15,7 +15,8 @@ from checker.model.config import Configuration
 from checker.planning import Fallback, NoPlanFound, Plan, plan_replace, plan_with_fallback
 from checker.planning.exhaustive import Budget, Impossible, _astar, _Clock, _Space, exhaustive_search
 from checker.planning.improve import cost
-from checker.planning.operations import ready, remove_problem, replace_problem
+from checker.planning.operations import remove_problem, replace_problem
+from checker.planning.plan import ready
 from checker.planning.plan import NoSafePlan, Problem, settle, verify
 from checker.planning.relaxed import reachable
 from reconf_dsl.loader import load, load_text

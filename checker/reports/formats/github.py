@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from reconf_dsl.diagnostics import Severity
 
-from checker.reports.formats import Report
+from checker.reports.formats.model import Report
 from checker.reports.formats.sarif import known, message_text
 
 COMMAND = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "notice"}

@@ -15,7 +15,7 @@ from urllib.parse import quote
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.span import Span
 
-from checker.reports.formats import Report
+from checker.reports.formats.model import Report
 from checker.reports.formats.rules import rule
 
 SCHEMA = "https://json.schemastore.org/sarif-2.1.0.json"

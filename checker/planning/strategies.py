@@ -1,0 +1,84 @@
+"""The planning strategies, one registry: each a name, the function that finds its steps, and a
+line on what it does. `solve` plans with one of them; the CLI's `--strategy` choices, the gate
+policy's `strategy`, and the order of the fallback chain (`checker.planning.chain.CHAIN`) are
+read from `STRATEGIES` (docs/architecture.md, "A planning strategy")."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+from checker.model.actions import Action
+from checker.planning.default import default_steps
+from checker.planning.exhaustive import Budget, exhaustive_search
+from checker.planning.improve import cost, improve
+from checker.planning.paper import paper_steps
+from checker.planning.plan import NoSafePlan, Plan, Problem, ready, verify
+
+Steps = tuple[list[Action], Optional[str]]     # the steps, and a note on how they were found
+
+
+@dataclass(frozen=True)
+class Strategy:
+    name: str
+    steps: Callable[[Problem, Budget], Steps]  # for a problem whose goal is settled (`ready`)
+    summary: str
+
+
+def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
+    """The default strategy's plan, or the paper's (locally improved) when that is less disruptive."""
+    system, start, goal = problem.system, problem.start, problem.goal
+    reasons: list[str] = []
+    mine: Optional[list[Action]] = None
+    try:
+        mine = default_steps(system, start, goal)
+    except NoSafePlan as e:
+        reasons += e.reasons
+    try:
+        theirs = paper_steps(problem)
+    except NoSafePlan as e:
+        if mine is None:
+            raise NoSafePlan(reasons + e.reasons) from None
+        return mine, None
+    mine_cost = None if mine is None else cost(system, start, mine, goal)
+    theirs_cost = cost(system, start, theirs, goal)
+    if mine is not None and mine_cost is not None and (theirs_cost is None or mine_cost < theirs_cost):
+        return mine, None
+    theirs = improve(system, start, theirs, goal)
+    improved = cost(system, start, theirs, goal)
+    if mine is not None and mine_cost is not None and (improved is None or mine_cost <= improved):
+        return mine, None
+    return theirs, "the paper's order, improved, was less disruptive here and is kept"
+
+
+def _paper(problem: Problem, budget: Budget) -> Steps:
+    return paper_steps(problem), None
+
+
+def _exhaustive(problem: Problem, budget: Budget) -> Steps:
+    search = exhaustive_search(problem.system, problem.start, problem.goal, budget)
+    return search.steps, search.note()
+
+
+REGISTRY: dict[str, Strategy] = {s.name: s for s in (
+    Strategy("default", lambda problem, budget: _default(problem),
+             "never more disruptive than the paper's; make-before-break where connectors allow"),
+    Strategy("paper", _paper, "Algorithm 1 of Zhang, Garlan and Kang, faithfully"),
+    Strategy("exhaustive", _exhaustive, "a search for the least disruptive plan, within a budget"),
+)}
+STRATEGIES = tuple(REGISTRY)
+
+
+def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()) -> Plan:
+    """Plan `problem` with `strategy` alone (`checker.planning.chain` goes on to the next
+    strategy when one fails).
+
+    `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
+    so it is never worse than `paper`; `budget` bounds the `exhaustive` search."""
+    problem = ready(problem)
+    if strategy not in REGISTRY:
+        raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
+    steps, note = REGISTRY[strategy].steps(problem, budget)
+    plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
+    if note:
+        plan.notes.append(note)
+    return plan
