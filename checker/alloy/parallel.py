@@ -1,4 +1,5 @@
-"""A second analyzer in a helper process, for many independent modules (README, "Alloy").
+"""A second analyzer in a helper process, for many independent modules (docs/internals.md,
+"Slicing a large check").
 
 The slices of a configuration, and the windows of a plan, are independent modules, and the
 analyzer is single-threaded (one JVM's translation is not safe to share between threads),
