@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import replace as dc_replace
-from typing import Any, Callable, Optional
+from typing import TYPE_CHECKING, Any, Callable, Optional
 
 from codegen.alloy import TERNARY_ATOMS
+from reconf_dsl.ir import Predicate
 
 from .alloy.errors import AlloyError
 from .planning import Plan
 from .report import plural
+
+if TYPE_CHECKING:
+    from .planning.slicing import PlanSlicer
 
 
 # states x components of a plan module past which it is not run (about a minute of work here)
@@ -171,7 +175,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     return evidence
 
 
-def _windows(plan: Plan, slicer: Any) -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
+def _windows(plan: Plan, slicer: "PlanSlicer") -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
     """The windows `alloy_evidence` judges when every lean slice is proved: (first step,
     steps, lean slice, its core) each, up to the first past `MODULE_BUDGET`, and then why
     the plan cannot be verified ("" when none is)."""
@@ -256,7 +260,8 @@ def _atoms(target: Plan) -> int:
     relations has no guarantee atoms)."""
     system = target.system
     count = len(target.states) + len(system.connectors) + 24
-    data: set[Any] = {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
+    data: set[Optional[Predicate]] = set()
+    data |= {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
     for c in system.components + system.versions:
         count += 1 + len(c.ports) + len(c.functionalities)
         data |= {p.assumption for p in c.ports if p.kind == "input"}
@@ -303,8 +308,9 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
     `binary`, a module with too many atoms for ternary relations is written with binary
     ones (about 3x slower to translate) rather than refused."""
     from .alloy import alloy_plan_verdict
+    from .alloy.instance import AlloyPlanVerdict
 
-    def run(binary_roles: bool) -> Any:
+    def run(binary_roles: bool) -> "AlloyPlanVerdict":
         return alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
                                   stable=target.stable, binary=binary_roles, protocols=target.protocols,
                                   handover=target.handover)
