@@ -4,6 +4,12 @@ The meta-model (`alloy_model/reconf.als`) and the instance modules share one set
 semantic definitions, the macros of `semantics.j2`; a `StateAccess` says how those
 definitions reach a configuration.
 
+A module of a concrete architecture is built, then rendered: `describe_instance`,
+`describe_plan` and `describe_architecture` decide what it says (codegen.alloy_module:
+its atoms, its `fun` constants, the states and steps of a plan), and the templates only
+render that description (`render_instance_module`, `render_plan_module`,
+`render_planner_module`). The actions are read from their registry (checker.model.actions.KINDS).
+
     python -m codegen.alloy --regenerate   # rewrite alloy_model/reconf.als
     python -m codegen.alloy --check        # exit 1 if it is out of date
 """
@@ -12,11 +18,21 @@ from __future__ import annotations
 import argparse
 import functools
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from fractions import Fraction
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Collection, Hashable, Iterable, Mapping, Sequence, TypeVar
 
-import jinja2
+from checker.model.actions import KINDS as ACTION_KINDS
+from checker.model.actions import kind_of, recognise
+from checker.model.config import Configuration
+from reconf_dsl.ir import Component, Connector, Predicate, System
+
+from .alloy_module import (Architecture, Family, Fun, InstanceModule, Meaning, PlanModule, PlannerModule, Serving,
+                           Step)
+
+if TYPE_CHECKING:
+    import jinja2
 
 TEMPLATES = Path(__file__).parent / "templates" / "alloy"
 METAMODEL_PATH = Path(__file__).resolve().parent.parent / "alloy_model" / "reconf.als"
@@ -97,9 +113,11 @@ PLAN_BINARY_STATE = StateAccess("s", "System", sat="sat", joins=True, guar_atoms
 
 
 @functools.lru_cache(maxsize=None)
-def environment() -> jinja2.Environment:
+def environment() -> "jinja2.Environment":
     """The templates' environment, made once: it caches the compiled templates, and a
-    large architecture renders one module per slice."""
+    large architecture renders one module per slice. Jinja loads here, on the first module
+    rendered, so that importing the generator costs a command nothing at start-up."""
+    import jinja2
     return jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TEMPLATES)),
         undefined=jinja2.StrictUndefined,
@@ -122,6 +140,12 @@ def render_semantics(st: StateAccess = FIXED_STATE) -> str:
     return str(macros.semantics(st))  # type: ignore[attr-defined]
 
 
+def render_actions(st: StateAccess) -> str:
+    """The actions' definitions alone (actions.j2), over two configurations."""
+    macros = environment().get_template("actions.j2").module
+    return str(macros.actions(st))  # type: ignore[attr-defined]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m codegen.alloy")
     group = parser.add_mutually_exclusive_group(required=True)
@@ -137,7 +161,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{METAMODEL_PATH} is out of date: run python -m codegen.alloy --regenerate")
         return 1
     return 0
-
 
 
 # -- Instance modules ---------------------------------------------------------------------
@@ -171,7 +194,7 @@ def mangle(kind: str, *parts: str) -> str:
     return KINDS[kind] + "_" + "_o_".join(esc(p) for p in parts)
 
 
-def union(terms: list[str], empty: str) -> str:
+def union(terms: Sequence[str], empty: str) -> str:
     """Balanced union (a binary tree of `+`), or `empty` when there are no terms."""
     if not terms:
         return empty
@@ -186,19 +209,19 @@ def _empty(*sigs: str) -> str:
     return "none" if len(sigs) == 1 else f"({product} - {product})"
 
 
-def _one_sigs(parent: str, names: list[str], extends: str = "") -> list[str]:
-    """An abstract sig and one `one sig` per atom (balanced lines of 8)."""
-    out = [f"abstract sig {parent} {extends}{{}}".replace("  ", " ")]
-    for i in range(0, len(names), 8):
-        out.append(f"one sig {', '.join(names[i:i + 8])} extends {parent} {{}}")
-    return out
+def _fun(name: str, type_: str, terms: Sequence[str]) -> Fun:
+    """A constant of relation type `type_` (`A -> B ...`), the union of `terms`."""
+    return Fun(name, type_, union(terms, _empty(*type_.split(" -> "))))
 
 
-def render_instance(system: Any, config: Any, module_name: str = "instance",
-                    focus: Any = None, index: "SliceIndex | None" = None,
-                    keep: Any = None) -> tuple[str, dict[str, tuple[str, ...]]]:
-    """An Alloy module for `system` (reconf_dsl.ir.System) in `config`
-    (checker.model.config.Configuration); see `_render`.
+def render_instance(system: System, config: Configuration, module_name: str = "instance",
+                    focus: Iterable[str] | None = None, index: "SliceIndex | None" = None,
+                    keep: Mapping[str, Collection[tuple[str, str]]] | None = None
+                    ) -> tuple[str, dict[str, Meaning]]:
+    """An Alloy module for `system` in `config`, and a map from each atom name to what it
+    stands for (`codegen.alloy_module.Meaning`). The module defines `valid`, `unsatisfied:
+    Functionality -> Data` (evaluate it in the `Verdict` instance) and `check Valid` (a
+    counterexample means the configuration is not valid).
 
     With `focus` (a set of component names), the module is the slice that judges only
     those components: `valid` holds in it exactly when every assumption of the focus's
@@ -213,15 +236,8 @@ def render_instance(system: Any, config: Any, module_name: str = "instance",
     `keep` ({connector: {(component, output)}}) has a slice show only those publishers of
     a connector it reads (besides the focus's own): a connector is satisfied by some
     attached output, so a slice valid with some of them is valid with all of them."""
-    if focus is None:
-        return _render(system, [config], module_name, plan=False)
-    focus = set(focus)
-    index = index if index is not None else slice_index(system, config)
-    read = {k for c in focus for k, p in index.roles_of.get(c, ()) if index.kinds.get((c, p)) == "input"}
-    keep = keep or {}
-    context = {(c, p) for k in read for c, p in index.publishers.get(k, ())
-               if c not in focus and (k not in keep or (c, p) in keep[k])}
-    return _render(system, [config], module_name, plan=False, slice_=(focus, context, read, index))
+    module = describe_instance(system, config, module_name, focus, index, keep)
+    return render_instance_module(module), module.architecture.names
 
 
 @dataclass(frozen=True)
@@ -230,17 +246,17 @@ class SliceIndex:
     configuration instead of once per slice."""
 
     position: dict[str, int]                        # component -> its place in declaration order
-    components: dict[str, Any]                      # component name -> component (versions too)
+    components: dict[str, Component]                # component name -> component (versions too)
     kinds: dict[tuple[str, str], str]               # (component, port) -> "input" / "output"
-    view: Any                                       # the configuration as Alloy reads it (alloy_view)
+    view: Configuration                             # the configuration as Alloy reads it (alloy_view)
     roles_of: dict[str, list[tuple[str, str]]]      # component -> (connector, port) it is attached by
     publishers: dict[str, list[tuple[str, str]]]    # connector -> (component, output port) attached
-    connectors: dict[str, tuple[int, Any]]          # connector name -> (declaration place, connector)
+    connectors: dict[str, tuple[int, Connector]]    # connector name -> (declaration place, connector)
 
 
-def slice_index(system: Any, config: Any) -> SliceIndex:
+def slice_index(system: System, config: Configuration) -> SliceIndex:
     comps = _all_components(system)
-    kinds = {(c.name, p.name): p.kind for c in comps for p in c.ports}
+    kinds: dict[tuple[str, str], str] = {(c.name, p.name): p.kind for c in comps for p in c.ports}
     roles_of: dict[str, list[tuple[str, str]]] = {}
     publishers: dict[str, list[tuple[str, str]]] = {}
     for k, c, p in config.roles:
@@ -256,9 +272,10 @@ def slice_index(system: Any, config: Any) -> SliceIndex:
         connectors={k.name: (i, k) for i, k in enumerate(system.connectors)})
 
 
-def render_plan(system: Any, configs: Sequence[Any], module_name: str = "plan",
-                serving: Any = (), stable: Any = (), binary: bool = False,
-                protocols: Any = (), handover: Any = ()) -> tuple[str, dict[str, tuple[str, ...]]]:
+def render_plan(system: System, configs: Sequence[Configuration], module_name: str = "plan",
+                serving: Iterable[tuple[str, str]] = (), stable: Iterable[str] = (), binary: bool = False,
+                protocols: Iterable[tuple[str, str]] = (), handover: Iterable[tuple[str, str]] = ()
+                ) -> tuple[str, dict[str, Meaning]]:
     """An Alloy module for a sequence of configurations of `system` (the states of a
     plan): atoms `S0`, `S1`, ... of sig System, with the meta-model's semantics and six
     actions. Evaluate `valid[S<i>]` and `step[S<i>, S<i+1>]` (or an action predicate)
@@ -268,12 +285,14 @@ def render_plan(system: Any, configs: Sequence[Any], module_name: str = "plan",
     `stable` (connector names, `Plan.stable`), `stable_states` are those in which all of
     them are satisfied; the plan is safe only if every configuration is one. With `binary`,
     the configurations' roles are binary relations through Role atoms
-    (`PLAN_BINARY_STATE`), for a universe too large for the ternary `roles`."""
-    return _render(system, configs, module_name, plan=True, serving=list(serving), stable=list(stable),
-                   binary=binary, protocols=list(protocols), handover=list(handover))
+    (`PLAN_BINARY_STATE`), for a universe too large for the ternary `roles`. Returns the
+    text and the map from atom names to what they stand for."""
+    module = describe_plan(system, configs, module_name, list(serving), list(stable), binary,
+                           list(protocols), list(handover))
+    return render_plan_module(module), module.architecture.names
 
 
-def alloy_view(system: Any, config: Any) -> Any:
+def alloy_view(system: System, config: Configuration) -> Configuration:
     """`config` as Alloy reads it: every functionality of an absent component degraded.
 
     The Python engine records no mode for an absent component (removing one drops its
@@ -286,379 +305,452 @@ def alloy_view(system: Any, config: Any) -> Any:
               for f in c.functionalities}
     if absent <= config.degraded:
         return config
-    return type(config)(config.components, config.degraded | frozenset(absent), config.roles)
+    return Configuration(config.components, config.degraded | frozenset(absent), config.roles)
 
 
-def _all_components(system: Any) -> list[Any]:
+def _all_components(system: System) -> list[Component]:
     names = {c.name for c in system.components}
     return list(system.components) + [v for v in system.versions if v.name not in names]
 
 
-def step_action(before: Any, after: Any) -> tuple[str, list[tuple[str, Any]]] | None:
-    """The single action that the difference between two configurations would be, with its
-    arguments as (kind, DSL key), or None when the difference is not one change.
-
-    The modes of a created or removed component's functionalities are part of that action
-    (whichever way the configurations record them), not a change of their own."""
-    removed = before.components - after.components
-    created = after.components - before.components
-    moved = removed | created
-    detached = before.roles - after.roles
-    attached = after.roles - before.roles
-    degraded = {f for f in after.degraded - before.degraded if f[0] not in moved}
-    upgraded = {f for f in before.degraded - after.degraded if f[0] not in moved}
-    changes = [removed, created, detached, attached, degraded, upgraded]
-    if sum(len(c) for c in changes) != 1:
+def step_action(before: Configuration, after: Configuration) -> tuple[str, tuple[Meaning, ...]] | None:
+    """The single action that the difference between two configurations would be
+    (`checker.model.actions.recognise`), by name with its arguments as the atoms' meanings, or
+    None when the difference is not one change."""
+    action = recognise(before, after)
+    if action is None:
         return None
-    if removed or created:
-        (c,) = removed or created
-        return ("remove" if removed else "create"), [("component", c)]
-    if detached or attached:
-        ((k, comp, port),) = detached or attached
-        return ("detach" if detached else "attach"), [("connector", k), ("port", (comp, port))]
-    (f,) = degraded or upgraded
-    return ("degrade" if degraded else "upgrade"), [("functionality", f)]
+    return action.kind, kind_of(action).alloy_args(action)
 
 
-def _plan_relations(configs: list[Any], states: list[str], comp_atoms: dict[str, str],
-                    func_atoms: dict[Any, str], conn_atoms: dict[str, str], port_atoms: dict[Any, str],
-                    rel: dict[str, list[str]], binary: bool = False) -> list[str]:
+# -- Building a module's description ------------------------------------------------------
+
+@dataclass
+class _Data:
+    """The data atoms, one per distinct (message, rate) in the order they are met, with
+    the message types and rates they name."""
+
+    names: dict[str, Meaning]
+    atoms: dict[tuple[str, Fraction | None], str] = field(default_factory=dict)
+    messages: dict[str, str] = field(default_factory=dict)
+    rates: set[Fraction] = field(default_factory=set)
+
+    def atom(self, pred: Predicate | None) -> str:
+        if pred is None or pred.message is None:
+            return "Nothing"
+        key = (pred.message, pred.hz)
+        if key not in self.atoms:
+            atom = f"d_{len(self.atoms)}"
+            self.atoms[key] = atom
+            self.names[atom] = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
+            if pred.message not in self.messages:
+                self.messages[pred.message] = mangle("message", pred.message)
+                self.names[self.messages[pred.message]] = ("message", pred.message)
+            if pred.hz is not None:
+                self.rates.add(pred.hz)
+        return self.atoms[key]
+
+
+@dataclass
+class _Parts:
+    """The atoms of an architecture and its relations as terms, while they are collected."""
+
+    names: dict[str, Meaning]
+    data: _Data
+    comps: dict[str, str] = field(default_factory=dict)
+    ports: dict[tuple[str, str], str] = field(default_factory=dict)
+    funcs: dict[tuple[str, str], str] = field(default_factory=dict)
+    conns: dict[str, str] = field(default_factory=dict)
+    inputs: list[str] = field(default_factory=list)
+    outputs: list[str] = field(default_factory=list)
+    # (functionality, output, meaning, normal datum, degraded datum) per guarantee
+    guarantees: list[tuple[str, str, Meaning, str, str]] = field(default_factory=list)
+    rel: dict[str, list[str]] = field(default_factory=lambda: {k: [] for k in (
+        "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
+        "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg")})
+
+    def name(self, atom: str, meaning: Meaning) -> str:
+        self.names[atom] = meaning
+        return atom
+
+
+@dataclass(frozen=True)
+class _Scope:
+    """What a module shows: the components (whole where `judged`, else only the outputs in
+    `context`), the connectors, and the configurations as Alloy reads them."""
+
+    comps: list[Component]
+    connectors: Sequence[Connector]
+    configs: list[Configuration]
+    focus: set[str] | None = None
+    context: set[tuple[str, str]] = field(default_factory=set)
+    index: SliceIndex | None = None
+
+    def judged(self, comp: str) -> bool:
+        return self.focus is None or comp in self.focus
+
+
+def _whole(system: System, configs: Sequence[Configuration]) -> _Scope:
+    return _Scope(_all_components(system), system.connectors, [alloy_view(system, c) for c in configs])
+
+
+def _slice(system: System, config: Configuration, focus: Iterable[str], index: SliceIndex | None,
+           keep: Mapping[str, Collection[tuple[str, str]]] | None) -> _Scope:
+    """The slice judging `focus` (see `render_instance`): the focus whole; of the other
+    components only the outputs attached to the connectors the focus reads, and the
+    functionalities behind them; only those connectors, all read through the index."""
+    focus = set(focus)
+    index = index if index is not None else slice_index(system, config)
+    read = {k for c in focus for k, p in index.roles_of.get(c, ()) if index.kinds.get((c, p)) == "input"}
+    keep = keep or {}
+    context = {(c, p) for k in read for c, p in index.publishers.get(k, ())
+               if c not in focus and (k not in keep or (c, p) in keep[k])}
+    wanted = focus | {c for c, _ in context}
+    comps = [index.components[n] for n in sorted(wanted & index.components.keys(), key=index.position.__getitem__)]
+    connectors = [index.connectors[n][1] for n in sorted(read & index.connectors.keys(),
+                                                         key=lambda n: index.connectors[n][0])]
+    return _Scope(comps, connectors, [index.view], focus, context, index)
+
+
+def _declare_ports(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
+    data = parts.data
+    for p in c.ports:
+        if not scope.judged(c.name) and (p.kind == "input" or (c.name, p.name) not in scope.context):
+            continue
+        pa = parts.ports[c.name, p.name] = parts.name(mangle("port", c.name, p.name), ("port", c.name, p.name))
+        if p.kind == "input":
+            parts.inputs.append(pa)
+            parts.rel["inputs"].append(f"{ca} -> {pa}")
+            parts.rel["iasm"].append(f"{pa} -> {data.atom(p.assumption)}")
+        else:
+            parts.outputs.append(pa)
+            parts.rel["outputs"].append(f"{ca} -> {pa}")
+
+
+def _declare_functionalities(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
+    judged = scope.judged(c.name)
+    for f in c.functionalities:
+        if not judged and not any((c.name, pname) in parts.ports for pname in f.ports):
+            continue
+        fa = parts.funcs[c.name, f.name] = parts.name(mangle("functionality", c.name, f.name),
+                                                      ("functionality", c.name, f.name))
+        parts.rel["funcs"].append(f"{ca} -> {fa}")
+        for pname in f.ports:
+            port = c.port(pname)
+            if port is None or (c.name, pname) not in parts.ports:
+                continue
+            pa = parts.ports[c.name, pname]
+            if port.kind == "input":
+                parts.rel["assoc_in"].append(f"{fa} -> {pa}")
+                continue
+            parts.rel["assoc_out"].append(f"{fa} -> {pa}")
+            # written once the encoding is chosen (see `_guarantee_atoms`)
+            normal, degraded = (parts.data.atom(m.guarantee(pname) if m is not None else None)
+                                for m in (f.normal, f.degraded))
+            parts.guarantees.append((fa, pa, ("guarantee", c.name, f.name, pname), normal, degraded))
+        if f.normal is not None and judged:
+            for a in f.normal.assumptions:
+                parts.rel["nasms"].append(f"{fa} -> {parts.data.atom(a)}")
+
+
+def _collect(system: System, scope: _Scope, names: dict[str, Meaning]) -> _Parts:
+    """The atoms and relation terms of the architecture in `scope`, in declaration order
+    (the data atoms as first met)."""
+    parts = _Parts(names, _Data(names))
+    for c in scope.comps:
+        ca = parts.comps[c.name] = parts.name(mangle("component", c.name), ("component", c.name))
+        _declare_ports(parts, scope, c, ca)
+        _declare_functionalities(parts, scope, c, ca)
+    for k in scope.connectors:
+        ka = parts.conns[k.name] = parts.name(mangle("connector", k.name), ("connector", k.name))
+        parts.rel["cguar"].append(f"{ka} -> {parts.data.atom(k.guarantee)}")
+    for e in system.environment:
+        parts.rel["envg"].append(parts.data.atom(e.guarantee))
+    return parts
+
+
+def _rate_atoms(parts: _Parts) -> list[tuple[Fraction, str]]:
+    """The rates in order, an atom each."""
+    return [(hz, parts.name(f"r_{i}", ("rate", str(hz)))) for i, hz in enumerate(sorted(parts.data.rates))]
+
+
+def _guarantee_atoms(parts: _Parts, ternary: bool) -> list[str]:
+    """The guarantees' relations: a ternary relation (Functionality -> Output -> Data, the
+    meta-model's own encoding), or an atom each; the atoms."""
+    guar_atoms: list[str] = []
+    rel = parts.rel
+    for fa, pa, meaning, normal, degraded in parts.guarantees:
+        if ternary:
+            rel["nguar"].append(f"{fa} -> {pa} -> {normal}")
+            rel["dguar"].append(f"{fa} -> {pa} -> {degraded}")
+            continue
+        ga = parts.name(f"g_{len(guar_atoms)}", meaning)
+        guar_atoms.append(ga)
+        rel["gfunc"].append(f"{ga} -> {fa}")
+        rel["gout"].append(f"{ga} -> {pa}")
+        rel["gn"].append(f"{ga} -> {normal}")
+        rel["gd"].append(f"{ga} -> {degraded}")
+    return guar_atoms
+
+
+def _families(parts: _Parts, rates: list[tuple[Fraction, str]], guar_atoms: list[str] | None) -> tuple[Family, ...]:
+    """The sigs of the atoms, in declaration order (guarantee atoms when not ternary)."""
+    families = [
+        Family("MType", tuple(sorted(parts.data.messages.values()))),
+        Family("Rate", tuple(ra for _, ra in rates)),
+        Family("Data", ("Nothing",), closed=False),
+        Family("Msg", tuple(parts.data.atoms.values()), "Data"),
+        Family("Component", tuple(parts.comps.values())),
+        Family("Port", (), closed=False),
+        Family("Input", tuple(parts.inputs), "Port"),
+        Family("Output", tuple(parts.outputs), "Port"),
+        Family("Functionality", tuple(parts.funcs.values())),
+        Family("Connector", tuple(parts.conns.values())),
+    ]
+    if guar_atoms is not None:
+        families.append(Family("Guar", tuple(guar_atoms)))
+    return tuple(families)
+
+
+def _grouped(pairs: list[str]) -> list[str]:
+    """`a -> x` terms as `a -> (x + y + ...)`, one per distinct `a` (order kept)."""
+    by_left: dict[str, list[str]] = {}
+    for term in pairs:
+        left, right = term.split(" -> ", 1)
+        by_left.setdefault(left, []).append(right)
+    return [f"{a} -> {union(rs, 'none')}" if len(rs) > 1 else f"{a} -> {rs[0]}" for a, rs in by_left.items()]
+
+
+def _architecture_funs(parts: _Parts, rates: list[tuple[Fraction, str]], ternary: bool) -> tuple[Fun, ...]:
+    """The fixed relations as constants."""
+    rel = {k: (_grouped(v) if k in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms") else v)
+           for k, v in parts.rel.items()}
+    rate_of = dict(rates)
+    data = parts.data
+    mtype_rel = [f"{atom} -> {data.messages[msg]}" for (msg, _), atom in data.atoms.items()]
+    rate_rel = [f"{atom} -> {rate_of[hz]}" for (_, hz), atom in data.atoms.items() if hz is not None]
+    guarantees = ([_fun("nguar", "Functionality -> Output -> Data", rel["nguar"]),
+                   _fun("dguar", "Functionality -> Output -> Data", rel["dguar"])] if ternary else
+                  [_fun("gfunc", "Guar -> Functionality", rel["gfunc"]), _fun("gout", "Guar -> Output", rel["gout"]),
+                   _fun("gn", "Guar -> Data", rel["gn"]), _fun("gd", "Guar -> Data", rel["gd"])])
+    return (
+        _fun("rate_next", "Rate -> Rate", [f"{a} -> {b}" for (_, a), (_, b) in zip(rates, rates[1:])]),
+        _fun("mtype", "Msg -> MType", mtype_rel),
+        _fun("rate", "Msg -> Rate", rate_rel),
+        _fun("inputs", "Component -> Input", rel["inputs"]),
+        _fun("outputs", "Component -> Output", rel["outputs"]),
+        _fun("funcs", "Component -> Functionality", rel["funcs"]),
+        _fun("iasm", "Input -> Data", rel["iasm"]),
+        _fun("assoc_in", "Functionality -> Input", rel["assoc_in"]),
+        _fun("assoc_out", "Functionality -> Output", rel["assoc_out"]),
+        _fun("nasms", "Functionality -> Data", rel["nasms"]),
+        *guarantees,
+        _fun("cguar", "Connector -> Data", rel["cguar"]),
+        Fun("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
+    )
+
+
+def _describe_architecture(system: System, scope: _Scope, ternary: bool | None,
+                           names: dict[str, Meaning] | None = None) -> tuple[Architecture, _Parts]:
+    """The architecture in `scope`, with its guarantees ternary when `ternary`, or (None)
+    when the universe allows a ternary relation. `names` may hold atoms named before."""
+    parts = _collect(system, scope, names if names is not None else {})
+    rates = _rate_atoms(parts)
+    if ternary is None:
+        # the analyzer's symmetry detection refines its partition once per one-sig atom,
+        # about quadratic in the atoms (half of a module's fixed cost): ternary guarantees
+        # when the universe (with room for the analyzer's Int atoms) can index them
+        ternary = len(parts.names) + UNIVERSE_EXTRA <= TERNARY_ATOMS
+    guar_atoms = _guarantee_atoms(parts, ternary)
+    arch = Architecture(_families(parts, rates, None if ternary else guar_atoms),
+                        _architecture_funs(parts, rates, ternary), not ternary, parts.names)
+    return arch, parts
+
+
+def describe_architecture(system: System) -> Architecture:
+    """The atoms and fixed relations of `system` exactly as its instance modules declare
+    them (a planning module's architecture)."""
+    arch, _ = _describe_architecture(system, _whole(system, []), None)
+    return arch
+
+
+def _instance_configuration(parts: _Parts, scope: _Scope) -> tuple[Fun, ...]:
+    """The one configuration's relations; the roles grouped (a connector -> a union of
+    ports): fewer products for Alloy to type-check."""
+    (config,) = scope.configs
+    index = scope.index
+    roles: Iterable[tuple[str, str, str]]
+    if index is not None:       # a slice: only its connectors, components and functionalities
+        roles = sorted({(k, c, p) for c in parts.comps for k, p in index.roles_of.get(c, ())})
+        comps = sorted(n for n in parts.comps if n in config.components)
+        degraded = sorted(cf for cf in parts.funcs if cf in config.degraded)
+    else:
+        roles, comps, degraded = sorted(config.roles), sorted(config.components), sorted(config.degraded)
+    by_conn: dict[str, list[str]] = {}
+    for k, c, p in roles:
+        if k in parts.conns and (c, p) in parts.ports:
+            by_conn.setdefault(parts.conns[k], []).append(parts.ports[c, p])
+    return (
+        Fun("comps", "set Component", union([parts.comps[n] for n in comps if n in parts.comps], "none")),
+        Fun("degraded", "set Functionality", union([parts.funcs[cf] for cf in degraded if cf in parts.funcs], "none")),
+        _fun("roles", "Connector -> Port", [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()]),
+    )
+
+
+def describe_instance(system: System, config: Configuration, module_name: str = "instance",
+                      focus: Iterable[str] | None = None, index: SliceIndex | None = None,
+                      keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> InstanceModule:
+    """The instance module of `render_instance`, before it is text."""
+    scope = _whole(system, [config]) if focus is None else _slice(system, config, focus, index, keep)
+    arch, parts = _describe_architecture(system, scope, None)
+    return InstanceModule(module_name, system.name, arch, _instance_configuration(parts, scope))
+
+
+def _plan_relations(configs: list[Configuration], states: list[str], parts: _Parts,
+                    binary: bool = False) -> tuple[dict[str, list[str]], list[str]]:
     """The configurations' relations (System -> ...) by what changes: what every state has
     is written once (`System -> x`), and each other element with the states that have it
     (`(S3 + S4) -> x`), elements with the same states grouped. A plan changes one element
     per step, so the text grows with the architecture plus the changes, not with their
     product. With `binary`, roles are `System -> Role` with `role_conn`/`role_port`, and
     the Role atoms are returned."""
-    everywhere = "System"
+
+    def who(held: tuple[int, ...]) -> str:
+        return "System" if len(held) == len(configs) else union([states[i] for i in held], "none")
+
+    rel: dict[str, list[str]] = {k: [] for k in ("comps", "degraded", "roles", "role_conn", "role_port")}
+    comps = _by_states([(parts.comps[n] for n in c.components if n in parts.comps) for c in configs])
+    rel["comps"] = [f"{who(held)} -> {union(sorted(members), 'none')}" for held, members in comps]
+    degraded = _by_states([(parts.funcs[cf] for cf in c.degraded if cf in parts.funcs) for c in configs])
+    rel["degraded"] = [f"{who(held)} -> {union(sorted(members), 'none')}" for held, members in degraded]
+    roles = _by_states([((parts.conns[k], parts.ports[c, p]) for k, c, p in config.roles
+                         if k in parts.conns and (c, p) in parts.ports) for config in configs])
     role_atoms: dict[tuple[str, str], str] = {}
-    for key in ("comps", "degraded", "roles"):
-        holders: dict[Any, list[int]] = {}
-        for i, config in enumerate(configs):
-            if key == "comps":
-                items: Any = (comp_atoms[n] for n in config.components if n in comp_atoms)
-            elif key == "degraded":
-                items = (func_atoms[cf] for cf in config.degraded if cf in func_atoms)
-            else:
-                items = ((conn_atoms[k], port_atoms[c, p]) for k, c, p in config.roles
-                         if k in conn_atoms and (c, p) in port_atoms)
-            for item in items:
-                holders.setdefault(item, []).append(i)
-        by_states: dict[tuple[int, ...], list[Any]] = {}
-        for item, indices in holders.items():
-            by_states.setdefault(tuple(indices), []).append(item)
-        for held, members in sorted(by_states.items(), key=lambda kv: (len(kv[0]), kv[0])):
-            who = everywhere if len(held) == len(configs) else union([states[i] for i in held], "none")
-            if key == "roles" and binary:
-                for member in sorted(members):
-                    role_atoms.setdefault(member, f"a_{len(role_atoms)}")
-                body = union(sorted(role_atoms[m] for m in members), "none")
-            elif key == "roles":
-                per_conn: dict[str, list[str]] = {}
-                for k, port in sorted(members):
-                    per_conn.setdefault(k, []).append(port)
-                body = union([f"{k} -> {union(ps, 'none')}" for k, ps in per_conn.items()], "none")
-            else:
-                body = union(sorted(members), "none")
-            rel[key].append(f"{who} -> {body}")
+    for held, members in roles:
+        if binary:
+            for member in sorted(members):
+                role_atoms.setdefault(member, f"a_{len(role_atoms)}")
+            body = union(sorted(role_atoms[m] for m in members), "none")
+        else:
+            per_conn: dict[str, list[str]] = {}
+            for k, port in sorted(members):
+                per_conn.setdefault(k, []).append(port)
+            body = union([f"{k} -> {union(ps, 'none')}" for k, ps in per_conn.items()], "none")
+        rel["roles"].append(f"{who(held)} -> {body}")
     for (k, port), atom in role_atoms.items():
         rel["role_conn"].append(f"{atom} -> {k}")
         rel["role_port"].append(f"{atom} -> {port}")
-    return list(role_atoms.values())
+    return rel, list(role_atoms.values())
 
 
-def _render(system: Any, configs: Sequence[Any], module_name: str, plan: bool,
-            slice_: tuple[set[str], set[tuple[str, str]], set[str], SliceIndex] | None = None,
-            serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
-            binary: bool = False, protocols: list[tuple[str, str]] | None = None,
-            handover: list[tuple[str, str]] | None = None) -> tuple[str, dict[str, tuple[str, ...]]]:
-    """An Alloy module for `system` (reconf_dsl.ir.System) in one or (plan) several
-    configurations (checker.model.config.Configuration).
+_T = TypeVar("_T", bound=Hashable)
 
-    Returns the text and a map from each atom name to what it stands for:
-    ("component", c), ("port", c, p), ("functionality", c, f), ("connector", k),
-    ("message", m), ("rate", hz), ("data", message, hz or ""), ("state", i).
-    The module defines `valid`, `unsatisfied: Functionality -> Data` (evaluate it in the
-    `Verdict` instance) and `check Valid` (a counterexample means the configuration is
-    not valid).
-    """
-    from fractions import Fraction
 
-    names: dict[str, tuple[str, ...]] = {}
-    # a slice (see render_instance): the focus whole; of the other components only the
-    # outputs attached to the connectors the focus reads, and the functionalities
-    # behind them; only those connectors, all read through the configuration's index
-    focus: set[str] | None = None
-    context: set[tuple[str, str]] = set()
-    index: SliceIndex | None = None
-    if slice_ is not None:
-        focus, context, read, index = slice_
-        wanted = focus | {c for c, _ in context}
-        comps = [index.components[n] for n in sorted(wanted & index.components.keys(), key=index.position.__getitem__)]
-        configs = [index.view]
-        connectors = [index.connectors[n][1] for n in sorted(read & index.connectors.keys(),
-                                                             key=lambda n: index.connectors[n][0])]
-    else:
-        comps = _all_components(system)
-        configs = [alloy_view(system, c) for c in configs]
-        connectors = system.connectors
+def _by_states(per_state: Sequence[Iterable[_T]]) -> list[tuple[tuple[int, ...], list[_T]]]:
+    """The elements held in each state, grouped by the states that hold them, fewest first."""
+    holders: dict[_T, list[int]] = {}
+    for i, items in enumerate(per_state):
+        for item in items:
+            holders.setdefault(item, []).append(i)
+    by_states: dict[tuple[int, ...], list[_T]] = {}
+    for item, indices in holders.items():
+        by_states.setdefault(tuple(indices), []).append(item)
+    return sorted(by_states.items(), key=lambda kv: (len(kv[0]), kv[0]))
 
-    # data predicates: one atom per distinct (message, rate)
-    data_atoms: dict[tuple[str, Fraction | None], str] = {}
-    messages: dict[str, str] = {}
-    rates: set[Fraction] = set()
 
-    def data(pred: Any) -> str:
-        if pred is None or pred.message is None:
-            return "Nothing"
-        key = (pred.message, pred.hz)
-        if key not in data_atoms:
-            atom = f"d_{len(data_atoms)}"
-            data_atoms[key] = atom
-            names[atom] = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
-            if pred.message not in messages:
-                messages[pred.message] = mangle("message", pred.message)
-                names[messages[pred.message]] = ("message", pred.message)
-            if pred.hz is not None:
-                rates.add(pred.hz)
-        return data_atoms[key]
+def _plan_configurations(rel: dict[str, list[str]], binary: bool) -> tuple[Fun, ...]:
+    funs = (_fun("comps", "System -> Component", rel["comps"]),
+            _fun("degraded", "System -> Functionality", rel["degraded"]))
+    if binary:
+        return funs + (_fun("sroles", "System -> Role", rel["roles"]),
+                       _fun("role_conn", "Role -> Connector", rel["role_conn"]),
+                       _fun("role_port", "Role -> Port", rel["role_port"]))
+    return funs + (_fun("roles", "System -> Connector -> Port", rel["roles"]),)
 
-    comp_atoms, port_atoms, func_atoms = {}, {}, {}
-    inputs: list[str] = []
-    outputs: list[str] = []
-    # (functionality, output, meaning, normal datum, degraded datum) per guarantee
-    guarantees: list[tuple[str, str, tuple[str, ...], str, str]] = []
-    rel: dict[str, list[str]] = {k: [] for k in (
-        "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
-        "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg", "comps", "degraded", "roles", "role_conn", "role_port")}
-    for c in comps:
-        ca = comp_atoms[c.name] = mangle("component", c.name)
-        names[ca] = ("component", c.name)
-        judged = focus is None or c.name in focus
-        for p in c.ports:
-            if not judged and (p.kind == "input" or (c.name, p.name) not in context):
-                continue
-            pa = port_atoms[c.name, p.name] = mangle("port", c.name, p.name)
-            names[pa] = ("port", c.name, p.name)
-            if p.kind == "input":
-                inputs.append(pa)
-                rel["inputs"].append(f"{ca} -> {pa}")
-                rel["iasm"].append(f"{pa} -> {data(p.assumption)}")
-            else:
-                outputs.append(pa)
-                rel["outputs"].append(f"{ca} -> {pa}")
-        for f in c.functionalities:
-            if not judged and not any((c.name, pname) in port_atoms for pname in f.ports):
-                continue
-            fa = func_atoms[c.name, f.name] = mangle("functionality", c.name, f.name)
-            names[fa] = ("functionality", c.name, f.name)
-            rel["funcs"].append(f"{ca} -> {fa}")
-            for pname in f.ports:
-                port = c.port(pname)
-                if port is None or (c.name, pname) not in port_atoms:
-                    continue
-                pa = port_atoms[c.name, pname]
-                if port.kind == "input":
-                    rel["assoc_in"].append(f"{fa} -> {pa}")
-                else:
-                    rel["assoc_out"].append(f"{fa} -> {pa}")
-                    # written once the encoding is chosen (see `ternary` below)
-                    normal, degraded = (data(m.guarantee(pname) if m is not None else None)
-                                        for m in (f.normal, f.degraded))
-                    guarantees.append((fa, pa, ("guarantee", c.name, f.name, pname), normal, degraded))
-            if f.normal is not None and judged:
-                for a in f.normal.assumptions:
-                    rel["nasms"].append(f"{fa} -> {data(a)}")
-    conn_atoms = {}
-    for k in connectors:
-        ka = conn_atoms[k.name] = mangle("connector", k.name)
-        names[ka] = ("connector", k.name)
-        rel["cguar"].append(f"{ka} -> {data(k.guarantee)}")
-    for e in system.environment:
-        rel["envg"].append(data(e.guarantee))
-    # the configuration(s)
-    states = [f"S{i}" for i in range(len(configs))]
-    if plan:
-        for i, state in enumerate(states):
-            names[state] = ("state", str(i))
-        roles = _plan_relations(configs, states, comp_atoms, func_atoms, conn_atoms, port_atoms, rel, binary)
-    else:
-        (config,) = configs
-        # grouped (a connector -> a union of ports): fewer products for Alloy to type-check
-        by_conn: dict[str, list[str]] = {}
-        if index is not None:       # a slice: only its connectors, components and functionalities
-            in_roles: Any = sorted({(k, c, p) for c in comp_atoms for k, p in index.roles_of.get(c, ())})
-            in_comps: Any = sorted(n for n in comp_atoms if n in config.components)
-            in_degraded: Any = sorted(cf for cf in func_atoms if cf in config.degraded)
-        else:
-            in_roles, in_comps, in_degraded = sorted(config.roles), sorted(config.components), sorted(config.degraded)
-        for k, c, p in in_roles:
-            if k in conn_atoms and (c, p) in port_atoms:
-                by_conn.setdefault(conn_atoms[k], []).append(port_atoms[c, p])
-        rel["comps"] += [comp_atoms[n] for n in in_comps if n in comp_atoms]
-        rel["degraded"] += [func_atoms[cf] for cf in in_degraded if cf in func_atoms]
-        rel["roles"] += [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()]
 
-    rate_atoms = []
-    for i, hz in enumerate(sorted(rates)):
-        ra = f"r_{i}"
-        rate_atoms.append((hz, ra))
-        names[ra] = ("rate", str(hz))
-    rate_of = dict(rate_atoms)
-    mtype_rel, rate_rel = [], []
-    for (msg, data_hz), atom in data_atoms.items():
-        mtype_rel.append(f"{atom} -> {messages[msg]}")
-        if data_hz is not None:
-            rate_rel.append(f"{atom} -> {rate_of[data_hz]}")
+def _plan_steps(configs: list[Configuration], states: list[str], atoms: Mapping[Meaning, str]
+                ) -> tuple[tuple[Step | None, ...], str]:
+    """Per step, the action the difference between its two configurations is (None where
+    it is not one action); and `ok_steps`, each such step's state -> its action."""
+    steps: list[Step | None] = []
+    for i, (before, after) in enumerate(zip(configs, configs[1:])):
+        found = step_action(before, after)
+        steps.append(None if found is None else
+                     Step(found[0], states[i], states[i + 1], tuple(atoms[m] for m in found[1])))
+    terms = [f"({{s: {s.before} | {_call(s)}}} -> {s.sig})" for s in steps if s is not None]
+    return tuple(steps), union(terms, _empty("System", "Action"))
 
-    sigs: list[str] = []
-    sigs += _one_sigs("MType", sorted(messages.values()))
-    sigs += _one_sigs("Rate", [ra for _, ra in rate_atoms])
-    sigs += ["abstract sig Data {}", "one sig Nothing extends Data {}"]
-    sigs += _one_sigs("Msg", list(data_atoms.values()), "extends Data ")
-    sigs += _one_sigs("Component", list(comp_atoms.values()))
-    sigs += ["abstract sig Port {}"]
-    sigs += _one_sigs("Input", inputs, "extends Port ")
-    sigs += _one_sigs("Output", outputs, "extends Port ")
-    sigs += _one_sigs("Functionality", list(func_atoms.values()))
-    sigs += _one_sigs("Connector", list(conn_atoms.values()))
-    # Guarantees as a ternary relation when the universe allows one (Functionality -> Output
-    # -> Data, the meta-model's own encoding), else an atom each: the analyzer's symmetry
-    # detection refines its partition once per one-sig atom, about quadratic in the atoms
-    # (half of a module's fixed cost). A plan module with binary roles is past the limit.
-    # (the analyzer's universe also holds Int atoms, 16 at the default bit width: leave room)
-    ternary = not binary and (plan or len(names) + UNIVERSE_EXTRA <= TERNARY_ATOMS)
-    guar_atoms: list[str] = []
-    for fa, pa, meaning, normal, degraded in guarantees:
-        if ternary:
-            rel["nguar"].append(f"{fa} -> {pa} -> {normal}")
-            rel["dguar"].append(f"{fa} -> {pa} -> {degraded}")
-            continue
-        ga = f"g_{len(guar_atoms)}"
-        guar_atoms.append(ga)
-        names[ga] = meaning
-        rel["gfunc"].append(f"{ga} -> {fa}")
-        rel["gout"].append(f"{ga} -> {pa}")
-        rel["gn"].append(f"{ga} -> {normal}")
-        rel["gd"].append(f"{ga} -> {degraded}")
-    if not ternary:
-        sigs += _one_sigs("Guar", guar_atoms)
-    # an abstract sig without children could still hold atoms: forbid them
-    parents: list[tuple[str, Any]] = [("MType", messages), ("Rate", rate_atoms), ("Msg", data_atoms),
-                                      ("Component", comp_atoms), ("Input", inputs), ("Output", outputs),
-                                      ("Functionality", func_atoms), ("Connector", conn_atoms)]
-    for parent, children in parents + ([] if ternary else [("Guar", guar_atoms)]):
-        if not children:
-            sigs.append(f"fact no_{parent} {{ no {parent} }}")
 
-    def grouped(pairs: list[str]) -> list[str]:
-        """`a -> x` terms as `a -> (x + y + ...)`, one per distinct `a` (order kept)."""
-        by_left: dict[str, list[str]] = {}
-        for term in pairs:
-            left, right = term.split(" -> ", 1)
-            by_left.setdefault(left, []).append(right)
-        return [f"{a} -> {union(rs, 'none')}" if len(rs) > 1 else f"{a} -> {rs[0]}" for a, rs in by_left.items()]
+def _call(step: Step) -> str:
+    return f"{step.action}[{step.before}, {step.after}, {', '.join(step.args)}]"
 
-    for key in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms"):
-        rel[key] = grouped(rel[key])
-    funs = [
-        ("rate_next", "Rate -> Rate", union([f"{a} -> {b}" for (_, a), (_, b) in zip(rate_atoms, rate_atoms[1:])],
-                                            _empty("Rate", "Rate"))),
-        ("mtype", "Msg -> MType", union(mtype_rel, _empty("Msg", "MType"))),
-        ("rate", "Msg -> Rate", union(rate_rel, _empty("Msg", "Rate"))),
-        ("inputs", "Component -> Input", union(rel["inputs"], _empty("Component", "Input"))),
-        ("outputs", "Component -> Output", union(rel["outputs"], _empty("Component", "Output"))),
-        ("funcs", "Component -> Functionality", union(rel["funcs"], _empty("Component", "Functionality"))),
-        ("iasm", "Input -> Data", union(rel["iasm"], _empty("Input", "Data"))),
-        ("assoc_in", "Functionality -> Input", union(rel["assoc_in"], _empty("Functionality", "Input"))),
-        ("assoc_out", "Functionality -> Output", union(rel["assoc_out"], _empty("Functionality", "Output"))),
-        ("nasms", "Functionality -> Data", union(rel["nasms"], _empty("Functionality", "Data"))),
-    ] + ([
-        ("nguar", "Functionality -> Output -> Data", union(rel["nguar"], _empty("Functionality", "Output", "Data"))),
-        ("dguar", "Functionality -> Output -> Data", union(rel["dguar"], _empty("Functionality", "Output", "Data"))),
-    ] if ternary else [
-        ("gfunc", "Guar -> Functionality", union(rel["gfunc"], _empty("Guar", "Functionality"))),
-        ("gout", "Guar -> Output", union(rel["gout"], _empty("Guar", "Output"))),
-        ("gn", "Guar -> Data", union(rel["gn"], _empty("Guar", "Data"))),
-        ("gd", "Guar -> Data", union(rel["gd"], _empty("Guar", "Data"))),
-    ]) + [
-        ("cguar", "Connector -> Data", union(rel["cguar"], _empty("Connector", "Data"))),
-        ("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
-    ]
-    if plan:
-        funs += [
-            ("comps", "System -> Component", union(rel["comps"], _empty("System", "Component"))),
-            ("degraded", "System -> Functionality", union(rel["degraded"], _empty("System", "Functionality"))),
-        ]
-        if binary:
-            funs += [
-                ("sroles", "System -> Role", union(rel["roles"], _empty("System", "Role"))),
-                ("role_conn", "Role -> Connector", union(rel["role_conn"], _empty("Role", "Connector"))),
-                ("role_port", "Role -> Port", union(rel["role_port"], _empty("Role", "Port"))),
-            ]
-            sigs += _one_sigs("Role", roles) + ([] if roles else ["fact no_Role { no Role }"])
-        else:
-            funs.append(("roles", "System -> Connector -> Port",
-                         union(rel["roles"], _empty("System", "Connector", "Port"))))
-        template = environment().get_template("plan.als.j2")
-        terms = []
-        step_calls = []
-        for i, (before, after) in enumerate(zip(configs, configs[1:])):
-            step = step_action(before, after)
-            if step is None:
-                step_calls.append("some none")
-                continue
-            action, args = step
-            atoms = {"component": comp_atoms, "connector": conn_atoms}
-            alloy_args = []
-            for kind, value in args:
-                if kind == "port":
-                    alloy_args.append(port_atoms[value])
-                elif kind == "functionality":
-                    alloy_args.append(func_atoms[value])
-                else:
-                    alloy_args.append(atoms[kind][value])
-            s, s2 = states[i], states[i + 1]
-            call = f"{action}[{s}, {s2}, {', '.join(alloy_args)}]"
-            step_calls.append(call)
-            terms.append(f"({{s: {s} | {call}}} -> {action.capitalize()})")
-        ok_steps = union(terms, _empty("System", "Action"))
-        watch = None
-        serving, handover = serving or [], handover or []
-        if serving or handover:
-            proxies = [func_atoms[c, f.name] for _, c in serving for comp in comps if comp.name == c
-                       for f in comp.functionalities if (c, f.name) in func_atoms]
-            conns = [conn_atoms[k] for k, _ in serving if k in conn_atoms]
-            handed = [conn_atoms[k] for k, _ in handover if k in conn_atoms]
-            if len(conns) != len(serving) or (serving and not proxies) or len(handed) != len(handover) \
-                    or any(c not in comp_atoms for _, c in handover):
-                raise ValueError(f"serving names what the architecture lacks: {serving + handover}")
-            watch = {"proxies": union(proxies, "none"), "connectors": union(conns, "none"), "protocols": "",
-                     "handing": union(sorted({comp_atoms[c] for _, c in handover}), "none"),
-                     "handed": union(handed, "none")}
-            if protocols or handover:
-                # the proxies' requests must reach one of these (present) protocols
-                watch["proxy_comps"] = union(sorted({comp_atoms[c] for _, c in serving}), "none")
-                watch["protocols"] = union(sorted(f"{comp_atoms[x]} -> {comp_atoms[p]}" for x, p in protocols or []
-                                                  if x in comp_atoms and p in comp_atoms), _empty("Component", "Component"))
-        kept = None
-        if stable:
-            missing = [k for k in stable if k not in conn_atoms]
-            if missing:
-                raise ValueError(f"stable names connectors the architecture lacks: {missing}")
-            kept = union([conn_atoms[k] for k in stable], "none")
-        text = template.render(st=PLAN_BINARY_STATE if binary else PLAN_CONST_STATE, sigs=sigs, funs=funs, module_name=module_name,
-                               system_name=system.name, states=states, ok_steps=ok_steps, serving=watch,
-                               stable=kept, step_calls=step_calls)
-        return text, names
-    funs += [
-        ("comps", "set Component", union(rel["comps"], "none")),
-        ("degraded", "set Functionality", union(rel["degraded"], "none")),
-        ("roles", "Connector -> Port", union(rel["roles"], _empty("Connector", "Port"))),
-    ]
-    template = environment().get_template("instance.als.j2")
-    text = template.render(st=FIXED_TERNARY_STATE if ternary else FIXED_STATE, sigs=sigs, funs=funs,
-                           module_name=module_name, system_name=system.name)
-    return text, names
+
+def _serving(parts: _Parts, comps: Sequence[Component], serving: list[tuple[str, str]],
+             protocols: list[tuple[str, str]], handover: list[tuple[str, str]]) -> Serving | None:
+    """What the plan must keep serving (see `render_plan`), or None when it names nothing."""
+    if not serving and not handover:
+        return None
+    proxies = [parts.funcs[c, f.name] for _, c in serving for comp in comps if comp.name == c
+               for f in comp.functionalities if (c, f.name) in parts.funcs]
+    conns = [parts.conns[k] for k, _ in serving if k in parts.conns]
+    handed = [parts.conns[k] for k, _ in handover if k in parts.conns]
+    if len(conns) != len(serving) or (serving and not proxies) or len(handed) != len(handover) \
+            or any(c not in parts.comps for _, c in handover):
+        raise ValueError(f"serving names what the architecture lacks: {serving + handover}")
+    watch = Serving(union(proxies, "none"), union(conns, "none"),
+                    union(sorted({parts.comps[c] for _, c in handover}), "none"), union(handed, "none"))
+    if not protocols and not handover:
+        return watch
+    # the proxies' requests must reach one of these (present) protocols
+    return replace(watch, proxy_comps=union(sorted({parts.comps[c] for _, c in serving}), "none"),
+                   protocols=union(sorted(f"{parts.comps[x]} -> {parts.comps[p]}" for x, p in protocols
+                                          if x in parts.comps and p in parts.comps), _empty("Component", "Component")))
+
+
+def _stable(parts: _Parts, stable: list[str]) -> str | None:
+    if not stable:
+        return None
+    missing = [k for k in stable if k not in parts.conns]
+    if missing:
+        raise ValueError(f"stable names connectors the architecture lacks: {missing}")
+    return union([parts.conns[k] for k in stable], "none")
+
+
+def describe_plan(system: System, configs: Sequence[Configuration], module_name: str = "plan",
+                  serving: list[tuple[str, str]] | None = None, stable: list[str] | None = None,
+                  binary: bool = False, protocols: list[tuple[str, str]] | None = None,
+                  handover: list[tuple[str, str]] | None = None) -> PlanModule:
+    """The plan module of `render_plan`, before it is text. Guarantees are ternary
+    unless the roles are `binary` (a universe past what a ternary relation can index)."""
+    scope = _whole(system, configs)
+    states = [f"S{i}" for i in range(len(scope.configs))]
+    arch, parts = _describe_architecture(system, scope, not binary, {s: ("state", str(i)) for i, s in enumerate(states)})
+    rel, role_atoms = _plan_relations(scope.configs, states, parts, binary)
+    roles = (Family("Role", tuple(role_atoms)),) if binary else ()
+    steps, ok_steps = _plan_steps(scope.configs, states, arch.atoms())
+    return PlanModule(module_name, system.name, arch, tuple(states), _plan_configurations(rel, binary), roles,
+                      binary, tuple(k.name.capitalize() for k in ACTION_KINDS), steps, ok_steps,
+                      _serving(parts, scope.comps, serving or [], protocols or [], handover or []),
+                      _stable(parts, stable or []))
+
+
+# -- Rendering a description --------------------------------------------------------------
+
+def render_instance_module(module: InstanceModule) -> str:
+    st = FIXED_STATE if module.architecture.guar_atoms else FIXED_TERNARY_STATE
+    return environment().get_template("instance.als.j2").render(st=st, m=module, arch=module.architecture)
+
+
+def render_plan_module(module: PlanModule) -> str:
+    st = PLAN_BINARY_STATE if module.binary else PLAN_CONST_STATE
+    return environment().get_template("plan.als.j2").render(st=st, m=module, arch=module.architecture)
+
+
+def render_planner_module(module: PlannerModule) -> str:
+    """A planning module (checker.planning.alloy_search), its guarantees encoded as its
+    architecture's instance modules encode them."""
+    st = PLAN_STATE if module.architecture.guar_atoms else PLAN_TERNARY_STATE
+    return environment().get_template("planner.als.j2").render(st=st, m=module, arch=module.architecture)
 
 
 if __name__ == "__main__":

@@ -98,6 +98,17 @@ class CommandOutcome:
 
 
 @dataclass
+class Trace:
+    """A solved module's instance, state by state: whether there is one, the seconds the
+    solver took, and per state the value of each expression asked for, as tuples of atom
+    labels (`atom_name` gives the sig's name); a static instance has one state."""
+
+    satisfiable: bool
+    seconds: float
+    states: list[dict[str, Tuples]] = field(default_factory=list)
+
+
+@dataclass
 class _World:
     """A parsed main module and the atoms declared for it through the API. A world built
     on a reused skeleton (`_Skeleton`) is current until the skeleton serves another."""
@@ -397,6 +408,33 @@ class AlloyBridge:
             outcomes.append(outcome)
         return outcomes
 
+    def solve_module(self, text: str, main: str, exprs: tuple[str, ...] = (), command: str | int = 0,
+                     solver: str = DEFAULT_SOLVER) -> Trace:
+        """Run one command of the module `text` (by label, or by its place), named `main` in
+        errors, and evaluate `exprs` in every state of its instance (all of an Alloy 6
+        trace, up to its loop). Errors are the analyzer's, positioned (AlloyError)."""
+        with self._lock:
+            solver_id = self.usable_solver(solver)
+            world = self._world({main: text}, main)
+            commands = list(world.module.getAllCommands())
+            chosen = ([c for c in commands if str(c.label) == command] if isinstance(command, str)
+                      else commands[command:command + 1])
+            if not chosen:
+                raise AlloyError(f"no command {command!r} in {main}")
+            opts = self.options(solver_id)
+            began = time.perf_counter()
+            try:
+                sol = self._Translate.execute_command(self._A4Reporter(), world.sigs(), chosen[0], opts)
+                elapsed = time.perf_counter() - began
+                if not sol.satisfiable():
+                    return Trace(False, elapsed)
+                parsed = {e: self._CompUtil.parseOneExpression_fromString(world.module, e) for e in exprs}
+                states = [{e: {tuple(str(t.atom(i)) for i in range(t.arity())) for t in sol.eval(x, state)}
+                           for e, x in parsed.items()} for state in range(int(sol.getTraceLength()))]
+            except self._Err as err:
+                raise self._error(err) from None
+            return Trace(True, elapsed, states)
+
     def bounds(self, modules: Mapping[str, str], main: str) -> dict[str, dict[str, tuple[int, bool]]]:
         """For each command of `main`, the most atoms the analyzer gives each signature and
         whether that number is exact, as its scope computer sets them before translating
@@ -495,4 +533,4 @@ def get_backend() -> Backend:
     return AlloyBridge.get()
 
 
-__all__ = ["AlloyBridge", "AlloyUnavailable", "Backend", "CommandOutcome", "atom_name", "get_backend"]
+__all__ = ["AlloyBridge", "AlloyUnavailable", "Backend", "CommandOutcome", "Trace", "atom_name", "get_backend"]

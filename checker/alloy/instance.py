@@ -3,12 +3,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Collection, Iterable, Mapping, Sequence
+
+from reconf_dsl.ir import Predicate, System
+
+from checker.model.actions import KINDS
+from checker.model.config import Configuration
 
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from checker.alloy.errors import AlloyError
 from checker.alloy.parallel import Job, helper_for, judge, judge_many
 from checker.alloy.spans import with_span
+from codegen.alloy import render_instance, slice_index
+from codegen.alloy import alloy_view, step_action
+from codegen.alloy import render_plan
 
 MAIN = "instance.als"
 
@@ -54,7 +62,7 @@ class AlloyVerdict:
         return "\n".join(self.texts)
 
 
-def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> list[set[str]] | None:
+def slices(system: System, config: Configuration, size: int = SLICE, only: Iterable[str] | None = None) -> list[set[str]] | None:
     """A partition of the present components (of those in `only`, if given) into slices of
     `size` in declaration order (neighbours in the file tend to read each other), or None
     when one module of the whole architecture will do."""
@@ -66,15 +74,15 @@ def slices(system: Any, config: Any, size: int = SLICE, only: Any = None) -> lis
     return [set(present[i:i + size]) for i in range(0, len(present), size)]
 
 
-def alloy_verdict(system: Any, config: Any, solver: str = DEFAULT_SOLVER,
+def alloy_verdict(system: System, config: Configuration, solver: str = DEFAULT_SOLVER,
                   bridge: AlloyBridge | None = None, slice_size: int = SLICE,
-                  only: Any = None, keep: Any = None) -> AlloyVerdict:
+                  only: Iterable[str] | None = None,
+                  keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> AlloyVerdict:
     """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
     in Alloy, through instance modules rendered from the shared semantics. With `only` (a
     set of component names), judge the assumptions of those components alone. `keep`
     (checker.model.semantics.witnesses) lets a slice show a wide connector's witness alone; a
     slice that is not valid so is judged again with every publisher."""
-    from codegen.alloy import render_instance, slice_index
 
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
@@ -128,12 +136,15 @@ def _valid(text: str) -> Job:
     return Job(MAIN, text, "Valid", ("unsatisfied",))
 
 
-def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
+def _failing(system: System, pairs: Iterable[tuple[str, ...]], text: str,
+             names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
     failing: set[tuple[str, str, int]] = set()
     for f_atom, a_atom in pairs:
         _, comp, func = names[atom_name(f_atom)]
         component = system.component(comp)
+        assert component is not None, "the module's components are the system's"
         functionality = next(f for f in component.functionalities if f.name == func)
+        assert functionality.normal is not None, "resolved IR has both modes"
         want = atom_name(a_atom)
         for index, a in enumerate(functionality.normal.assumptions):
             if _data_atom(a, text, names) == want:
@@ -141,7 +152,7 @@ def _failing(system: Any, pairs: Any, text: str, names: dict[str, tuple[str, ...
     return failing
 
 
-def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
+def _data_atom(pred: Predicate, text: str, names: dict[str, tuple[str, ...]]) -> str:
     if pred.message is None:
         return "Nothing"
     key = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
@@ -151,13 +162,12 @@ def _data_atom(pred: Any, text: str, names: dict[str, tuple[str, ...]]) -> str:
     return ""
 
 
-ACTIONS = ("remove", "create", "detach", "attach", "degrade", "upgrade")
+ACTIONS = tuple(k.name for k in KINDS)
 
 
-def _planned_actions(system: Any, configs: Sequence[Any]) -> list[tuple[str, ...]]:
+def _planned_actions(system: System, configs: Sequence[Configuration]) -> list[tuple[str, ...]]:
     """Per step, the action the module's `plan_safe` required of it (the one the difference
     between the two configurations is): what a plan Alloy found safe performs."""
-    from codegen.alloy import alloy_view, step_action
 
     out: list[tuple[str, ...]] = []
     views = [alloy_view(system, c) for c in configs]
@@ -191,10 +201,11 @@ class AlloyPlanVerdict:
         return all(self.valid) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
-def alloy_plan_verdict(system: Any, configs: Sequence[Any], solver: str = DEFAULT_SOLVER,
-                       bridge: AlloyBridge | None = None, serving: Any = (),
-                       stable: Any = (), binary: bool = False, protocols: Any = (),
-                       handover: Any = ()) -> AlloyPlanVerdict:
+def alloy_plan_verdict(system: System, configs: Sequence[Configuration], solver: str = DEFAULT_SOLVER,
+                       bridge: AlloyBridge | None = None, serving: Iterable[tuple[str, str]] = (),
+                       stable: Iterable[str] = (), binary: bool = False,
+                       protocols: Iterable[tuple[str, str]] = (),
+                       handover: Iterable[tuple[str, str]] = ()) -> AlloyPlanVerdict:
     """Check a plan (its successive configurations, initial first) in Alloy: each
     configuration valid, each step one of the six actions with its preconditions met, and,
     with `serving` ((connector, proxy) pairs), each configuration lossless (with `protocols`,
@@ -203,7 +214,6 @@ def alloy_plan_verdict(system: Any, configs: Sequence[Any], solver: str = DEFAUL
     while it still publishes on the connector), and with `stable` (connector names), each
     configuration satisfying them. With `binary`, the module's roles are binary relations
     (for a universe too large for a ternary one: `codegen.alloy.render_plan`)."""
-    from codegen.alloy import render_plan
 
     text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary, protocols=protocols,
                               handover=handover)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from importlib.resources import files
+from codegen.alloy import DEFAULT_SCOPE, RUN_SCOPE, render_metamodel
 
 MAIN = "reconf.als"
 
@@ -15,6 +16,5 @@ def metamodel_modules(scope: int | None = None, run_scope: int | None = None) ->
     """{"reconf.als": text}: the committed meta-model, or re-rendered at other scopes."""
     if scope is None and run_scope is None:
         return {MAIN: committed_metamodel()}
-    from codegen.alloy import DEFAULT_SCOPE, RUN_SCOPE, render_metamodel
 
     return {MAIN: render_metamodel(scope or DEFAULT_SCOPE, run_scope or RUN_SCOPE)}

@@ -10,6 +10,7 @@ from checker.cli.common import console, files_argument, guarded, write_atomicall
 from checker.reports.report import OutputFormat
 from checker.model.config import Configuration
 from reconf_dsl.loader import Sources, load
+from codegen.alloy import render_instance
 
 
 @click.command("alloy")
@@ -19,7 +20,6 @@ from reconf_dsl.loader import Sources, load
 def alloy_cmd(files: tuple[str, ...], output: Optional[str], sources: Sources,
               output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Write the Alloy instance module of FILES' deployed configuration (open it in the Alloy GUI)."""
-    from codegen.alloy import render_instance     # jinja2 loads when a module is written: start-up time
 
     system = load(list(files), sources)
     text, _ = render_instance(system, Configuration.initial(system))

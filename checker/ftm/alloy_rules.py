@@ -16,6 +16,7 @@ from checker.ftm.library import LIBRARY, Composition, all_compositions, compose,
 from checker.ftm.select import Profile, profile
 from checker.alloy import AlloyBridge
 from checker.alloy.bridge import atom_name as atom
+from codegen.alloy import union
 
 __all__ = ["ftm_rules_text", "instance_text", "AlloyFtmVerdict", "alloy_ftm_verdict", "alloy_profiles"]
 
@@ -33,7 +34,6 @@ def ftm_rules_text() -> str:
 
 def _union(parts: list[str], empty: str = "none -> none") -> str:
     """A balanced union (a flat a+b+c+… type-checks in quadratic time); `empty` when none."""
-    from codegen.alloy import union
 
     return union(parts, empty)
 

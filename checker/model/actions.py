@@ -4,6 +4,11 @@ Each action takes a valid configuration to a valid one when its preconditions ho
 (DESIGN.md §3). `preconditions` returns the failing ones in words, `apply` performs an
 action or raises `ActionRefused`.
 
+Each action is defined here once: its class (fields, name, symbol), its precondition, its
+effect, and its entry in `KINDS` (`checker.model.action_kinds.ActionKind`), which also says how it
+shows in the difference between two configurations (`recognise`) and how Alloy names its
+arguments. Everything else, the Alloy modules and the Alloy planner included, reads it there.
+
 Two points where the paper's model is narrower than ours, and what is done about it:
 
 - A port may be attached to several connectors. "Safe without input i" (`safe_no_input`)
@@ -21,22 +26,35 @@ when rule (iii) on modes is violated.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar, Iterable, Optional, TypeVar, Union
+from dataclasses import dataclass, fields
+from typing import ClassVar, Iterable, Optional, TypeVar, Union, cast
 
 
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
 from reconf_dsl.ir import satisfies as _satisfies
 
+from checker.model.action_kinds import ActionKind, Change, Kind, Meaning
 from checker.model.config import Configuration, FuncId, Role
 
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
            "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",
-           "action_from_dict", "is_valid", "failing_assumptions"]
+           "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "kind_of", "changes", "recognise"]
 
 
 @dataclass(frozen=True)
-class Remove:
+class ActionBase:
+    """What every action has: its name `kind` and its `symbol` (as plans print them), and
+    its fields, which are its dictionary form besides the name (`to_dict`)."""
+
+    kind: ClassVar[str]
+    symbol: ClassVar[str]
+
+    def to_dict(self) -> dict[str, str]:
+        return {"action": self.kind, **{f.name: str(getattr(self, f.name)) for f in fields(self)}}
+
+
+@dataclass(frozen=True)
+class Remove(ActionBase):
     component: str
     kind: ClassVar[str] = "remove"
     symbol: ClassVar[str] = "-"
@@ -44,12 +62,9 @@ class Remove:
     def describe(self) -> str:
         return f"remove {self.component}"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "component": self.component}
-
 
 @dataclass(frozen=True)
-class Create:
+class Create(ActionBase):
     component: str
     kind: ClassVar[str] = "create"
     symbol: ClassVar[str] = "+"
@@ -57,12 +72,9 @@ class Create:
     def describe(self) -> str:
         return f"create {self.component} (all functionalities degraded)"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "component": self.component}
-
 
 @dataclass(frozen=True)
-class Detach:
+class Detach(ActionBase):
     connector: str
     component: str
     port: str
@@ -72,12 +84,9 @@ class Detach:
     def describe(self) -> str:
         return f"detach {self.component}.{self.port} from {self.connector}"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "connector": self.connector, "component": self.component, "port": self.port}
-
 
 @dataclass(frozen=True)
-class Attach:
+class Attach(ActionBase):
     connector: str
     component: str
     port: str
@@ -87,12 +96,9 @@ class Attach:
     def describe(self) -> str:
         return f"attach {self.component}.{self.port} to {self.connector}"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "connector": self.connector, "component": self.component, "port": self.port}
-
 
 @dataclass(frozen=True)
-class Degrade:
+class Degrade(ActionBase):
     component: str
     functionality: str
     kind: ClassVar[str] = "degrade"
@@ -101,12 +107,9 @@ class Degrade:
     def describe(self) -> str:
         return f"degrade {self.component}.{self.functionality}"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "component": self.component, "functionality": self.functionality}
-
 
 @dataclass(frozen=True)
-class Upgrade:
+class Upgrade(ActionBase):
     component: str
     functionality: str
     kind: ClassVar[str] = "upgrade"
@@ -115,19 +118,14 @@ class Upgrade:
     def describe(self) -> str:
         return f"upgrade {self.component}.{self.functionality}"
 
-    def to_dict(self) -> dict[str, str]:
-        return {"action": self.kind, "component": self.component, "functionality": self.functionality}
-
 
 Action = Union[Remove, Create, Detach, Attach, Degrade, Upgrade]
-_KINDS: dict[str, type] = {k.kind: k for k in (Remove, Create, Detach, Attach, Degrade, Upgrade)}
 
 
 def action_from_dict(d: dict[str, str]) -> Action:
     """The inverse of `to_dict`."""
-    cls = _KINDS[d["action"]]
-    fields = {k: v for k, v in d.items() if k != "action"}
-    return cls(**fields)  # type: ignore[no-any-return]
+    # the registry holds the Action classes only
+    return cast(Action, _BY_NAME[d["action"]].make({k: v for k, v in d.items() if k != "action"}))
 
 
 class ActionRefused(Exception):
@@ -397,16 +395,7 @@ def preconditions(system: System, config: Configuration, action: Action) -> list
 
 def check(st: Snapshot, action: Action) -> list[str]:
     """`preconditions` on a snapshot, so one snapshot serves many candidate actions."""
-    if isinstance(action, Remove):
-        return _remove(st, action)
-    if isinstance(action, Create):
-        return _create(st, action)
-    if isinstance(action, (Detach, Attach)):
-        where = _port_problems(st, action)
-        if where:
-            return where
-        return _detach(st, action) if isinstance(action, Detach) else _attach(st, action)
-    return _functionality(st, action)
+    return kind_of(action).preconditions(st, action)
 
 
 def _remove(st: Snapshot, a: Remove) -> list[str]:
@@ -442,6 +431,9 @@ def _port_problems(st: Snapshot, a: Union[Detach, Attach]) -> list[str]:
 
 
 def _detach(st: Snapshot, a: Detach) -> list[str]:
+    where = _port_problems(st, a)
+    if where:
+        return where
     who = f"{a.component}.{a.port}"
     if not st.is_output(a.component, a.port):
         return [f"{c}.{f} is not safe without input {who}: it assumes {asm}, which no other satisfied input "
@@ -455,6 +447,9 @@ def _detach(st: Snapshot, a: Detach) -> list[str]:
 
 
 def _attach(st: Snapshot, a: Attach) -> list[str]:
+    where = _port_problems(st, a)
+    if where:
+        return where
     conn = st.cat.conns[a.connector]
     port = st.cat.comps[a.component].port(a.port)
     assert port is not None
@@ -478,21 +473,36 @@ def _attach(st: Snapshot, a: Attach) -> list[str]:
     return problems
 
 
-def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> list[str]:
+def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> tuple[list[str], Optional[Functionality]]:
+    """Whether `a` names a functionality of a present component: the problems, else the functionality."""
+    if a.component not in st.config.components:
+        return [f"{a.component} is not in the system"], None
+    f = st.cat.funcs.get((a.component, a.functionality))
+    if f is None:
+        return [f"{a.component} has no functionality {a.functionality}"], None
+    return [], f
+
+
+def _degrade(st: Snapshot, a: Degrade) -> list[str]:
+    problems, f = _functionality(st, a)
+    if f is None:
+        return problems
     fid = (a.component, a.functionality)
     who = f"{a.component}.{a.functionality}"
-    if a.component not in st.config.components:
-        return [f"{a.component} is not in the system"]
-    f = st.cat.funcs.get(fid)
+    if fid in st.config.degraded:
+        return [f"{who} is already degraded"]
+    dead = frozenset(affected_connectors(st, a.component, f))
+    return [f"degrading {who} leaves {', '.join(sorted(dead))} unsatisfied, and {c}.{g} is not safe without "
+            f"their inputs: it assumes {asm} (safe_no_input)"
+            for c, g, asm in st.unsafe(st.readers(dead), dead=dead, exempt=fid)]
+
+
+def _upgrade(st: Snapshot, a: Upgrade) -> list[str]:
+    problems, f = _functionality(st, a)
     if f is None:
-        return [f"{a.component} has no functionality {a.functionality}"]
-    if isinstance(a, Degrade):
-        if fid in st.config.degraded:
-            return [f"{who} is already degraded"]
-        dead = frozenset(affected_connectors(st, a.component, f))
-        return [f"degrading {who} leaves {', '.join(sorted(dead))} unsatisfied, and {c}.{g} is not safe without "
-                f"their inputs: it assumes {asm} (safe_no_input)"
-                for c, g, asm in st.unsafe(st.readers(dead), dead=dead, exempt=fid)]
+        return problems
+    fid = (a.component, a.functionality)
+    who = f"{a.component}.{a.functionality}"
     if fid not in st.config.degraded:
         return [f"{who} is not degraded"]
     assert f.normal is not None
@@ -538,23 +548,34 @@ def effect(system: System, config: Configuration, action: Action) -> Configurati
 
 
 def _effect(system: System, config: Configuration, action: Action) -> Configuration:
-    if isinstance(action, Remove):
-        return Configuration(config.components - {action.component},
-                             frozenset(d for d in config.degraded if d[0] != action.component), config.roles)
-    if isinstance(action, Create):
-        comp = catalogue(system).comps[action.component]
-        return Configuration(config.components | {action.component},
-                             config.degraded | {(comp.name, f.name) for f in comp.functionalities}, config.roles)
-    if isinstance(action, Detach):
-        return Configuration(config.components, config.degraded,
-                             config.roles - {(action.connector, action.component, action.port)})
-    if isinstance(action, Attach):
-        return Configuration(config.components, config.degraded,
-                             config.roles | {(action.connector, action.component, action.port)})
-    fid = (action.component, action.functionality)
-    if isinstance(action, Degrade):
-        return Configuration(config.components, config.degraded | {fid}, config.roles)
-    return Configuration(config.components, config.degraded - {fid}, config.roles)
+    return kind_of(action).after(catalogue(system), config, action)
+
+
+def _after_remove(cat: _Catalogue, config: Configuration, a: Remove) -> Configuration:
+    return Configuration(config.components - {a.component},
+                         frozenset(d for d in config.degraded if d[0] != a.component), config.roles)
+
+
+def _after_create(cat: _Catalogue, config: Configuration, a: Create) -> Configuration:
+    comp = cat.comps[a.component]
+    return Configuration(config.components | {a.component},
+                         config.degraded | {(comp.name, f.name) for f in comp.functionalities}, config.roles)
+
+
+def _after_detach(cat: _Catalogue, config: Configuration, a: Detach) -> Configuration:
+    return Configuration(config.components, config.degraded, config.roles - {(a.connector, a.component, a.port)})
+
+
+def _after_attach(cat: _Catalogue, config: Configuration, a: Attach) -> Configuration:
+    return Configuration(config.components, config.degraded, config.roles | {(a.connector, a.component, a.port)})
+
+
+def _after_degrade(cat: _Catalogue, config: Configuration, a: Degrade) -> Configuration:
+    return Configuration(config.components, config.degraded | {(a.component, a.functionality)}, config.roles)
+
+
+def _after_upgrade(cat: _Catalogue, config: Configuration, a: Upgrade) -> Configuration:
+    return Configuration(config.components, config.degraded - {(a.component, a.functionality)}, config.roles)
 
 
 def apply(system: System, config: Configuration, action: Action) -> Configuration:
@@ -563,3 +584,45 @@ def apply(system: System, config: Configuration, action: Action) -> Configuratio
     if reasons:
         raise ActionRefused(action, reasons)
     return effect(system, config, action)
+
+
+# --- the registry ----------------------------------------------------------------------
+
+def _component(c: str) -> Meaning:
+    return ("component", c)
+
+
+KINDS: tuple[Kind, ...] = (
+    ActionKind[Remove](Remove, _remove, _after_remove, lambda ch: [Remove(c) for c in ch.removed],
+               lambda a: (_component(a.component),)),
+    ActionKind[Create](Create, _create, _after_create, lambda ch: [Create(c) for c in ch.created],
+               lambda a: (_component(a.component),)),
+    ActionKind[Detach](Detach, _detach, _after_detach, lambda ch: [Detach(*r) for r in ch.detached],
+               lambda a: (("connector", a.connector), ("port", a.component, a.port))),
+    ActionKind[Attach](Attach, _attach, _after_attach, lambda ch: [Attach(*r) for r in ch.attached],
+               lambda a: (("connector", a.connector), ("port", a.component, a.port))),
+    ActionKind[Degrade](Degrade, _degrade, _after_degrade, lambda ch: [Degrade(*f) for f in ch.degraded],
+               lambda a: (("functionality", a.component, a.functionality),)),
+    ActionKind[Upgrade](Upgrade, _upgrade, _after_upgrade, lambda ch: [Upgrade(*f) for f in ch.upgraded],
+               lambda a: (("functionality", a.component, a.functionality),)),
+)
+"""Every action, in the order the Alloy modules declare them."""
+
+_BY_NAME: dict[str, Kind] = {k.name: k for k in KINDS}
+
+
+def kind_of(action: Action) -> Kind:
+    """The registry's entry for `action`."""
+    return _BY_NAME[action.kind]
+
+
+def changes(before: Configuration, after: Configuration) -> list[Action]:
+    """The single actions the difference from `before` to `after` is made of, kind by kind."""
+    change = Change.between(before, after)
+    return [a for kind in KINDS for a in kind.found(change)]
+
+
+def recognise(before: Configuration, after: Configuration) -> Optional[Action]:
+    """The one action that takes `before` to `after`, or None when the difference is not one action."""
+    found = changes(before, after)
+    return found[0] if len(found) == 1 else None

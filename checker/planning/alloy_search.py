@@ -29,17 +29,21 @@ component counts as degraded. Decoded plans use the Python engine's configuratio
 from __future__ import annotations
 
 import re
-import threading
-import time
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Optional
+from typing import Iterable, Optional
 
-from checker.model.actions import Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue
+import codegen.alloy as gen
+from codegen.alloy_module import PlannerModule, StateTerms
+from reconf_dsl.ir import Component, System
+
+from checker.model.actions import Action, catalogue, changes
 from checker.model.config import Configuration
 from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, verify
 from reconf_dsl.words import plural
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from checker.alloy.errors import AlloyError
+from checker.planning.plan import disruption
+from checker.planning.plan import ready
 
 __all__ = ["AlloySearch", "Solve", "alloy_plan", "alloy_search", "plan_with_alloy", "render_planner"]
 
@@ -49,49 +53,10 @@ STRATEGY = "alloy"
 
 # -- Rendering --------------------------------------------------------------------------
 
-_capture_lock = threading.Lock()
-
-
-class _Captured:
-    """Stands in for the template environment of codegen.alloy while an instance module
-    is rendered, and keeps what the instance template would have been given."""
-
-    def __init__(self) -> None:
-        self.context: dict[str, Any] = {}
-
-    def get_template(self, name: str) -> "_Captured":
-        return self
-
-    def render(self, **context: Any) -> str:
-        self.context = context
-        return ""
-
-
-def _architecture(system: Any, start: Configuration) -> tuple[list[str], list[tuple[str, str, str]],
-                                                               dict[str, tuple[str, ...]], bool]:
-    """The sigs and architecture constants of `system`, exactly as in its instance module,
-    with the atom names, and whether its guarantees are atoms (else a ternary relation).
-    The configuration constants (comps, degraded, roles) are left out."""
-    import codegen.alloy as gen
-
-    captured = _Captured()
-    with _capture_lock:
-        saved = gen.environment
-        gen.environment = lambda: captured  # type: ignore[assignment,return-value]
-        try:
-            _, names = gen._render(system, [start], "instance", plan=False)
-        finally:
-            gen.environment = saved
-    funs = [f for f in captured.context["funs"] if f[0] not in ("comps", "degraded", "roles")]
-    return list(captured.context["sigs"]), funs, names, bool(captured.context["st"].guar_atoms)
-
-
 def _two_state_actions() -> str:
     """The six actions of actions.j2, over the current state `s` and the next one: `s2.x`
     becomes `(s.x)'` and `s2` leaves every parameter list."""
-    import codegen.alloy as gen
-
-    text = str(gen.environment().get_template("actions.j2").module.actions(gen.PLAN_STATE))  # type: ignore[attr-defined]
+    text = gen.render_actions(gen.PLAN_STATE)
     text = text.replace("[s, s2: System", "[s: System").replace("[s, s2,", "[s,").replace("[s, s2]", "[s]")
     text = re.sub(r"\bs2\.(\w+)", r"(s.\1)'", text)
     if any(re.search(r"\bs2\b", line.split("--")[0]) for line in text.splitlines()):
@@ -99,12 +64,12 @@ def _two_state_actions() -> str:
     return text
 
 
-def _all_components(system: Any) -> list[Any]:
+def _all_components(system: System) -> list[Component]:
     names = {c.name for c in system.components}
     return list(system.components) + [v for v in system.versions if v.name not in names]
 
 
-def _alloy_degraded(system: Any, components: Iterable[str], degraded: Iterable[tuple[str, str]]) -> set[tuple[str, str]]:
+def _alloy_degraded(system: System, components: Iterable[str], degraded: Iterable[tuple[str, str]]) -> set[tuple[str, str]]:
     """Degraded functionalities as Alloy reads them: those of absent components too."""
     present = set(components)
     return set(degraded) | {(c.name, f.name) for c in _all_components(system) if c.name not in present
@@ -124,11 +89,9 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     """The planning module for `problem` (its goal settled), traces of `min_steps` to
     `max_steps` steps, and with `bound` a bound on disruption; and the map from atom to
     DSL name."""
-    import codegen.alloy as gen
-
     system, start, goal = problem.system, problem.start, problem.goal
-    sigs, funs, names, guar_atoms = _architecture(system, start)
-    atom = {meaning: name for name, meaning in names.items()}
+    arch = gen.describe_architecture(system)
+    atom = arch.atoms()
     cat = catalogue(system)
 
     def comps(cs: Iterable[str]) -> str:
@@ -141,8 +104,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
         return gen.union([f"{atom['connector', k]} -> {atom['port', c, p]}" for k, c, p in sorted(rs)],
                          "(Connector -> Port - Connector -> Port)")
 
-    single = gen.union([atom["connector", k.name] for k in system.connectors
-                        if getattr(k, "single_publisher", False)], "none")
+    single = gen.union([atom["connector", k.name] for k in system.connectors if k.single_publisher], "none")
     all_funcs = [(c.name, f.name) for c in _all_components(system) for f in c.functionalities]
     crit = gen.union([f"{atom['functionality', c, f]} -> {cat.funcs[c, f].criticality}" for c, f in all_funcs],
                      "(Functionality -> Int - Functionality -> Int)")
@@ -152,18 +114,13 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     # running total goes beyond is over the bound anyway (weights are not negative), and
     # with overflow forbidden the analyzer discards it; decoded plans are re-costed.
     bitwidth = _bitwidth((bound or 0) + start_weight + total) if bound is not None else 4
-    # the guarantees as the architecture's instance module holds them (atoms or ternary)
-    st = gen.PLAN_STATE if guar_atoms else gen.PLAN_TERNARY_STATE
-    template = gen.environment().get_template("planner.als.j2")
-    text = template.render(
-        st=st, sigs=sigs, funs=funs, module_name=module_name, system_name=system.name,
-        actions=_two_state_actions(), single=single, crit=crit, bound=bound, start_weight=start_weight,
-        bitwidth=bitwidth, states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
-        start={"comps": comps(start.components), "roles": roles(start.roles),
-               "degraded": funcs(_alloy_degraded(system, start.components, start.degraded))},
-        goal={"comps": comps(goal.components), "roles": roles(goal.roles), "degraded": funcs(goal.degraded)},
-    )
-    return text, names
+    module = PlannerModule(
+        module_name, system.name, arch, _two_state_actions(), single, crit, bound, start_weight, bitwidth,
+        states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
+        start=StateTerms(comps(start.components), roles(start.roles),
+                         funcs(_alloy_degraded(system, start.components, start.degraded))),
+        goal=StateTerms(comps(goal.components), roles(goal.roles), funcs(goal.degraded)))
+    return gen.render_planner_module(module), arch.names
 
 
 # -- Solving and decoding -----------------------------------------------------------------
@@ -171,57 +128,38 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
 def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
            bridge: AlloyBridge) -> tuple[Optional[list[Configuration]], float]:
     """Run the module's one command; the trace's configurations (up to its loop), or None
-    when there is no plan; and the solving time. CommandOutcome has no per-state
-    evaluation, so the command is run here, on the bridge's own Alloy objects."""
-    with bridge._lock:
-        solver_id = bridge.usable_solver(solver)
-        world = bridge._world({MAIN: text}, MAIN)
-        (cmd,) = list(world.module.getAllCommands())
-        opts = bridge.options(solver_id)
-        began = time.perf_counter()
-        try:
-            sol = bridge._Translate.execute_command(bridge._A4Reporter(), world.sigs(), cmd, opts)
-        except bridge._Err as err:
-            raise bridge._error(err) from None
-        elapsed = time.perf_counter() - began
-        if not sol.satisfiable():
-            return None, elapsed
+    when there is no plan; and the solving time."""
+    trace = bridge.solve_module(text, MAIN, ("System.comps", "System.degraded", "System.roles"), 0, solver)
+    if not trace.satisfiable:
+        return None, trace.seconds
 
-        def value(expr: str, state: int) -> set[tuple[str, ...]]:
-            parsed = bridge._CompUtil.parseOneExpression_fromString(world.module, expr)
-            return {tuple(atom_name(str(t.atom(i))) for i in range(t.arity())) for t in sol.eval(parsed, state)}
+    def value(state: dict[str, set[tuple[str, ...]]], expr: str) -> set[tuple[str, ...]]:
+        return {tuple(atom_name(a) for a in t) for t in state[expr]}
 
-        states = []
-        for i in range(int(sol.getTraceLength())):
-            components = frozenset(names[a][1] for (a,) in value("System.comps", i))
-            degraded = frozenset((names[a][1], names[a][2]) for (a,) in value("System.degraded", i)
-                                 if names[a][1] in components)
-            roles = frozenset((names[k][1], names[p][1], names[p][2]) for k, p in value("System.roles", i))
-            states.append(Configuration(components, degraded, roles))
-        return states, elapsed
+    states = []
+    for state in trace.states:
+        components = frozenset(names[a][1] for (a,) in value(state, "System.comps"))
+        degraded = frozenset((names[a][1], names[a][2]) for (a,) in value(state, "System.degraded")
+                             if names[a][1] in components)
+        roles = frozenset((names[k][1], names[p][1], names[p][2]) for k, p in value(state, "System.roles"))
+        states.append(Configuration(components, degraded, roles))
+    return states, trace.seconds
 
 
-def _action(system: Any, before: Configuration, after: Configuration) -> Action:
+def _action(before: Configuration, after: Configuration) -> Action:
     """The action that takes `before` to `after` (one step of a trace)."""
-    created, removed = after.components - before.components, before.components - after.components
-    both = before.components & after.components
-    attached, detached = after.roles - before.roles, before.roles - after.roles
-    degraded = {d for d in after.degraded - before.degraded if d[0] in both}
-    upgraded = {d for d in before.degraded - after.degraded if d[0] in both}
-    found: list[Action] = ([Create(c) for c in created] + [Remove(c) for c in removed]
-                           + [Attach(*r) for r in attached] + [Detach(*r) for r in detached]
-                           + [Degrade(*d) for d in degraded] + [Upgrade(*d) for d in upgraded])
+    found = changes(before, after)
     if len(found) != 1:
         raise AlloyError(f"a step of the Alloy trace is not one action: {[a.describe() for a in found]}")
     return found[0]
 
 
-def _steps(system: Any, states: list[Configuration], goal: Goal) -> list[Action]:
+def _steps(system: System, states: list[Configuration], goal: Goal) -> list[Action]:
     steps: list[Action] = []
     for before, after in zip(states, states[1:]):
         if goal.reached(before):
             break
-        steps.append(_action(system, before, after))
+        steps.append(_action(before, after))
     return steps
 
 
@@ -275,7 +213,6 @@ def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SO
                  bridge: Optional[AlloyBridge] = None, minimise: bool = True) -> AlloySearch:
     """Plan `problem` (its goal settled, see `plan_with_alloy`) in Alloy; see the module
     docstring. Raises NoSafePlan when no plan of at most `max_steps` steps exists."""
-    from checker.planning.plan import disruption
 
     system, start, goal = problem.system, problem.start, problem.goal
     if goal.reached(start):
@@ -315,8 +252,7 @@ def alloy_plan(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLV
 
 def plan_with_alloy(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER) -> Plan:
     """Plan `problem` in Alloy and check the result step by step with the Python engine;
-    the same checks of the start and the target as `strategies.solve` come first."""
-    from checker.planning.plan import ready
+    the same checks of the start and the target as `operations.solve` come first."""
 
     problem = ready(problem)
     search = alloy_search(problem, max_steps, solver)

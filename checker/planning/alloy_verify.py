@@ -7,10 +7,17 @@ from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
 from codegen.alloy import TERNARY_ATOMS
+from reconf_dsl.ir import Predicate
 
 from checker.alloy.errors import AlloyError
 from checker.planning import Plan
 from reconf_dsl.words import plural
+from checker.alloy import alloy_plan_verdict, alloy_verdict
+from checker.alloy.bridge import AlloyBridge
+from checker.alloy.instance import PLAN_MAIN, AlloyPlanVerdict
+from checker.alloy.parallel import Job, judge_many
+from checker.planning.slicing import PlanSlicer
+from codegen.alloy import render_plan
 
 
 # states x components of a plan module past which it is not run (about a minute of work here)
@@ -83,8 +90,6 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     bridge's AlloyUnavailable when Java or the jar is missing."""
     if not slice_ or not plan.steps:
         return _whole(plan, solver)
-    from checker.alloy import alloy_verdict
-    from checker.planning.slicing import PlanSlicer
 
     seconds = 0.0
     texts: list[str] = []
@@ -171,7 +176,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     return evidence
 
 
-def _windows(plan: Plan, slicer: Any) -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
+def _windows(plan: Plan, slicer: "PlanSlicer") -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
     """The windows `alloy_evidence` judges when every lean slice is proved: (first step,
     steps, lean slice, its core) each, up to the first past `MODULE_BUDGET`, and then why
     the plan cannot be verified ("" when none is)."""
@@ -197,10 +202,7 @@ def _judge_at_once(plan: Plan, windows: list[tuple[int, int, Plan, set[str]]],
     (`checker.alloy.parallel`), up to the first module that needs binary relations: per
     window, whether it is proved, the solver's seconds and the module. Empty when the batch
     fails (the windows are then judged one at a time, where each error is reported)."""
-    from codegen.alloy import render_plan
 
-    from checker.alloy.instance import PLAN_MAIN
-    from checker.alloy.parallel import Job, judge_many
 
     texts = []
     for _, _, lean, _ in windows:
@@ -231,7 +233,6 @@ def _whole(plan: Plan, solver: str) -> dict[str, Any]:
 
 
 def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
-    from checker.alloy.bridge import AlloyBridge
 
     used = AlloyBridge.get().solver_used(solver)
     evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
@@ -256,7 +257,8 @@ def _atoms(target: Plan) -> int:
     relations has no guarantee atoms)."""
     system = target.system
     count = len(target.states) + len(system.connectors) + 24
-    data: set[Any] = {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
+    data: set[Optional[Predicate]] = set()
+    data |= {k.guarantee for k in system.connectors} | {e.guarantee for e in system.environment}
     for c in system.components + system.versions:
         count += 1 + len(c.ports) + len(c.functionalities)
         data |= {p.assumption for p in c.ports if p.kind == "input"}
@@ -302,9 +304,8 @@ def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool 
     why it is refused ("" when it is not), the analyzer's time, and the module. With
     `binary`, a module with too many atoms for ternary relations is written with binary
     ones (about 3x slower to translate) rather than refused."""
-    from checker.alloy import alloy_plan_verdict
 
-    def run(binary_roles: bool) -> Any:
+    def run(binary_roles: bool) -> "AlloyPlanVerdict":
         return alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
                                   stable=target.stable, binary=binary_roles, protocols=target.protocols,
                                   handover=target.handover)

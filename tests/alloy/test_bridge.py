@@ -135,3 +135,21 @@ def test_evidence_names_the_solver_that_ran(bridge: AlloyBridge) -> None:
     finally:
         bridge._usable.clear()
         bridge._usable.update(saved)
+
+
+TRACE = ("var sig A {}\nfact { no A and after (some A and always some A) }\n"
+         "run Grow {} for 3 but 1..3 steps\nrun Never { some A and no A } for 3\n")
+
+
+def test_solve_module_evaluates_every_state_of_a_trace(bridge: AlloyBridge) -> None:
+    trace = bridge.solve_module(TRACE, "trace.als", ("A",))
+    assert trace.satisfiable and trace.seconds >= 0
+    assert trace.states[0]["A"] == set() and all(s["A"] for s in trace.states[1:])
+    assert len(trace.states) >= 2
+    never = bridge.solve_module(TRACE, "trace.als", ("A",), command="Never")
+    assert not never.satisfiable and never.states == []
+    with pytest.raises(AlloyError, match="no command"):
+        bridge.solve_module(TRACE, "trace.als", command="Missing")
+    with pytest.raises(AlloyError) as err:
+        bridge.solve_module("sig A {\n", "broken.als")
+    assert err.value.module == "broken.als" and err.value.line > 0

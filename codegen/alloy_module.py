@@ -1,0 +1,146 @@
+"""What an Alloy module of a concrete architecture says, before it is text.
+
+codegen.alloy builds these descriptions (which atoms, which constants, which states, which
+steps) and the templates of codegen/templates/alloy/ render them, deciding nothing.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+__all__ = ["Architecture", "Family", "Fun", "InstanceModule", "Meaning", "PlanModule", "PlannerModule",
+           "Serving", "StateTerms", "Step"]
+
+# What an atom stands for: ("component", c), ("port", c, p), ("functionality", c, f),
+# ("connector", k), ("message", m), ("rate", hz), ("data", message, hz or ""), ("state", i),
+# ("guarantee", c, f, p).
+Meaning = tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Family:
+    """An abstract sig `parent` (extending `extends`, if any) and one `one sig` per atom.
+    A `closed` family without atoms has a fact saying the sig has none (an abstract sig
+    without children could still hold atoms)."""
+
+    parent: str
+    atoms: tuple[str, ...]
+    extends: str = ""
+    closed: bool = True
+
+
+@dataclass(frozen=True)
+class Fun:
+    """A `fun` constant: its name, its type and its body (an Alloy expression)."""
+
+    name: str
+    type: str
+    body: str
+
+
+@dataclass(frozen=True)
+class Architecture:
+    """A system's atoms and its fixed relations, as every module of it declares them;
+    `names` says what each atom stands for, and `guar_atoms` whether guarantees are atoms
+    of their own (binary relations) rather than a ternary relation."""
+
+    families: tuple[Family, ...]
+    funs: tuple[Fun, ...]
+    guar_atoms: bool
+    names: dict[str, Meaning]
+
+    def atom(self, meaning: Meaning) -> str:
+        """The atom that stands for `meaning`."""
+        return self.atoms()[meaning]
+
+    def atoms(self) -> dict[Meaning, str]:
+        """Every atom by what it stands for."""
+        return {meaning: name for name, meaning in self.names.items()}
+
+
+@dataclass(frozen=True)
+class InstanceModule:
+    """One configuration of an architecture: its relations as constants."""
+
+    module_name: str
+    system_name: str
+    architecture: Architecture
+    configuration: tuple[Fun, ...]
+
+
+@dataclass(frozen=True)
+class Step:
+    """A step of a plan that is one action: the action predicate, the two states and the
+    arguments' atoms."""
+
+    action: str
+    before: str
+    after: str
+    args: tuple[str, ...]
+
+    @property
+    def sig(self) -> str:
+        """The action's atom of sig Action."""
+        return self.action.capitalize()
+
+
+@dataclass(frozen=True)
+class Serving:
+    """What a plan must keep serving (`fun` constants): the proxies, their clients'
+    connectors, and with `protocols` (proxy -> protocol), the proxies' components and
+    the servers losing their FTM (`handing`) with their connectors (`handed`)."""
+
+    proxies: str
+    connectors: str
+    handing: str
+    handed: str
+    protocols: str = ""
+    proxy_comps: str = ""
+
+
+@dataclass(frozen=True)
+class PlanModule:
+    """The successive configurations of a plan: the states, their relations, and per step
+    the action it is (None where the difference is not one action)."""
+
+    module_name: str
+    system_name: str
+    architecture: Architecture
+    states: tuple[str, ...]
+    configurations: tuple[Fun, ...]
+    roles: tuple[Family, ...]            # the Role atoms, with binary roles
+    binary: bool
+    actions: tuple[str, ...]             # the sigs of Action, one per action kind
+    steps: tuple[Optional[Step], ...]
+    ok_steps: str                        # System -> Action: each one-action step's candidate
+    serving: Optional[Serving] = None
+    stable: Optional[str] = None         # the connectors every configuration keeps satisfied
+
+
+@dataclass(frozen=True)
+class StateTerms:
+    """A configuration as Alloy terms: its components, its attachments, its degraded
+    functionalities."""
+
+    comps: str
+    roles: str
+    degraded: str
+
+
+@dataclass(frozen=True)
+class PlannerModule:
+    """A reconfiguration searched as an Alloy trace (checker.planning.alloy_search)."""
+
+    module_name: str
+    system_name: str
+    architecture: Architecture
+    actions: str            # the actions over the current and the next state
+    single: str             # the connectors that take one publisher
+    crit: str               # Functionality -> Int
+    bound: Optional[int]    # on disruption
+    start_weight: int
+    bitwidth: int
+    states: int
+    min_states: int
+    start: StateTerms
+    goal: StateTerms
