@@ -3,6 +3,7 @@ action the plan says it is, with that action's preconditions (the meta-model's p
 from __future__ import annotations
 
 import hashlib
+from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
@@ -62,43 +63,64 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
                    progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Evidence for the plan document; `valid` is False (with a `reason`) when Alloy refutes it.
 
-    With `slice_` (the default), the plan is verified in *windows*: runs of consecutive
-    steps, each module holding the window's states on the part of the architecture the
-    window can affect (`checker.planning.slicing`), lean first (readers of connectors that
-    stay satisfied left out, one witness per connector among the untouched publishers),
-    then, if Alloy refutes the lean slice, the full one, whose verdict stands. A window is
-    as long as keeps its module within `WINDOW_BUDGET` state-components (halved until it
-    does, or until the analyzer can index it).
-
-    Why windows suffice: every state of the plan is judged in the window that holds it
-    (a window's last state is the next one's first), every step in its window, and
-    validity is local to components. A window's module judges the assumptions of its
-    slice's core (`affected`: not the stubs, whose assumptions it strips). A component
-    outside the core reads nothing the window changes, or (lean slice) only connectors the
-    module proves satisfied in every state, so its validity is the same in all the
-    window's states. So a component some window judges is valid in every state: before the
-    first window that judges it, it was valid exactly when at that window's start, where it
-    is judged; after each window that judges it, it stays valid until the next. The
-    components no window judges never change validity: they are judged once, in the first
-    configuration.
-
-    A plan that must keep proxies serving (`Plan.serving`) is also checked lossless in
-    every state. The windows are judged at once, by two analyzers where that pays
-    (`checker.alloy.parallel`), until one is refuted; from there one at a time, as above.
-    `progress` is told how many windows there are, then which steps each window judged one
-    at a time holds. Raises the
-    bridge's AlloyUnavailable when Java or the jar is missing."""
+    With `slice_` (the default), the plan is verified in *windows* of consecutive steps, each
+    on the part of the architecture it can affect, lean slice first, then the full one if the
+    lean is refuted; the components no window judges are judged once, in the first
+    configuration. Why that suffices: docs/soundness.md, "Verifying a plan in windows".
+    `progress` is told how many windows there are, then which steps each window judged one at
+    a time holds. Raises the bridge's AlloyUnavailable when Java or the jar is missing."""
     if not slice_ or not plan.steps:
         return _whole(plan, solver)
+    tally, slicer = _Tally(), PlanSlicer(plan)
+    try:
+        k, width = _at_once(plan, slicer, solver, tally, progress)
+        reason = _one_at_a_time(plan, slicer, solver, tally, k, width, progress)
+    except _NotRun as e:
+        return _not_run(plan, solver, tally.seconds, str(e))
+    outside = set(plan.states[0].components) - tally.judged
+    if not reason and outside:
+        first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
+        tally.seconds += first.seconds
+        tally.texts += list(first.texts)
+        if not first.valid:
+            reason = "the initial configuration is not valid"
+    evidence = _evidence(plan, solver, reason, tally.seconds, tally.texts)
+    evidence["slice"] = {"components": tally.largest, "judged_once": len(outside), "windows": len(tally.widths),
+                         "kind": "full" if "full" in tally.kinds else "lean"}
+    return evidence
 
-    seconds = 0.0
-    texts: list[str] = []
-    reason, kinds, widths, largest = "", set(), [], 0
-    slicer = PlanSlicer(plan)
-    judged: set[str] = set()  # the components some window's slice judges
-    k, width = 0, len(plan.steps)
-    # the windows judged at once (by two analyzers where that pays) as long as their lean
-    # slices are proved; from the first that is not, one at a time as below
+
+class _NotRun(Exception):
+    """A module too large to run: the plan is not verified (the reason is the message)."""
+
+
+@dataclass
+class _Tally:
+    """What the windows judged so far add up to."""
+
+    seconds: float = 0.0
+    texts: list[str] = field(default_factory=list)
+    kinds: set[str] = field(default_factory=set)      # "lean", "full": the slices that decided
+    widths: list[int] = field(default_factory=list)   # one per window
+    largest: int = 0                                  # components of the largest slice judged
+    judged: set[str] = field(default_factory=set)     # the components some window's slice judges
+
+    def spent(self, seconds: float, text: str) -> None:
+        self.seconds += seconds
+        self.texts.append(text)
+
+    def window(self, kind: str, width: int, target: Plan, core: set[str]) -> None:
+        self.kinds.add(kind)
+        self.widths.append(width)
+        self.largest = max(self.largest, _size(target))
+        self.judged |= core
+
+
+def _at_once(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally,
+             progress: Callable[[str], None] | None) -> tuple[int, int]:
+    """The windows judged at once (by two analyzers where that pays) as long as their lean
+    slices are proved: the step and width to go on from one at a time, from the first that
+    is not."""
     windows, too_big = _windows(plan, slicer)
     if progress is not None:
         progress(f"verifying {plural(len(plan.steps), 'step')} in {plural(len(windows), 'window')} in the Alloy "
@@ -107,19 +129,22 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows, solver)):
         if not ok:
             break
-        seconds += spent
-        texts.append(text)
-        kinds.add("lean")
-        widths.append(width)
-        largest = max(largest, _size(lean))
-        judged |= core
+        tally.spent(spent, text)
+        tally.window("lean", width, lean, core)
         proved += 1
     if proved < len(windows):
-        k, width = windows[proved][0], windows[proved][1]
-    elif too_big:
-        return _not_run(plan, solver, seconds, too_big)
-    else:
-        k = len(plan.steps)
+        return windows[proved][0], windows[proved][1]
+    if too_big:
+        raise _NotRun(too_big)
+    return len(plan.steps), len(plan.steps)
+
+
+def _one_at_a_time(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally, k: int, width: int,
+                   progress: Callable[[str], None] | None) -> str:
+    """The windows from step `k` on, one at a time: a window is as long as keeps its module
+    within `WINDOW_BUDGET` state-components (halved until it does, or until the analyzer can
+    index it), and doubles after each proved. The reason Alloy refuted a window, or ""."""
+    reason = ""
     while k < len(plan.steps) and not reason:
         width = min(width, len(plan.steps) - k)
         window = _window(plan, k, width)
@@ -128,7 +153,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
             width = _narrower(width, lean)
             continue
         if _cost(lean) > MODULE_BUDGET:
-            return _not_run(plan, solver, seconds, _too_big(lean))
+            raise _NotRun(_too_big(lean))
         if progress is not None:
             progress(f"verifying steps {k + 1}–{k + width} of {len(plan.steps)} in the Alloy Analyzer "
                      f"({_size(lean)} components)…")
@@ -138,42 +163,27 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
             if reason:
                 # refuted on the lean slice, maybe only for what it left out: the full slice
                 # decides, on narrower windows if it does not fit this one
-                seconds += spent
-                texts.append(text)
+                tally.spent(spent, text)
                 target, core = slicer.slice(window)
                 if width > 1 and _oversized(target):
                     width, reason = _narrower(width, target), ""
                     continue
                 if _cost(target) > MODULE_BUDGET:
-                    return _not_run(plan, solver, seconds, _too_big(target))
+                    raise _NotRun(_too_big(target))
                 reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
         except AlloyError as err:
             if not _capacity(err):
                 raise
             if width == 1:
-                return _not_run(plan, solver, seconds, f"the plan module of step {k + 1} has more atoms than the "
-                                "Alloy Analyzer can index, even with binary relations")
+                raise _NotRun(f"the plan module of step {k + 1} has more atoms than the Alloy Analyzer can "
+                              "index, even with binary relations") from None
             width, reason = width // 2, ""
             continue
-        seconds += spent
-        texts.append(text)
-        kinds.add("lean" if target is lean else "full")
-        widths.append(width)
-        largest = max(largest, _size(target))
-        judged |= core
+        tally.spent(spent, text)
+        tally.window("lean" if target is lean else "full", width, target, core)
         k += width
         width *= 2
-    outside = set(plan.states[0].components) - judged
-    if not reason and outside:
-        first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
-        seconds += first.seconds
-        texts += list(first.texts)
-        if not first.valid:
-            reason = "the initial configuration is not valid"
-    evidence = _evidence(plan, solver, reason, seconds, texts)
-    evidence["slice"] = {"components": largest, "judged_once": len(outside), "windows": len(widths),
-                         "kind": "full" if "full" in kinds else "lean"}
-    return evidence
+    return reason
 
 
 def _windows(plan: Plan, slicer: "PlanSlicer") -> tuple[list[tuple[int, int, Plan, set[str]]], str]:
