@@ -27,13 +27,12 @@ from checker.cli.plan_options import with_common, with_plan_options
 from checker.ftm.change import has_ftm, plan_change, planned_on
 from checker.reports.plan_document import plan_document
 from checker.reports.progress import status
-from checker.planning import (Attempt, Fallback, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace)
+from checker.planning import (Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace)
 from checker.planning.plan import BadRequest, degradation, unknown
 from checker.reports.report import OutputFormat
 from reconf_dsl.words import agree
-from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence
-from checker.planning.alloy_search import plan_with_alloy
-from checker.planning import Problem
+from checker.planning.alloy_verify import alloy_evidence
+from checker.planning.verified import plan_verified
 from codegen.ros2 import render_plan_script
 
 
@@ -143,37 +142,26 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
     answer is the exit status (`reconf up`, `reconf down`)."""
 
     fmt = output_format
-
-    def judge(p: Plan, say: Callable[[str], None]) -> dict[str, Any]:
-        say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
-        return alloy_evidence(p, progress=say)
-
     with status("planning…") as say:
-        verdicts = PlanVerdicts(lambda p: judge(p, say)) if use_alloy else None
+        def judge(p: Plan) -> dict[str, Any]:
+            say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
+            return alloy_evidence(p, progress=say)
+
         try:
-            if chain:
-                p = make(Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy or engine == "alloy",
-                                  max_steps=max_steps, progress=say))
-            else:
-                p = make()
-            if engine == "alloy":
-                p = alloy_planned(p, max_steps)
+            verified = plan_verified(make, use_alloy=use_alloy, chain=chain, judge=judge,
+                                     alloy_planner=engine == "alloy", max_steps=max_steps, progress=say)
         except NoPlanFound as e:
             return no_plan(label, e.reasons, fmt, attempts=e.attempts)
         except NoSafePlan as e:
             return no_plan(label, e.reasons, fmt)
-        evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-        if verdicts is not None:
-            evidence["alloy"] = verdicts.evidence(p)
-    if use_alloy:
-        if evidence["alloy"].get("verdict") == "not run":      # not answered: not "unsafe" (docs/exit-codes.md)
-            raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
-                                      f"{evidence['alloy']['reason']}", Span.unknown("<alloy>"),
-                                      notes=("`--no-alloy` relies on the Python engine's step-by-step "
-                                             "verification alone",))])
-        if not evidence["alloy"].get("valid", False):
-            return no_plan(label, [f"Alloy refuted the plan: {evidence['alloy'].get('reason', 'unknown')}"], fmt,
-                           p, evidence, attempts=p.attempts)
+    p, evidence = verified.plan, verified.evidence
+    if verified.not_run is not None:      # not answered: not "unsafe" (docs/exit-codes.md)
+        raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
+                                  f"{verified.not_run}", Span.unknown("<alloy>"),
+                                  notes=("`--no-alloy` relies on the Python engine's step-by-step "
+                                         "verification alone",))])
+    if verified.refuted is not None:
+        return no_plan(label, [verified.refuted], fmt, p, evidence, attempts=p.attempts)
     doc = plan_document(label, system, p, evidence, target)
     if output or apply is not None:
         script_doc = plan_document(label, system, p, evidence, target, model=True)
@@ -185,14 +173,6 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
         show(label, p, evidence, output)
     code = apply(script_doc) if apply is not None and not output else EXIT_OK
     sys.exit(EXIT_CHANGES if code == EXIT_OK and detailed_exitcode and p.steps else code)
-
-
-def alloy_planned(p: Plan, max_steps: int) -> Plan:
-    """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
-    planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
-    planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
-                         f"in {plural(len(p.steps), 'step')}")
-    return planned
 
 
 def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -> None:

@@ -26,10 +26,10 @@ from checker.gate.check import check_system
 from checker.model.actions import failing_assumptions
 from checker.gate.policy import Policy, covered, coverage, ftm_names
 from checker.reports.progress import status
-from checker.planning.alloy_verify import PlanVerdicts
+from checker.planning.verified import plan_verified
 from checker.reports.plan_document import plan_document
 from checker.ftm.change import plan_change, planned_on
-from checker.planning import Fallback, NoSafePlan
+from checker.planning import NoSafePlan
 from checker.alloy import AlloyError, AlloyUnavailable
 from checker.planning.alloy_verify import alloy_evidence as evidence
 
@@ -108,24 +108,24 @@ def func_span(systems: list[System], component: str, functionality: str) -> Opti
 
 def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, solver: str, out: Outcome) -> None:
 
-    verdicts = PlanVerdicts(lambda p: alloy_evidence(p, solver)) if use_alloy else None
     with status(f"planning the migration {old.name} → {new.name}…"):
         try:
-            fallback = Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy)
-            p = plan_change(old, new, policy.strategy, fallback)
+            verified = plan_verified(lambda fb: plan_change(old, new, policy.strategy, fb), use_alloy=use_alloy,
+                                     chain=True, judge=lambda p: alloy_evidence(p, solver))
         except NoSafePlan as e:
             out.fail("gate.policy", "a verified migration plan exists", error(
                 "RC501", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy and "
                 "those after it)", new.span, notes=tuple(e.reasons)))
             return
-        evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-        if verdicts is not None:
-            evidence["alloy"] = verdicts.evidence(p)
-    if use_alloy and evidence["alloy"].get("verdict") == "not run":     # not answered: exit 2, as `plan` does
-        raise DiagnosticError([error("RC303", f"Alloy could not verify the migration plan: "
-                                              f"{evidence['alloy'].get('reason', 'unknown')}", new.span,
-                                     notes=("`--engine python` relies on the Python engine's step-by-step "
-                                            "verification alone",))])
+    if verified.not_run is not None:     # not answered: exit 2, as `plan` does
+        raise DiagnosticError([error("RC303", f"Alloy could not verify the migration plan: {verified.not_run}",
+                                     new.span, notes=("`--engine python` relies on the Python engine's step-by-step "
+                                                      "verification alone",))])
+    if verified.refuted is not None:
+        out.fail("gate.policy", "a verified migration plan exists", error(
+            "RC501", f"no verified migration plan from the base to {new.name}: {verified.refuted}", new.span))
+        return
+    p, evidence = verified.plan, verified.evidence
     out.plan = p
     deployed, target = planned_on(old, new)
     out.plan_doc = plan_document("migrate", deployed, p, evidence, target)

@@ -1,0 +1,63 @@
+"""A plan made and verified, the one path to a plan that `reconf plan`, `up`, `down`, `recover`,
+`plan transition` and the gate show: made by a strategy alone or through the fallback chain
+(`checker.planning.chain`, where a plan Alloy refutes hands over to the next strategy), checked
+step by step by the Python engine as it is made, and as a whole in Alloy (`alloy_verify`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Optional
+
+from checker.planning.alloy_search import plan_with_alloy
+from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence
+from checker.planning.chain import Fallback
+from checker.planning.plan import Plan, Problem
+from reconf_dsl.words import plural
+
+
+@dataclass
+class Verified:
+    plan: Plan
+    evidence: dict[str, Any]     # per engine, as the plan document carries it
+
+    @property
+    def not_run(self) -> Optional[str]:
+        """Why Alloy could not verify the plan (a question not answered: RC303), or None."""
+        alloy = self.evidence.get("alloy")
+        return str(alloy.get("reason", "unknown")) if alloy and alloy.get("verdict") == "not run" else None
+
+    @property
+    def refuted(self) -> Optional[str]:
+        """Alloy's refutation of the plan, or None."""
+        alloy = self.evidence.get("alloy")
+        if not alloy or self.not_run is not None or alloy.get("valid", False):
+            return None
+        return f"Alloy refuted the plan: {alloy.get('reason', 'unknown')}"
+
+
+def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
+                  judge: Callable[[Plan], dict[str, Any]] = alloy_evidence, alloy_planner: bool = False,
+                  max_steps: int = 12, progress: Optional[Callable[[str], None]] = None) -> Verified:
+    """The plan `make` makes, with its evidence. With `chain`, `make` takes the `Fallback` to
+    plan through; otherwise `make()` plans alone. `judge` gives Alloy's evidence on a plan
+    (unless not `use_alloy`); with `alloy_planner`, Alloy 6 plans the same change again.
+    Raises NoSafePlan (NoPlanFound through the chain)."""
+    verdicts = PlanVerdicts(judge) if use_alloy else None
+    if chain:
+        p = make(Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy or alloy_planner,
+                          max_steps=max_steps, progress=progress))
+    else:
+        p = make()
+    if alloy_planner:
+        p = alloy_planned(p, max_steps)
+    evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
+    if verdicts is not None:
+        evidence["alloy"] = verdicts.evidence(p)
+    return Verified(p, evidence)
+
+
+def alloy_planned(p: Plan, max_steps: int) -> Plan:
+    """The same change planned by Alloy 6: the problem (start, settled goal) is the Python plan's."""
+    planned = plan_with_alloy(Problem(p.system, p.states[0], p.goal, renames=dict(p.renames)), max_steps)
+    planned.notes.append(f"the Python {p.strategy} strategy's plan had disruption {p.disruption} "
+                         f"in {plural(len(p.steps), 'step')}")
+    return planned
