@@ -8,7 +8,7 @@ from typing import Any, Callable
 
 import click
 
-from checker.planning import STRATEGIES
+from checker.planning.strategies import REGISTRY, STRATEGIES
 from checker.reports.report import OutputFormat
 
 file_option = click.option(
@@ -17,8 +17,8 @@ file_option = click.option(
 
 plan_options: list[Callable[[Any], Any]] = [
     click.option("--strategy", type=click.Choice(STRATEGIES), default="default", show_default=True,
-                 help="default: least disruption found; paper: Algorithm 1 of paper 001; exhaustive: decides whether a "
-                      "plan exists, least disruptive where its budget allows; when one finds no plan, the next plans"),
+                 help="; ".join(f"{s.name}: {s.summary}" for s in REGISTRY.values())
+                 + "; when one finds no plan, the next plans"),
     click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
                  help="also verify the whole plan in the Alloy Analyzer"),
     click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True,

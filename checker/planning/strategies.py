@@ -60,10 +60,9 @@ def _exhaustive(problem: Problem, budget: Budget) -> Steps:
 
 
 REGISTRY: dict[str, Strategy] = {s.name: s for s in (
-    Strategy("default", lambda problem, budget: _default(problem),
-             "never more disruptive than the paper's; make-before-break where connectors allow"),
-    Strategy("paper", _paper, "Algorithm 1 of Zhang, Garlan and Kang, faithfully"),
-    Strategy("exhaustive", _exhaustive, "a search for the least disruptive plan, within a budget"),
+    Strategy("default", lambda problem, budget: _default(problem), "least disruption found"),
+    Strategy("paper", _paper, "Algorithm 1 of paper 001"),
+    Strategy("exhaustive", _exhaustive, "decides whether a plan exists, least disruptive where its budget allows"),
 )}
 STRATEGIES = tuple(REGISTRY)
 
