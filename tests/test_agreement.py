@@ -11,7 +11,7 @@ from checker.model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
-from tests.semantic_strategies import configured
+from tests.support.semantic_strategies import configured
 
 
 @given(configured())

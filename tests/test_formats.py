@@ -17,20 +17,7 @@ from checker.reports.progress import enabled
 from reconf_dsl.diagnostics import Related, error
 from reconf_dsl.span import Span
 from tests.examples_table import BY_NAME, EXAMPLES, Example
-
-SCHEMA_PATH = os.path.join(os.path.dirname(__file__), "data", "sarif-schema-2.1.0.json")
-
-
-def sarif_schema() -> dict:
-    with open(SCHEMA_PATH, encoding="utf-8") as f:
-        return json.load(f)
-
-
-def validate_sarif(text: str) -> dict:
-    doc = json.loads(text)
-    jsonschema.Draft7Validator(sarif_schema()).validate(doc)
-    return doc
-
+from tests.support.sarif import sarif_schema, validate_sarif
 
 @pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
 def test_sarif_for_every_example(ex: Example) -> None:

@@ -18,8 +18,8 @@ from click.testing import CliRunner
 
 from checker.cli.main import main
 from tests.examples_table import BY_NAME, ROOT, path
-from tests.gatekit import gate, git
-from tests.test_formats import sarif_schema
+from tests.support.gatekit import gate, git
+from tests.support.sarif import sarif_schema
 
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
 

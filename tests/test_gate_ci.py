@@ -12,8 +12,8 @@ from bench.gen import generate
 import checker.gate.comment as gate_comment
 from checker.cli.common import EXIT_CHANGES
 from tests.examples_table import BY_NAME
-from tests.gatekit import gate
-from tests.test_formats import validate_sarif
+from tests.support.gatekit import gate
+from tests.support.sarif import validate_sarif
 
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
 

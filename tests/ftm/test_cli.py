@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from checker.cli.ftm import ftm_group, transition_cmd
 from reconf_dsl.loader import load_text
 
-from .conftest import EXAMPLES
+from tests.support.ftm import EXAMPLES
 
 
 def test_select_lists_valid_ranked_and_rejected_with_alloy(bridge) -> None:  # type: ignore[no-untyped-def]

@@ -11,7 +11,7 @@ from checker.ftm.transition import (Transition, client_side_ok, plan_ftm_migrate
 from checker.planning.plan import verify
 from reconf_dsl.loader import load, load_text
 
-from .conftest import EXAMPLES, client_server
+from tests.support.ftm import EXAMPLES, client_server
 
 PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
          ("PBR", "SEC(PBR)"), ("LFR", "AD"), ("TR", "SEC(TR)"), ("LFR(TR)", "AD(TR)"), ("PBR(TR)", "LFR(TR)"),

@@ -20,8 +20,8 @@ from checker.planning.plan import NoSafePlan, Problem, settle, verify
 from checker.planning.relaxed import reachable
 from reconf_dsl.loader import load, load_text
 
-from .gen import random_system
-from .systems import chain_system, talker_system
+from tests.support.random_systems import random_system
+from tests.support.systems import chain_system, talker_system
 
 
 def arch(tmp_path: Path, shape: str, n: int, seed: int) -> str:

@@ -14,7 +14,7 @@ from checker.model.semantics import evaluate
 from reconf_dsl.ir import PortRef
 from reconf_dsl.loader import load
 
-from .systems import chain_system, ring_system, talker_system
+from tests.support.systems import chain_system, ring_system, talker_system
 
 EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "examples")
 
