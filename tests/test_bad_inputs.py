@@ -257,5 +257,7 @@ def test_missing_file_and_directory(tmp_path: "os.PathLike[str]") -> None:
 def test_usage_error_exits_2() -> None:
     proc = subprocess.run([sys.executable, "-m", "checker", "check"], capture_output=True, text=True)
     assert proc.returncode == 2
+    assert proc.stderr.splitlines()[-1] == "Error: Missing argument 'PATH...'." and proc.stdout == ""
     proc = subprocess.run([sys.executable, "-m", "checker", "frobnicate"], capture_output=True, text=True)
     assert proc.returncode == 2
+    assert proc.stderr.splitlines()[-1] == "Error: No such command 'frobnicate'." and proc.stdout == ""

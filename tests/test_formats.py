@@ -39,7 +39,10 @@ def test_sarif_region_is_the_assumption() -> None:
     loc = r["locations"][0]["physicalLocation"]
     assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
     assert loc["region"] == {"startLine": 21, "startColumn": 21, "endLine": 21, "endColumn": 35}
-    assert any(rl["physicalLocation"]["region"]["startLine"] == 10 for rl in r["relatedLocations"])
+    related = [(rl["physicalLocation"]["region"]["startLine"], rl["message"]["text"]) for rl in r["relatedLocations"]]
+    assert related[:3] == [(18, "input listener.in assumes String @ 10 Hz"),
+                           (26, "topic /chatter guarantees String @ 10 Hz, but no attached output satisfies it"),
+                           (10, "output talker.out: talk guarantees String @ 5 Hz: rate too low: 5 Hz < 10 Hz")]
 
 
 def test_sarif_for_bad_input_is_valid(tmp_path) -> None:

@@ -50,7 +50,9 @@ def test_unsafe_change_fails_with_sarif_at_the_offending_line(here) -> None:
     loc = rc201[0]["locations"][0]["physicalLocation"]
     assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
     assert loc["region"]["startLine"] == 21
-    assert any(r["ruleId"] == "RC507" for r in results)
+    assert [r["ruleId"] for r in results] == ["RC201", "RC507"]
+    assert results[1]["message"]["text"] == ("chatter is not safe: no migration to it is planned\n"
+                                             "note: 1 assumption does not hold; see above")
 
 
 def test_plan_over_max_disruption_fails_naming_the_policy(here) -> None:

@@ -87,7 +87,7 @@ def test_migrate(tmp_path: "os.PathLike[str]") -> None:
     r = invoke("plan", "migrate", target, path, "--no-alloy", "--output-format", "json")
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
-    assert any(s["action"] == "create" for s in doc["plan"]["steps"])
+    assert [s["action"] for s in doc["plan"]["steps"]] == ["create", "upgrade", "attach", "detach", "remove"]
     assert doc["target_fingerprint"] != doc["fingerprint"]
 
 
