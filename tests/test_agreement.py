@@ -2,6 +2,7 @@
 generated architecture and configuration (the real Alloy jar through JPype)."""
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 
 from checker.alloy import alloy_verdict
@@ -12,6 +13,8 @@ from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
 from tests.support.semantic_strategies import configured
+
+pytestmark = pytest.mark.alloy   # every test here asks the real Alloy Analyzer
 
 
 @given(configured())

@@ -22,6 +22,7 @@ def test_verdict_matches_table(ex: Example) -> None:
     assert {f"{r.component}.{r.functionality}" for r in ev.unsatisfied} == ex.unsatisfied
 
 
+@pytest.mark.alloy
 @pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
 def test_cli_exit_code_and_json(ex: Example) -> None:
     result = CliRunner().invoke(main, ["check", ex.file, "--output-format", "json"])
@@ -34,6 +35,7 @@ def test_cli_exit_code_and_json(ex: Example) -> None:
     assert all(d["code"] == "RC201" for d in doc["diagnostics"])
 
 
+@pytest.mark.alloy
 def test_chain_explains_rate_too_low() -> None:
     result = CliRunner().invoke(main, ["check", EXAMPLES[1].file])
     text = result.stderr
@@ -112,6 +114,7 @@ def path_of(name: str) -> str:
     return BY_NAME[name].file
 
 
+@pytest.mark.alloy
 def test_a_thousand_components_are_judged_by_alloy_in_slices(tmp_path: "object") -> None:
     import os
     from bench.gen import generate
@@ -145,6 +148,7 @@ def test_too_large_for_alloy_falls_back_to_python_with_a_warning(monkeypatch: "o
     assert result.exit_code == 2 and "RC303" in result.stderr
 
 
+@pytest.mark.alloy
 def test_the_summary_says_where_the_time_went() -> None:
     """The wall time from the process's start and its parts, in the line and in JSON."""
     result = CliRunner().invoke(main, ["check", path_of("chatter"), "--output-format", "json"])

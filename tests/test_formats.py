@@ -32,6 +32,7 @@ def test_sarif_for_every_example(ex: Example) -> None:
         assert r["level"] == "error"
 
 
+@pytest.mark.alloy
 def test_sarif_region_is_the_assumption() -> None:
     result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "sarif"])
     doc = validate_sarif(result.stdout)
@@ -71,6 +72,7 @@ def test_github_annotations_escape() -> None:
                     "x: 100%25 wrong,%0Areally%0A- because\n")
 
 
+@pytest.mark.alloy
 def test_github_format_of_check() -> None:
     result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "github"])
     assert result.exit_code == 1
@@ -79,6 +81,7 @@ def test_github_format_of_check() -> None:
     assert "title=reconf RC201::listener.listen assumes String @ 10 Hz" in first
 
 
+@pytest.mark.alloy
 @pytest.mark.parametrize("name", ["robot", "robot_slow"])
 def test_junit_one_case_per_assumption(name: str) -> None:
     ex = BY_NAME[name]

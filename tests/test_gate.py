@@ -24,6 +24,7 @@ from tests.support.sarif import sarif_schema
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
 
 
+@pytest.mark.alloy
 def test_safe_change_passes(here) -> None:
     code, out, err = gate("--base", CHATTER, "--head", REDUNDANT, engine="both")
     assert code == 0, err

@@ -142,6 +142,7 @@ def test_detailed_exitcode_tells_a_change_from_nothing_to_do() -> None:
     assert (change.exit_code, same.exit_code, plain.exit_code) == (3, 0, 0)
 
 
+@pytest.mark.alloy
 def test_alloy_engine_matches_the_optimum() -> None:
     r = invoke("plan", "replace", "talker", "-f", CHATTER, "--engine", "alloy", "--no-alloy", "--output-format", "json")
     assert r.exit_code == 0, r.output
@@ -152,6 +153,7 @@ def test_alloy_engine_matches_the_optimum() -> None:
     assert doc["plan"]["disruption"] == json.loads(best.stdout)["plan"]["disruption"]
 
 
+@pytest.mark.alloy
 def test_alloy_verification_is_in_the_evidence() -> None:
     r = invoke("plan", "replace", "talker", "-f", CHATTER, "--strategy", "paper", "--output-format", "json")
     assert r.exit_code == 0, r.output
