@@ -1,7 +1,7 @@
 """The fixtures every test directory shares (registered by tests/conftest.py).
 
 `bridge` is the real Alloy jar through JPype; the JVM starts once per session (per xdist worker).
-"""
+A test that takes it is marked `alloy` by tests/conftest.py."""
 from __future__ import annotations
 
 from pathlib import Path
