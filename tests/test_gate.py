@@ -85,6 +85,12 @@ def test_policy_option_overrides(here, tmp_path_factory) -> None:
     other.write_text("max-disruption = 100\n", encoding="utf-8")
     code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT, "--policy", str(other))
     assert code == 0, out
+    doc = json.loads(out)
+    assert doc["verdict"] == "pass" and doc["diagnostics"] == []
+    assert doc["policy"]["source"] == str(other) and doc["policy"]["max-disruption"] == 100
+    # the policy found in the directory alone would refuse the plan (disruption 8 over 0)
+    code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT)
+    assert code == 1 and [d["code"] for d in json.loads(out)["diagnostics"]] == ["RC502"], out
 
 
 def test_bad_policy_is_bad_input(here) -> None:
