@@ -144,7 +144,10 @@ def test_degraded_is_orange_in_a_step() -> None:
     from checker.planning import plan_migrate
     from reconf_dsl.loader import load
     p = plan_migrate(load([BY_NAME["chatter"].file]), load([BY_NAME["redundant"].file]))
-    assert any(n.status == "degraded" for pic in step_pictures(p) for n in pic.nodes)
+    degraded = [[(n.label, n.tooltip) for n in pic.nodes if n.status == "degraded"] for pic in step_pictures(p)]
+    assert [(i, d) for i, d in enumerate(degraded) if d] == [(7, [("mapper", "degraded: map")]),
+                                                             (10, [("listener", "degraded: listen")]),
+                                                             (11, [("listener", "degraded: listen")])]
 
 
 def test_svg_or_a_clear_message(monkeypatch) -> None:

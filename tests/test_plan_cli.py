@@ -170,7 +170,8 @@ def test_migrate_between_ftms_plans_on_the_expansions() -> None:
     doc = json.loads(r.stdout)
     steps = [s for s in doc["plan"]["steps"]]
     touched = {s.get("component", "") for s in steps}
-    assert any("__r0_dup_protocol" in c for c in touched)           # the protocols are suspended
+    suspended = [s["component"] for s in steps if s["action"] == "degrade" and s["component"].endswith("_protocol")]
+    assert suspended == ["server__r0_dup_protocol", "server__r1_dup_protocol"]   # the protocols are suspended
     assert not any(c.endswith("_proceed") for c in touched)           # the application replicas are kept
     kinds = [s["action"] for s in steps]
     assert kinds[0] == "degrade" and kinds[-1] == "upgrade"
