@@ -1,3 +1,6 @@
+"""Tests in layers: `-m "not alloy"` runs without Java or the Alloy jar, `-m "not ros"` without
+ROS 2 (tests/ros/conftest.py marks the live tests `ros`). The shared fixtures are in
+tests/support/fixtures.py."""
 import os
 import sys
 
@@ -7,10 +10,18 @@ if ROOT not in sys.path:
 
 import pytest  # noqa: E402
 
+pytest_plugins = ["tests.support.fixtures"]
 
-@pytest.fixture
-def here(tmp_path, monkeypatch):  # type: ignore[no-untyped-def]
-    """An empty working directory with no policy (what the gate reads from where it runs)."""
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / ".git").mkdir()  # stops the policy search here
-    return tmp_path
+ALLOY_DIR = os.path.join(ROOT, "tests", "alloy") + os.sep
+
+
+def needs_alloy(item: pytest.Item) -> bool:
+    """A test in tests/alloy/, or one that asks for the `bridge` fixture (directly or through
+    another fixture), needs the JVM and the Alloy jar."""
+    return str(item.fspath).startswith(ALLOY_DIR) or "bridge" in getattr(item, "fixturenames", ())
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if needs_alloy(item) and item.get_closest_marker("alloy") is None:
+            item.add_marker(pytest.mark.alloy)

@@ -2,6 +2,7 @@
 generated architecture and configuration (the real Alloy jar through JPype)."""
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 
 from checker.alloy import alloy_verdict
@@ -11,7 +12,9 @@ from checker.model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
-from tests.semantic_strategies import configured
+from tests.support.semantic_strategies import configured
+
+pytestmark = pytest.mark.alloy   # every test here asks the real Alloy Analyzer
 
 
 @given(configured())

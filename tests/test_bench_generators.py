@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import sys
 
 import pytest
@@ -33,7 +34,11 @@ def test_unsafe_injects_a_rate_violation(shape: str, seed: int) -> None:
     bad = ev.unsatisfied
     assert len({r.component for r in bad}) == 1, "one injected violation, in one component"
     texts = [link.text for r in bad for link in r.chain]
-    assert any("rate too low" in t for t in texts), texts
+    too_low = [t for t in texts if "rate too low" in t]
+    assert too_low, texts
+    for t in too_low:    # the topic's rate, under the input's: "... @ 0.5 Hz: rate too low: 0.5 Hz < 1 Hz"
+        m = re.fullmatch(r"topic /\S+ guarantees \w+ @ (\S+ k?Hz): rate too low: \1 < \S+ Hz", t)
+        assert m, t
 
 
 @pytest.mark.parametrize("shape", SHAPES)

@@ -36,6 +36,7 @@ def _plan(*args: str) -> str:
     return " ".join(result.stderr.split())
 
 
+@pytest.mark.alloy
 def test_plan_lines_with_one_and_with_many(tmp_path: Path) -> None:
     idle = tmp_path / "idle.arch"
     idle.write_text(IDLE, encoding="utf-8")

@@ -103,7 +103,7 @@ def test_recover_without_a_run_report_is_2(path: str, said: str) -> None:
 @pytest.mark.parametrize("argv", [
     ["check", "--engine", "python", SLOW],
     ["plan", "remove", "talker", "-f", SLOW, "--no-alloy"],
-    ["gate", "--base", CHATTER, "--head", SLOW],
+    pytest.param(["gate", "--base", CHATTER, "--head", SLOW], marks=pytest.mark.alloy),   # the gate's engine: both
     ["up", SLOW, "--no-alloy", "--dry-run"],
     ["modes", "export", SLOW],
 ], ids=["check", "plan", "gate", "up", "modes-export"])
@@ -154,6 +154,7 @@ def test_an_output_that_cannot_be_written_is_2_and_names_it(argv: list[str], whe
     assert not os.path.exists(out)
 
 
+@pytest.mark.alloy
 @pytest.mark.parametrize("argv, json_out", [
     (["check", CHATTER, "--output-format", "sarif"], True),
     (["check", CHATTER, "--output-format", "json"], True),

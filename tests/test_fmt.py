@@ -25,7 +25,7 @@ from reconf_dsl.lexer import MASTER
 from reconf_dsl.loader import load
 from reconf_dsl.parser import parse_text
 from tests.examples_table import EXAMPLES, ROOT, Example
-from tests.strategies import documents
+from tests.support.strategies import documents
 
 
 @given(documents)

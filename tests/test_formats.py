@@ -17,20 +17,7 @@ from checker.reports.progress import enabled
 from reconf_dsl.diagnostics import Related, error
 from reconf_dsl.span import Span
 from tests.examples_table import BY_NAME, EXAMPLES, Example
-
-SCHEMA_PATH = os.path.join(os.path.dirname(__file__), "data", "sarif-schema-2.1.0.json")
-
-
-def sarif_schema() -> dict:
-    with open(SCHEMA_PATH, encoding="utf-8") as f:
-        return json.load(f)
-
-
-def validate_sarif(text: str) -> dict:
-    doc = json.loads(text)
-    jsonschema.Draft7Validator(sarif_schema()).validate(doc)
-    return doc
-
+from tests.support.sarif import sarif_schema, validate_sarif
 
 @pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
 def test_sarif_for_every_example(ex: Example) -> None:
@@ -45,6 +32,7 @@ def test_sarif_for_every_example(ex: Example) -> None:
         assert r["level"] == "error"
 
 
+@pytest.mark.alloy
 def test_sarif_region_is_the_assumption() -> None:
     result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "sarif"])
     doc = validate_sarif(result.stdout)
@@ -52,7 +40,10 @@ def test_sarif_region_is_the_assumption() -> None:
     loc = r["locations"][0]["physicalLocation"]
     assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
     assert loc["region"] == {"startLine": 21, "startColumn": 21, "endLine": 21, "endColumn": 35}
-    assert any(rl["physicalLocation"]["region"]["startLine"] == 10 for rl in r["relatedLocations"])
+    related = [(rl["physicalLocation"]["region"]["startLine"], rl["message"]["text"]) for rl in r["relatedLocations"]]
+    assert related[:3] == [(18, "input listener.in assumes String @ 10 Hz"),
+                           (26, "topic /chatter guarantees String @ 10 Hz, but no attached output satisfies it"),
+                           (10, "output talker.out: talk guarantees String @ 5 Hz: rate too low: 5 Hz < 10 Hz")]
 
 
 def test_sarif_for_bad_input_is_valid(tmp_path) -> None:
@@ -81,6 +72,7 @@ def test_github_annotations_escape() -> None:
                     "x: 100%25 wrong,%0Areally%0A- because\n")
 
 
+@pytest.mark.alloy
 def test_github_format_of_check() -> None:
     result = CliRunner().invoke(main, ["check", BY_NAME["chatter_slow"].file, "--output-format", "github"])
     assert result.exit_code == 1
@@ -89,6 +81,7 @@ def test_github_format_of_check() -> None:
     assert "title=reconf RC201::listener.listen assumes String @ 10 Hz" in first
 
 
+@pytest.mark.alloy
 @pytest.mark.parametrize("name", ["robot", "robot_slow"])
 def test_junit_one_case_per_assumption(name: str) -> None:
     ex = BY_NAME[name]
@@ -151,7 +144,10 @@ def test_degraded_is_orange_in_a_step() -> None:
     from checker.planning import plan_migrate
     from reconf_dsl.loader import load
     p = plan_migrate(load([BY_NAME["chatter"].file]), load([BY_NAME["redundant"].file]))
-    assert any(n.status == "degraded" for pic in step_pictures(p) for n in pic.nodes)
+    degraded = [[(n.label, n.tooltip) for n in pic.nodes if n.status == "degraded"] for pic in step_pictures(p)]
+    assert [(i, d) for i, d in enumerate(degraded) if d] == [(7, [("mapper", "degraded: map")]),
+                                                             (10, [("listener", "degraded: listen")]),
+                                                             (11, [("listener", "degraded: listen")])]
 
 
 def test_svg_or_a_clear_message(monkeypatch) -> None:

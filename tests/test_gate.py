@@ -18,12 +18,13 @@ from click.testing import CliRunner
 
 from checker.cli.main import main
 from tests.examples_table import BY_NAME, ROOT, path
-from tests.gatekit import gate, git
-from tests.test_formats import sarif_schema
+from tests.support.gatekit import gate, git
+from tests.support.sarif import sarif_schema
 
 CHATTER, SLOW, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["chatter_slow"].file, BY_NAME["redundant"].file
 
 
+@pytest.mark.alloy
 def test_safe_change_passes(here) -> None:
     code, out, err = gate("--base", CHATTER, "--head", REDUNDANT, engine="both")
     assert code == 0, err
@@ -50,7 +51,9 @@ def test_unsafe_change_fails_with_sarif_at_the_offending_line(here) -> None:
     loc = rc201[0]["locations"][0]["physicalLocation"]
     assert loc["artifactLocation"]["uri"].endswith("examples/chatter_slow.arch")
     assert loc["region"]["startLine"] == 21
-    assert any(r["ruleId"] == "RC507" for r in results)
+    assert [r["ruleId"] for r in results] == ["RC201", "RC507"]
+    assert results[1]["message"]["text"] == ("chatter is not safe: no migration to it is planned\n"
+                                             "note: 1 assumption does not hold; see above")
 
 
 def test_plan_over_max_disruption_fails_naming_the_policy(here) -> None:
@@ -82,6 +85,12 @@ def test_policy_option_overrides(here, tmp_path_factory) -> None:
     other.write_text("max-disruption = 100\n", encoding="utf-8")
     code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT, "--policy", str(other))
     assert code == 0, out
+    doc = json.loads(out)
+    assert doc["verdict"] == "pass" and doc["diagnostics"] == []
+    assert doc["policy"]["source"] == str(other) and doc["policy"]["max-disruption"] == 100
+    # the policy found in the directory alone would refuse the plan (disruption 8 over 0)
+    code, out, _ = gate("--base", CHATTER, "--head", REDUNDANT)
+    assert code == 1 and [d["code"] for d in json.loads(out)["diagnostics"]] == ["RC502"], out
 
 
 def test_bad_policy_is_bad_input(here) -> None:

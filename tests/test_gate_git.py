@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from checker.gate.revisions import _CatFile, resolve, revisions
-from tests.gatekit import NODES, ROBOT, SPLIT, gate, git, write_tree
-from tests.test_formats import validate_sarif
+from tests.support.gatekit import NODES, ROBOT, SPLIT, gate, git, write_tree
+from tests.support.sarif import validate_sarif
 
 pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
 

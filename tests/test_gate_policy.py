@@ -13,8 +13,8 @@ from checker.cli.main import main
 from checker.gate.policy import load_policy, locate
 from reconf_dsl.diagnostics import DiagnosticError
 from tests.examples_table import BY_NAME
-from tests.gatekit import gate
-from tests.test_formats import validate_sarif
+from tests.support.gatekit import gate
+from tests.support.sarif import validate_sarif
 
 CHATTER, REDUNDANT = BY_NAME["chatter"].file, BY_NAME["redundant"].file
 

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from checker.cli.main import main
 from checker.cli.hooks import roots_of
 from tests.examples_table import ROOT
-from tests.gatekit import MESSAGES, NODES, SPLIT, git, write_tree
+from tests.support.gatekit import MESSAGES, NODES, SPLIT, git, write_tree
 
 pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
 

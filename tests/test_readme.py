@@ -102,7 +102,18 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-@pytest.mark.parametrize("example", [e for e in EXAMPLES if not e.live], ids=lambda e: e.id)
+# The commands whose default engine reaches Alloy (`--engine both`, or its plan verification);
+# `verify-model --unbounded` is z3's.
+REACHES_ALLOY = re.compile(r"^reconf (check|verify-model(?! --unbounded)|plan|gate|ftm select|up|down)\b")
+
+
+def needs_alloy(example: Example) -> bool:
+    return bool(REACHES_ALLOY.match(example.command)) and not re.search(r"--engine python|--no-alloy",
+                                                                          example.command)
+
+
+@pytest.mark.parametrize("example", [pytest.param(e, marks=[pytest.mark.alloy] if needs_alloy(e) else [])
+                                     for e in EXAMPLES if not e.live], ids=lambda e: e.id)
 def test_the_example_runs(example: Example, workdir: Path) -> None:
     for prefix, why in SKIP.items():
         if example.command.startswith(prefix):
@@ -117,6 +128,7 @@ def test_the_example_runs(example: Example, workdir: Path) -> None:
     assert done.returncode == (1 if example.unsafe else 0), said
 
 
+@pytest.mark.alloy
 def test_the_shown_plan_is_what_reconf_prints(workdir: Path) -> None:
     """The README's `$ reconf plan replace …` block shows the plan reconf prints (timings aside)."""
     with open(README, encoding="utf-8") as f:

@@ -1,5 +1,5 @@
 """`reconf check --bag`: rates and types judged against the committed recordings of
-tests/data/bag (tests/bagkit.py says what they hold), and against recordings made on the spot."""
+tests/data/bag (tests/support/bagkit.py says what they hold), and against recordings made on the spot."""
 from __future__ import annotations
 
 import json
@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 from checker.cli.main import main
 from checker.reality.rates import RateMeter, Worst
-from tests import bagkit
+from tests.support import bagkit
 
 DATA = bagkit.DATA
 BAGS = [str(DATA / "six_seconds.db3"), str(DATA / "six_seconds.mcap")]
@@ -234,7 +234,7 @@ def test_a_topic_starting_late(tmp_path: Path, stated: bool) -> None:
 
 
 def test_the_committed_recordings_are_the_kit_s(tmp_path: Path) -> None:
-    """tests/data/bag holds what tests/bagkit.py writes: a changed kit is written again."""
+    """tests/data/bag holds what tests/support/bagkit.py writes: a changed kit is written again."""
     out = bagkit.write(tmp_path / "again", bagkit.committed(), "mcap")
     from rosbags.rosbag2 import Reader
     with Reader(out) as a, Reader(DATA / "six_seconds.mcap") as b:

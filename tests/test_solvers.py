@@ -74,6 +74,7 @@ def test_readme_lists_the_table() -> None:
     assert f"falls back to {FALLBACK_SOLVER}" in text[found.end():found.end() + 200]
 
 
+@pytest.mark.alloy
 def test_every_offered_solver_works_here() -> None:
     """The table offers only solvers the analyzer runs on this platform: none falls back."""
     from checker.alloy.bridge import AlloyBridge

@@ -15,8 +15,8 @@ from checker.planning.plan import Goal, NoSafePlan, Problem, verify
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
-from tests.planning.gen import random_system
-from tests.planning.systems import chain_system, talker_system
+from tests.support.random_systems import random_system
+from tests.support.systems import chain_system, talker_system
 
 CHATTER = next(e for e in EXAMPLES if e.name == "chatter").file
 

@@ -20,7 +20,7 @@ from checker.planning import plan_migrate, plan_remove
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import path
-from tests.semantic_strategies import dense
+from tests.support.semantic_strategies import dense
 
 STRATEGIES = ("paper", "default", "exhaustive")
 

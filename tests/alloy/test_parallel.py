@@ -67,7 +67,7 @@ def test_plan_windows_judged_by_two_analyzers_give_the_same_evidence(monkeypatch
     import checker.alloy.parallel
     import checker.planning.alloy_verify
     from checker.planning.alloy_verify import alloy_evidence
-    from tests.alloy.test_plan_slices import _break, hub_plan
+    from tests.support.plans import break_state, hub_plan
 
     plan = hub_plan("dag", 40)
     monkeypatch.setattr(checker.planning.alloy_verify, "WINDOW_BUDGET", 200)
@@ -75,10 +75,10 @@ def test_plan_windows_judged_by_two_analyzers_give_the_same_evidence(monkeypatch
     monkeypatch.delenv(ENV, raising=False)
     together = alloy_evidence(plan)
     index = len(plan.states) - 3
-    broken_together = alloy_evidence(_break(plan, index))
+    broken_together = alloy_evidence(break_state(plan, index))
     monkeypatch.setenv(ENV, "1")
     alone = alloy_evidence(plan)
     assert together["valid"] and together["slice"]["windows"] > 2
     assert (together["module_hash"], together["slice"]) == (alone["module_hash"], alone["slice"])
     assert not broken_together["valid"]
-    assert broken_together["reason"] == alloy_evidence(_break(plan, index))["reason"]
+    assert broken_together["reason"] == alloy_evidence(break_state(plan, index))["reason"]

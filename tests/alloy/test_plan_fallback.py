@@ -14,7 +14,7 @@ from checker.cli.main import main
 from checker.planning import Fallback, plan_with_fallback
 from checker.planning.exhaustive import Budget
 from checker.planning.operations import replace_problem
-from tests.planning.systems import talker_system
+from tests.support.systems import talker_system
 
 
 def test_removing_the_tree_root_is_planned_and_verified_by_alloy(bridge: AlloyBridge, tmp_path: Path) -> None:

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 
-from dataclasses import replace as dc_replace
-
 import pytest
 from click.testing import CliRunner
 
@@ -14,16 +12,9 @@ from bench.gen import generate, hub_component
 from checker.alloy import AlloyBridge
 from checker.planning.alloy_verify import _window, alloy_evidence
 from checker.cli.main import main
-from checker.model.config import Configuration
-from checker.planning import Plan, plan_replace
+from checker.planning import Plan
 from checker.planning.slicing import PlanSlicer, affected, slice_plan, stable_connectors
-from reconf_dsl.loader import load_text
-
-
-def hub_plan(shape: str, n: int) -> Plan:
-    system = load_text(generate(shape, n, 0, version=True), f"{shape}.arch")
-    hub = hub_component(shape, n)
-    return plan_replace(system, hub, hub + "_v2")
+from tests.support.plans import break_state, hub_plan
 
 
 @pytest.mark.parametrize("shape", ["fanin", "chain", "tree"])
@@ -48,18 +39,10 @@ def test_fanin_readers_of_a_hub_replaced_make_before_break_are_left_out(bridge: 
     assert set(lean.stable) == stable and not full.stable
 
 
-def _break(plan: Plan, index: int) -> Plan:
-    """The plan with every connector detached in state `index`: no step leads there."""
-    states = list(plan.states)
-    s = states[index]
-    states[index] = Configuration(s.components, s.degraded, frozenset())
-    return dc_replace(plan, states=states)
-
-
 @pytest.mark.parametrize("shape", ["fanin", "chain"])
 def test_a_broken_plan_is_refused_by_every_slice(shape: str, bridge: AlloyBridge) -> None:
     plan = hub_plan(shape, 40)
-    broken = _break(plan, len(plan.states) // 2)
+    broken = break_state(plan, len(plan.states) // 2)
     lean = alloy_evidence(broken)
     whole = alloy_evidence(broken, slice_=False)
     assert not lean["valid"] and not whole["valid"]
@@ -109,7 +92,7 @@ def test_a_long_plan_is_verified_in_windows_with_the_whole_verdict(monkeypatch: 
     assert alloy_evidence(plan, slice_=False)["valid"]
     # a state broken in a later window is found there, and named by its place in the plan
     index = len(plan.states) - 3
-    broken = alloy_evidence(_break(plan, index))
+    broken = alloy_evidence(break_state(plan, index))
     assert not broken["valid"]
     assert f"after step {index} " in broken["reason"] or f"step {index + 1} " in broken["reason"], broken["reason"]
 
@@ -118,7 +101,7 @@ def test_binary_roles_give_the_ternary_verdict(bridge: AlloyBridge) -> None:
     from checker.alloy import alloy_plan_verdict
 
     plan = hub_plan("chain", 12)
-    for states, safe in ((plan.states, True), (_break(plan, 3).states, False)):
+    for states, safe in ((plan.states, True), (break_state(plan, 3).states, False)):
         ternary = alloy_plan_verdict(plan.system, states)
         binary = alloy_plan_verdict(plan.system, states, binary=True)
         assert "fun roles_of" in binary.text and "fun roles_of" not in ternary.text

@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from checker.cli.ftm import ftm_group, transition_cmd
 from reconf_dsl.loader import load_text
 
-from .conftest import EXAMPLES
+from tests.support.ftm import EXAMPLES
 
 
 def test_select_lists_valid_ranked_and_rejected_with_alloy(bridge) -> None:  # type: ignore[no-untyped-def]
@@ -82,7 +82,9 @@ def test_transition_to_an_ftm_the_component_rules_out_warns() -> None:
     assert r.exit_code == 0, r.output
     assert "warning: the target breaks an FTM rule: RC403" in r.output
     doc = json.loads(CliRunner().invoke(transition_cmd, args + ["--output-format", "json"]).stdout)
-    assert any("RC403" in n for n in doc["plan"]["notes"])
+    assert [n for n in doc["plan"]["notes"] if "RC403" in n] == [
+        "warning: the target breaks an FTM rule: RC403 TR needs a deterministic application, and the application "
+        "is declared non_deterministic ('server')"]
     fine = CliRunner().invoke(transition_cmd, ["server", "LFR", "-f", f"{EXAMPLES}/deterministic_pbr.arch",
                                                "--no-alloy"])
     assert fine.exit_code == 0 and "FTM rule" not in fine.output, fine.output

@@ -14,7 +14,7 @@ from checker.model.semantics import evaluate
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.loader import load_text
 
-from .conftest import client_server
+from tests.support.ftm import client_server
 
 ALL = [str(c) for c in all_compositions()]
 

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from checker.cli.ftm import ftm_group
 from reconf_dsl.loader import load
 
-from .conftest import EXAMPLES
+from tests.support.ftm import EXAMPLES
 
 SOURCE = f"{EXAMPLES}/client_server_pbr.arch"
 

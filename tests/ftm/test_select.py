@@ -12,7 +12,7 @@ from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.select import Profile, judge, profile, select
 from reconf_dsl.loader import load, load_text
 
-from .conftest import EXAMPLES, client_server
+from tests.support.ftm import EXAMPLES, client_server
 
 
 def valid_for(text: str) -> list[str]:

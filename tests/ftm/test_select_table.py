@@ -8,7 +8,7 @@ from click.testing import CliRunner
 
 from checker.cli.ftm import columns, ftm_group
 
-from .conftest import EXAMPLES
+from tests.support.ftm import EXAMPLES
 
 
 def _select(example: str, *args: str) -> str:

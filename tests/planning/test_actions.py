@@ -12,8 +12,8 @@ from checker.model.actions import (Action, ActionRefused, Attach, Create, Degrad
 from checker.model.config import Configuration
 from checker.model.semantics import evaluate
 
-from .gen import random_system
-from .systems import talker_system
+from tests.support.random_systems import random_system
+from tests.support.systems import talker_system
 
 ALL: list[Action] = [Remove("c"), Create("c"), Detach("/t", "c", "p"), Attach("/t", "c", "p"), Degrade("c", "f"),
                      Upgrade("c", "f")]

@@ -49,6 +49,7 @@ def test_an_architecture_that_cannot_be_safe_is_not_brought_up(tmp_path: Path) -
     assert not script.exists()
 
 
+@pytest.mark.alloy
 def test_up_writes_the_verified_script_and_applies_nothing(tmp_path: Path) -> None:
     script = tmp_path / "up.py"
     res = subprocess.run([*RECONF, "up", "examples/chatter.arch", "-o", str(script), "--output-format", "json"],

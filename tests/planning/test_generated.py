@@ -12,7 +12,7 @@ from checker.planning import NoSafePlan, Plan, plan_migrate, plan_replace
 from checker.planning.default import default_steps
 from checker.planning.improve import cost
 
-from .gen import random_migration, random_system
+from tests.support.random_systems import random_migration, random_system
 from .test_planning import assert_safe
 
 

@@ -14,7 +14,7 @@ from checker.model.semantics import evaluate
 from reconf_dsl.ir import PortRef
 from reconf_dsl.loader import load
 
-from .systems import chain_system, ring_system, talker_system
+from tests.support.systems import chain_system, ring_system, talker_system
 
 EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "examples")
 
@@ -143,7 +143,8 @@ def test_removing_the_obstacle_detector_stops_the_robot(strategy: str) -> None:
     assert plan.steps[-1].describe() == "remove obstacle_detector"
     assert Degrade("motor_controller", "control") in plan.steps
     assert not any(a.kind == "degrade" and a.component == "base_driver" for a in plan.steps)
-    assert any("Obstacles @ 1 s" in n for n in plan.notes)
+    assert plan.notes[0] == ("motor_controller.control stays degraded: it assumes Obstacles @ 1 s, which cannot "
+                             "hold in the target")
     assert plan.disruption == 5 * 3     # degraded in the states after the degrade, the detach, the removal
 
 

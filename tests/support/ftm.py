@@ -1,12 +1,8 @@
-"""Shared architectures for the FTM tests: the client/server of paper 000 with any FTM."""
+"""Architectures for the FTM tests: the client/server of paper 000 with any FTM, and the FTM examples."""
 from __future__ import annotations
 
 import os
 from typing import Optional
-
-import pytest
-
-from checker.alloy import AlloyBridge
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 EXAMPLES = os.path.join(ROOT, "examples", "ftm")
@@ -34,7 +30,3 @@ def client_server(ftm: Optional[str], faults: str = "crash", application: str = 
               "service /compute: Reply @ 10 Hz { server.reply -> client.reply }", ""]
     return "\n".join(lines)
 
-
-@pytest.fixture(scope="session")
-def bridge() -> AlloyBridge:
-    return AlloyBridge.get()

@@ -1,5 +1,5 @@
 """Small rosbag2 recordings with real CDR messages, written by rosbags' Writer: the ones
-committed in tests/data/bag/ (`python -m tests.bagkit` writes them again) and the ones a test
+committed in tests/data/bag/ (`python -m tests.support.bagkit` writes them again) and the ones a test
 makes on the spot. Log times are whole nanoseconds from START, so windows fall where stated."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any, Iterable, Optional, Sequence
 
-DATA = Path(__file__).resolve().parent / "data" / "bag"
+DATA = Path(__file__).resolve().parents[1] / "data" / "bag"
 START = 1_700_000_000 * 10**9
 MS = 10**6
 
