@@ -133,14 +133,14 @@ def test_a_thousand_components_are_judged_by_alloy_in_slices(tmp_path: "object")
 
 
 def test_too_large_for_alloy_falls_back_to_python_with_a_warning(monkeypatch: "object") -> None:
-    import checker.alloy
+    import checker.alloy.engines
     from checker.alloy import AlloyError
 
     def too_large(*args: object, **kwargs: object) -> None:
         # what the analyzer says when a module's atoms exceed what it can index
         raise AlloyError("Translation capacity exceeded. In this scope, universe contains 50000 atoms")
 
-    monkeypatch.setattr(checker.alloy, "alloy_verdict", too_large)  # type: ignore[attr-defined]
+    monkeypatch.setattr(checker.alloy.engines, "alloy_verdict", too_large)
     path = path_of("chatter")
     result = CliRunner().invoke(main, ["check", path, "--output-format", "json"])
     assert result.exit_code == 0, result.output

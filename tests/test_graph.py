@@ -10,6 +10,7 @@ from typing import Optional
 
 import pytest
 from click.testing import CliRunner
+from checker.cli import common    # draws SVG through its own name for pictures.to_svg
 from checker.reports import pictures
 from checker.cli.main import main
 from checker.model.config import Configuration
@@ -69,7 +70,7 @@ def _no_dot(dot: str) -> str:
 
 def test_svg_over_the_limit_is_refused_with_what_to_do(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from bench.gen import generate
-    monkeypatch.setattr(pictures, "to_svg", _no_dot)
+    monkeypatch.setattr(common, "to_svg", _no_dot)
     arch = tmp_path / "dag.arch"
     arch.write_text(generate("dag", 150), encoding="utf-8")
     nodes = len(picture(load([str(arch)])).nodes)
@@ -91,7 +92,7 @@ def test_force_draws_svg_over_the_limit(tmp_path: Path, monkeypatch: pytest.Monk
     def fake(dot: str) -> str:
         drawn.append(dot)
         return "<svg/>\n"
-    monkeypatch.setattr(pictures, "to_svg", fake)
+    monkeypatch.setattr(common, "to_svg", fake)
     arch = tmp_path / "dag.arch"
     arch.write_text(generate("dag", 150), encoding="utf-8")
     result = CliRunner().invoke(main, ["graph", str(arch), "--format", "svg", "--force"])
@@ -105,7 +106,7 @@ def _picture_of(nodes: int) -> Picture:
 
 def test_the_limit_is_on_the_largest_picture(monkeypatch: pytest.MonkeyPatch) -> None:
     from checker.cli.common import Failure, draw
-    monkeypatch.setattr(pictures, "to_svg", lambda dot: "<svg/>")
+    monkeypatch.setattr(common, "to_svg", lambda dot: "<svg/>")
     limit = pictures.SVG_MAX_NODES
     assert draw([_picture_of(limit), _picture_of(3)], "svg") == "<svg/><svg/>"
     with pytest.raises(Failure) as refused:
@@ -147,7 +148,7 @@ def test_the_format_follows_the_extension(tmp_path: Path, name: str, given: Opti
 def test_an_extension_that_contradicts_the_format_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                             name: str, given: Optional[str], words: list[str]) -> None:
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(pictures, "to_svg", _no_dot)
+    monkeypatch.setattr(common, "to_svg", _no_dot)
     for command in (["graph", BY_NAME["chatter"].file],
                     ["graph-plan", BY_NAME["chatter"].file, os.path.join(ROOT, "examples", "chatter_migrated.arch")]):
         result = CliRunner().invoke(main, command + ["-o", name] + (["--format", given] if given else []))
