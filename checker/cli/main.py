@@ -165,13 +165,13 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
                output_format: OutputFormat = OutputFormat.TEXT) -> None:
     """Draw the migration plan from OLD to NEW (paths or git:REF:PATH): created green, degraded
     orange, removed red; one annotated picture, or one per step with --steps."""
-    from checker.gate.revisions import resolve, revisions
+    from checker.gate.revisions import path_to_load, revisions
     from checker.reports.pictures import plan_picture, step_pictures
     from checker.ftm.change import plan_change
     from checker.planning import Fallback, NoSafePlan
     fmt = picture_format_for(picture_format, output)
     with revisions() as revs:
-        a, b = load([resolve(old, revs)], sources), load([resolve(new, revs)], sources)
+        a, b = load([path_to_load(old, revs)], sources), load([path_to_load(new, revs)], sources)
     try:
         with status("planning…"):
             p = plan_change(a, b, strategy, Fallback())
