@@ -104,7 +104,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
     from checker.ftm.change import plan_change, planned_on
     from checker.planning import Fallback, NoSafePlan
 
-    verdicts = PlanVerdicts(lambda p: alloy_evidence(p, solver)) if use_alloy else None
+    verdicts = PlanVerdicts(lambda p: verified_in_alloy(p, solver)) if use_alloy else None
     with status(f"planning the migration {old.name} → {new.name}…"):
         try:
             fallback = Fallback(accept=verdicts.refused if verdicts else None, alloy=use_alloy)
@@ -152,11 +152,13 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
                 notes=(f"plan: {p.summary()}",)))
 
 
-def alloy_evidence(p: Any, solver: str) -> dict[str, Any]:
+def verified_in_alloy(p: Any, solver: str) -> dict[str, Any]:
+    """Alloy's evidence for plan `p` (`checker.planning.alloy_verify.alloy_evidence`), with Alloy
+    missing or refusing the module reported as the gate's engine diagnostics (RC301, RC302)."""
     from checker.alloy import AlloyError, AlloyUnavailable
-    from checker.planning.alloy_verify import alloy_evidence as evidence
+    from checker.planning.alloy_verify import alloy_evidence
     try:
-        return evidence(p, solver)
+        return alloy_evidence(p, solver)
     except AlloyUnavailable as e:
         raise EngineUnavailable(error("RC301", str(e), Span.unknown("<alloy>"),
                                       notes=("or use --engine python",))) from None
