@@ -1,31 +1,9 @@
 """FTM transitions as verified plans (paper 000 §6: suspend, substitute, link, resume).
 
-A transition is a migration between two expanded architectures: the old FTM's graph and the
-new one's. `checker.planning.plan_migrate` keeps every node whose definition is unchanged
-(PBR → LFR keeps the Proxy, the Protocols, the Proceeds, the crash detectors and Recovery, and
-replaces the Befores and Afters; PBR → PBR(TR) substitutes each Proceed by TR's Protocol with
-its Before/Proceed/After; adding SEC inserts a layer on both sides) and plans the rest.
-
-Suspension: a surviving Protocol whose *neighbourhood* changes (its own inputs, or any node
-below it on its replica: its Before, After, inner layers, Proceed, the application replica)
-must be degraded (suspended) while any step disturbs a running node of that neighbourhood
-(removes it, detaches it, attaches a publisher; creating the new nodes and attaching their
-inputs may come earlier: they start degraded and publish nothing), and normal at the end.
-The plan has three parts: suspend the protocols (with whatever depends on them, in an order
-the preconditions accept, and a duplex's crash detector: a takeover would rebind what the
-plan moves); substitute and link with them kept suspended (the planner's goal
-keeps them degraded; new outputs that a degraded node cannot serve wait); resume and link the
-rest. The whole sequence is verified again, step by step.
-
-No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
-mode guarantees the reply type without rate), and a degraded Proxy still relays them (the
-clients that assume the rate are degraded meanwhile: they wait for the suspension); and the
-old request path (`_request_path`: what carries the
-proxy's requests to a protocol) stays linked until the new one is, so they always reach a
-protocol. A server losing its FTM has its clients handed over to the application first
-(`_hand_over_first`); one gaining an FTM is handed over last; while its proxy publishes on the
-clients' connector it serves them (`Plan.handover`). `request_problems` checks all of this on
-every state of a plan (a plan that fails it is refused), as the Alloy plan module does.
+A transition is a migration between two expanded architectures, the old FTM's graph and the new
+one's, planned in three parts: suspend the protocols whose neighbourhood changes, substitute and
+link with them kept suspended, resume. Which protocols are suspended, why no request is lost, and
+what `request_problems` checks on every state: docs/soundness.md#ftm-transitions.
 """
 from __future__ import annotations
 
