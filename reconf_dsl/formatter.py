@@ -78,10 +78,6 @@ def pred(p: ir.Predicate) -> str:
     return str(p)
 
 
-def _rate_text(r: ir.Rate) -> str:
-    return f"{ir.format_number(r.value)} {r.unit}"
-
-
 def format_document(doc: ir.Document) -> str:
     comments = [_comment(c) for c in doc.comments]
     out = _Out(comments)

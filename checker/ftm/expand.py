@@ -42,7 +42,7 @@ from reconf_dsl.span import NO_SPAN, Span
 from checker.ftm.library import Composition, RoleSpec, compose, roles
 
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
-           "protocols", "node_prefix", "ExpansionInfo"]
+           "node_prefix", "ExpansionInfo"]
 
 # The FTM nodes exchange JSON documents in std_msgs/msg/String (reconf_ros/ftm/wire.py); the
 # model tells the kinds apart by these names.
@@ -418,10 +418,6 @@ def expand(system: ir.System, overrides: Optional[dict[str, Optional[ir.FtmDecl]
         out, info = expand_component(out, name, decl)
         infos.append(info)
     return out, infos
-
-
-def protocols(info: ExpansionInfo) -> list[str]:
-    return list(info.protocols)
 
 
 def to_text(system: ir.System) -> str:

@@ -333,7 +333,7 @@ def _astar(space: _Space, clock: _Clock, ceiling: Optional[tuple[int, int]],
     frontier = [(h[0], h[1], 0, next(tie), (0, 0), start)]
     expanded = 0
     while frontier:
-        f0, f1, _, _, g, config = heapq.heappop(frontier)
+        _, _, _, _, g, config = heapq.heappop(frontier)
         if g != best[config]:
             continue
         if goal.reached(config):
