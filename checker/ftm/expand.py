@@ -2,31 +2,13 @@
 000 (Fig. 2–6) as ordinary components and connectors of the semantic model.
 
 For a server S whose replies leave on connector X (its first service, else its first topic):
-
-- `S__proxy` takes S's place on X (clients keep their attachment). It relays what the
-  outermost Protocol answers: it assumes X's guarantee from it and guarantees X; degraded, it
-  still relays requests and replies, without rate.
-- Per replica i (two for a duplex, else one), per layer (sec, dup, tr; outermost first):
-  `S__r<i>_<layer>_protocol`, `_before`, `_after`, and for the innermost layer `_proceed`,
-  which calls the replica's copy of the application (`S` itself on replica 0, `S__r1_app`
-  on replica 1) through the service `/S/ftm/r<i>/srv`. Composition by nesting: the outer
-  layer's Before feeds, and its After reads, the inner layer's Protocol instead of a Proceed.
-- Duplex patterns: crash detectors `S__r0_cd` (heartbeat) and `S__r1_cd` (detect), and
-  `S__recovery`, which switches the proxy binding to replica 1's outermost Protocol (its
-  SEC layer's under SEC, so a takeover keeps the security layer); the After
-  nodes exchange checkpoints / notifications, LFR and A&D Befores forward requests.
-- SEC: client-side `S__sec_client_before` (cipher, sign) and `S__sec_client_after` (decipher,
-  check) around the proxy, a server-side sec layer per replica, and the certification
-  authority `S__ca`.
-
-Each node has one functionality named after its Table II behaviour. A Protocol in its
-degraded mode is *suspended*: it forwards nothing inwards but still accepts requests and
-queues them, so it still guarantees the reply type, without rate, to the proxy, which then
-cannot promise its clients the rate: while a protocol on its path is suspended, the proxy and
-the clients that assume the rate are degraded (docs/ftm.md#expansion). Pipeline topics inside
-a replica are `single` (one producer, as ROS remapping wires them), so substituting a node
-suspends what depends on it rather than running two side by side. SEC's sealed requests
-have their own type and topic (`FtmSealed`, `/S/ftm/cli2sec`).
+`S__proxy` takes S's place on X; per replica and per layer (outermost first) a Protocol, Before
+and After, and in the innermost layer a Proceed calling the replica's copy of the application;
+for a duplex, crash detectors and Recovery; under SEC, the client side's Before and After and
+the certification authority `S__ca`. Each node has one functionality named after its Table II
+behaviour; a degraded Protocol is *suspended* (it queues requests). The names, topics and
+modes, and why the proxy cannot promise its rate while a protocol is suspended:
+docs/ftm.md#expansion.
 """
 from __future__ import annotations
 
