@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from bisect import bisect_right
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Optional, Sequence
 
 from . import ir
@@ -76,10 +76,6 @@ def _span_of(value: Any, fallback: Span) -> Span:
 
 def pred(p: ir.Predicate) -> str:
     return str(p)
-
-
-def _rate_text(r: ir.Rate) -> str:
-    return f"{ir.format_number(r.value)} {r.unit}"
 
 
 def format_document(doc: ir.Document) -> str:
@@ -204,6 +200,27 @@ def _weave(lines: list[_Line], comments: list[Comment]) -> str:
         while plain and plain[-1] == "":
             plain.pop()
         return "\n".join(plain) + "\n" if plain else ""
+    before, after, tail = _assign(lines, comments)
+    out = _Writer()
+    for i, ln in enumerate(lines):
+        if ln.key is None:
+            out.blank(kept=False)
+            continue
+        for group in before.get(i, ()):
+            out.group(group, ln.depth + (1 if ln.closing else 0), blank_after=not ln.closing)
+        out.text.append(INDENT * ln.depth + ln.text)
+        for c in after.get(i, ()):
+            out.put(c, None)
+        out.opened = ln.text.endswith("{")
+    for group in tail:
+        out.group(group, 0, blank_after=False)
+    return out.result()
+
+
+def _assign(lines: list[_Line], comments: list[Comment]
+            ) -> tuple[dict[int, list[Group]], dict[int, Group], list[Group]]:
+    """Where each comment goes: the groups above each line (by index), the comments after each
+    line, and the groups after the last line."""
     keyed = sorted((ln.key, i) for i, ln in enumerate(lines) if ln.key is not None)
     keys = [k for k, _ in keyed]
     before: dict[int, list[Group]] = defaultdict(list)
@@ -234,47 +251,44 @@ def _weave(lines: list[_Line], comments: list[Comment]) -> str:
         prev, where = c, here
     for i in list(after):
         _overflow(i, after, before, tail, lines)
+    return before, after, tail
 
-    text: list[str] = []
-    opened = False  # the last line written opens a block: no empty line is kept after it
 
-    def blank(kept: bool = True) -> None:
-        if text and text[-1] != "" and not (kept and opened):
-            text.append("")
+@dataclass
+class _Writer:
+    """The output lines, and whether the last one written opens a block (no empty line is kept
+    after it)."""
 
-    def put(c: Comment, depth: Optional[int]) -> None:
+    text: list[str] = field(default_factory=list)
+    opened: bool = False
+
+    def blank(self, kept: bool = True) -> None:
+        if self.text and self.text[-1] != "" and not (kept and self.opened):
+            self.text.append("")
+
+    def put(self, c: Comment, depth: Optional[int]) -> None:
+        """`c` on a line of its own at `depth`, or (None) after the last line."""
         first, *rest = c.text.split("\n")
         if depth is None:
-            text[-1] += "  " + first.strip()
+            self.text[-1] += "  " + first.strip()
         else:
-            text.append(INDENT * depth + first.strip())
-        text.extend(part.rstrip() for part in rest)
+            self.text.append(INDENT * depth + first.strip())
+        self.text.extend(part.rstrip() for part in rest)
 
-    for i, ln in enumerate(lines):
-        if ln.key is None:
-            blank(kept=False)
-            continue
-        for group in before.get(i, ()):
-            if group[0].blank_before:
-                blank()
-            for k, c in enumerate(group):
-                put(c, None if k else ln.depth + (1 if ln.closing else 0))
-            opened = False
-            if group[-1].blank_after and not ln.closing:
-                blank()
-        text.append(INDENT * ln.depth + ln.text)
-        for c in after.get(i, ()):
-            put(c, None)
-        opened = ln.text.endswith("{")
-    for group in tail:
+    def group(self, group: Group, depth: int, blank_after: bool) -> None:
+        """A group of comments above a line: the first at `depth`, the glued ones after it."""
         if group[0].blank_before:
-            blank()
+            self.blank()
         for k, c in enumerate(group):
-            put(c, None if k else 0)
-        opened = False
-    while text and text[-1] == "":
-        text.pop()
-    return "\n".join(text) + "\n" if text else ""
+            self.put(c, None if k else depth)
+        self.opened = False
+        if group[-1].blank_after and blank_after:
+            self.blank()
+
+    def result(self) -> str:
+        while self.text and self.text[-1] == "":
+            self.text.pop()
+        return "\n".join(self.text) + "\n" if self.text else ""
 
 
 LEADS = ("assume", "->")  # tokens before a line's key that belong to the line: `assume X`, `-> c.i`

@@ -127,6 +127,7 @@ class Driver:
                                          if isinstance(t.pattern, PatternStr)}
         self.comments: list[Comment] = []
 
+    # One loop on purpose: it runs once per token of every file, and a call per token is what it avoids.
     def parse(self, text: str) -> Any:
         states, callbacks, literals = self.states, self.callbacks, self.literals
         comments = self.comments

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from checker.gate.revisions import _CatFile, resolve, revisions
+from checker.gate.revisions import _CatFile, path_to_load, revisions
 from tests.support.gatekit import NODES, ROBOT, SPLIT, gate, git, write_tree
 from tests.support.sarif import validate_sarif
 
@@ -59,7 +59,7 @@ def test_only_the_named_file_and_its_includes_are_read(repo, monkeypatch) -> Non
     tracemalloc.start()
     try:
         with revisions() as revs:
-            path = resolve("git:HEAD~1:sys/robot.arch", revs)
+            path = path_to_load("git:HEAD~1:sys/robot.arch", revs)
             peak = tracemalloc.get_traced_memory()[1]
             root = next(iter(revs.roots.values()))
             written = sorted(str(p.relative_to(root)) for p in Path(root).rglob("*") if p.is_file())
@@ -134,7 +134,7 @@ def test_a_file_over_the_limit_is_refused_unread(repo, monkeypatch) -> None:
     tracemalloc.start()
     try:
         with revisions() as revs, pytest.raises(DiagnosticError) as e:
-            resolve("git:HEAD:data/blob.bin", revs)
+            path_to_load("git:HEAD:data/blob.bin", revs)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -144,5 +144,5 @@ def test_a_file_over_the_limit_is_refused_unread(repo, monkeypatch) -> None:
     # after a refusal, the revision's other files are still read (by a new git process)
     with revisions() as revs:
         with pytest.raises(DiagnosticError):
-            resolve("git:HEAD:data/blob.bin", revs)
-        assert Path(resolve("git:HEAD:sys/robot.arch", revs)).read_text(encoding="utf-8") == ROBOT
+            path_to_load("git:HEAD:data/blob.bin", revs)
+        assert Path(path_to_load("git:HEAD:sys/robot.arch", revs)).read_text(encoding="utf-8") == ROBOT

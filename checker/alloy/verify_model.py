@@ -20,8 +20,9 @@ PAPER_SIGS = ("Component", "Port", "Functionality", "Connector")
 
 
 @dataclass
-class Configuration:
-    """One configuration of a counterexample, in atom names."""
+class CounterexampleState:
+    """One configuration of a counterexample (its Pre or Post), in atom names; not the checker's
+    `checker.model.config.Configuration`."""
 
     components: list[str]
     degraded: list[str]
@@ -32,8 +33,8 @@ class Configuration:
 @dataclass
 class Counterexample:
     action: str
-    pre: Configuration
-    post: Configuration
+    pre: CounterexampleState
+    post: CounterexampleState
 
 
 @dataclass
@@ -94,12 +95,12 @@ def _owners(o: CommandOutcome) -> dict[str, str]:
     return {x: f"{c}.{x}" for c, x in o.eval("inputs + outputs + funcs")}
 
 
-def _configuration(o: CommandOutcome, state: str, owner: dict[str, str]) -> Configuration:
+def _counterexample_state(o: CommandOutcome, state: str, owner: dict[str, str]) -> CounterexampleState:
     roles: dict[str, list[str]] = {}
     for k, p in sorted(o.eval(f"{state}.roles")):
         roles.setdefault(k, []).append(owner.get(p, p))
     unsat = o.eval(f"{{ f: present_funcs[{state}], a: cur_asms[{state}, f] | not asm_holds[{state}, f, a] }}")
-    return Configuration(
+    return CounterexampleState(
         components=_names(o.eval(f"{state}.comps")),
         degraded=[owner.get(f, f) for f in _names(o.eval(f"{state}.degraded"))],
         roles=roles,
@@ -107,7 +108,7 @@ def _configuration(o: CommandOutcome, state: str, owner: dict[str, str]) -> Conf
     )
 
 
-def _action(pre: Configuration, post: Configuration) -> str:
+def _action(pre: CounterexampleState, post: CounterexampleState) -> str:
     steps = [f"remove {c}" for c in sorted(set(pre.components) - set(post.components))]
     steps += [f"create {c}" for c in sorted(set(post.components) - set(pre.components))]
     pre_roles = {(k, p) for k, ps in pre.roles.items() for p in ps}
@@ -124,7 +125,7 @@ def _action(pre: Configuration, post: Configuration) -> str:
 
 def counterexample(o: CommandOutcome) -> Counterexample:
     owner = _owners(o)
-    pre, post = (_configuration(o, s, owner) for s in STATES)
+    pre, post = (_counterexample_state(o, s, owner) for s in STATES)
     return Counterexample(_action(pre, post), pre, post)
 
 

@@ -25,7 +25,7 @@ from checker.reports.report import ReportFormat
 
 
 from checker.gate.change import judge_change
-from checker.gate.revisions import GIT_PREFIX, Revisions, rename_sources, resolve, revisions, split_ref
+from checker.gate.revisions import GIT_PREFIX, Revisions, path_to_load, rename_sources, revisions, split_ref
 from checker.gate.comment import failure_comment
 from checker.gate.comment import comment
 
@@ -136,7 +136,7 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
 def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -> Policy:
     if policy_file is None or not policy_file.startswith(GIT_PREFIX):
         return load_policy(policy_file, sources=sources)
-    path = resolve(policy_file, revs, includes=False)
+    path = path_to_load(policy_file, revs, includes=False)
     return load_policy(path, shown=revs.rename(display_path(path)), origin=split_ref(policy_file)[0],
                        sources=sources)
 
@@ -147,8 +147,8 @@ def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     with revisions() as revs:
         try:
             policy = gate_policy(policy_file, revs, sources)
-            old = load([resolve(base, revs)], sources)
-            new = load([resolve(head, revs)], sources)
+            old = load([path_to_load(base, revs)], sources)
+            new = load([path_to_load(head, revs)], sources)
             wrong = check_names(policy, old, new)
             if wrong:
                 raise DiagnosticError(wrong)

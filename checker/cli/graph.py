@@ -9,7 +9,7 @@ import click
 from checker.cli.common import (EXIT_UNSAFE, Failure, draw, files_argument, force_option,
                                 guarded, picture_format_for, picture_format_option, write_pictures)
 from checker.ftm.change import plan_change
-from checker.gate.revisions import resolve, revisions
+from checker.gate.revisions import path_to_load, revisions
 from checker.planning import STRATEGIES, Fallback, NoSafePlan
 from checker.reports.pictures import picture, plan_picture, step_pictures
 from checker.reports.progress import status
@@ -51,7 +51,7 @@ def graph_plan(old: str, new: str, picture_format: Optional[str], each_step: boo
     orange, removed red; one annotated picture, or one per step with --steps."""
     fmt = picture_format_for(picture_format, output)
     with revisions() as revs:
-        a, b = load([resolve(old, revs)], sources), load([resolve(new, revs)], sources)
+        a, b = load([path_to_load(old, revs)], sources), load([path_to_load(new, revs)], sources)
     try:
         with status("planning…"):
             p = plan_change(a, b, strategy, Fallback())

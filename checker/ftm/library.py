@@ -6,13 +6,8 @@ A&D; two replicas) or `tr` (innermost). A composition is written outermost first
 mechanism per layer at most, in that order: `SEC(PBR(TR))`. Since the order is fixed, a
 composition is determined by its set of mechanisms.
 
-Readings where Table I is silent or garbled (documented in docs/ftm.md):
-- A&D's duplex is leader/follower (both replicas compute, the After asserts), so A&D has
-  LFR's application and resource needs; it tolerates crash, transient and permanent value
-  faults.
-- SEC tolerates intrusions (passive attacks on the client/server channel), needs nothing of
-  the application, one CPU, no bandwidth of its own.
-- `omission` faults are tolerated by none of the five.
+Where Table I is silent or garbled (A&D's duplex, what SEC tolerates and needs, `omission`), the
+readings taken are in docs/ftm.md#the-library-designmd-6-tables-i-and-ii.
 """
 from __future__ import annotations
 

@@ -1,31 +1,9 @@
 """FTM transitions as verified plans (paper 000 §6: suspend, substitute, link, resume).
 
-A transition is a migration between two expanded architectures: the old FTM's graph and the
-new one's. `checker.planning.plan_migrate` keeps every node whose definition is unchanged
-(PBR → LFR keeps the Proxy, the Protocols, the Proceeds, the crash detectors and Recovery, and
-replaces the Befores and Afters; PBR → PBR(TR) substitutes each Proceed by TR's Protocol with
-its Before/Proceed/After; adding SEC inserts a layer on both sides) and plans the rest.
-
-Suspension: a surviving Protocol whose *neighbourhood* changes (its own inputs, or any node
-below it on its replica: its Before, After, inner layers, Proceed, the application replica)
-must be degraded (suspended) while any step disturbs a running node of that neighbourhood
-(removes it, detaches it, attaches a publisher; creating the new nodes and attaching their
-inputs may come earlier: they start degraded and publish nothing), and normal at the end.
-The plan has three parts: suspend the protocols (with whatever depends on them, in an order
-the preconditions accept, and a duplex's crash detector: a takeover would rebind what the
-plan moves); substitute and link with them kept suspended (the planner's goal
-keeps them degraded; new outputs that a degraded node cannot serve wait); resume and link the
-rest. The whole sequence is verified again, step by step.
-
-No request is lost: a suspended Protocol still accepts requests and queues them (its degraded
-mode guarantees the reply type without rate), and a degraded Proxy still relays them (the
-clients that assume the rate are degraded meanwhile: they wait for the suspension); and the
-old request path (`_request_path`: what carries the
-proxy's requests to a protocol) stays linked until the new one is, so they always reach a
-protocol. A server losing its FTM has its clients handed over to the application first
-(`_hand_over_first`); one gaining an FTM is handed over last; while its proxy publishes on the
-clients' connector it serves them (`Plan.handover`). `request_problems` checks all of this on
-every state of a plan (a plan that fails it is refused), as the Alloy plan module does.
+A transition is a migration between two expanded architectures, the old FTM's graph and the new
+one's, planned in three parts: suspend the protocols whose neighbourhood changes, substitute and
+link with them kept suspended, resume. Which protocols are suspended, why no request is lost, and
+what `request_problems` checks on every state: docs/soundness.md#ftm-transitions.
 """
 from __future__ import annotations
 
@@ -242,17 +220,10 @@ def _falls_short(system: ir.System, role: tuple[str, str, str]) -> bool:
 
 def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
           strategy: str) -> Transition:
-    hoods: dict[str, set[str]] = {}
-    by_server = {i.server: i for i in new_infos}
-    for oi in old_infos:
-        ni = by_server.get(oi.server)
-        if ni is not None:
-            hoods.update(affected_protocols(old, new, oi, ni))
+    hoods = _neighbourhoods(old, new, old_infos, new_infos)
     if not hoods:
         simple = _hand_over_first(plan_migrate(old, new, strategy), old_infos, new_infos, strategy)
-        simple.serving = serving(old_infos, new_infos)
-        simple.handover = handover(old_infos, new_infos)
-        simple.protocols = protocols(old_infos, new_infos)
+        _watch(simple, old_infos, new_infos)
         return _refuse_lost_requests(Transition(simple, old, new, old_infos, new_infos, []))
     # The combined system, the target and the renames, from the cheapest planner that succeeds.
     try:
@@ -260,7 +231,7 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     except NoSafePlan:
         plan = plan_migrate(old, new, strategy)
     # Suspend, substitute and link with the protocols kept suspended, resume.
-    system, start = plan.system, plan.states[0]
+    system, start, final = plan.system, plan.states[0], plan.goal
     funcs = [_func(system, p) for p in sorted(hoods)]
     # a takeover would rebind what the plan moves: a duplex's crash detection is suspended with
     # its protocols (its alarm raised by a heartbeat the plan's own process starts delayed)
@@ -270,26 +241,75 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     for a in pre:
         assert isinstance(a, Degrade)
         mid = Configuration(mid.components, mid.degraded | {(a.component, a.functionality)}, mid.roles)
-    final = plan.goal
     # While the protocols are suspended, what depends on them is degraded too and cannot be linked
     # where its degraded guarantee falls short: those new outputs are linked after the resume.
     # Their old outputs stay linked until then, so whatever reads them (the proxy) keeps a publisher.
     keep = {r for r in start.roles - final.roles if r[1] in hoods
             and (system.component(r[1]) or _NOPORT).port(r[2]).kind == "output"}  # type: ignore[union-attr]
-    # The proxies' old request path stays too (their request outputs, and the suspended
-    # protocols' inputs reading them), so requests reach a protocol, which queues them,
-    # until the new path is linked; it is unlinked then, before the resume.
-    path, through = _request_path(system, start, old_infos, new_infos)
-    switch = path - final.roles
-    stay = sorted(through - final.components) if switch else []
+    late = _linked_after_resume(system, start, final, keep, funcs)
+    middle, steps, end = _substitute_and_link(plan, old, old_infos, new_infos, mid, keep, late, funcs, strategy)
+    steps, end = _link_before_resume(plan, hoods, late, steps, end, strategy)
+    post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
+        if late or keep else _resume_steps(system, end)
+    whole = verify(system, start, pre + steps + post, final, strategy, plan.renames)
+    # what the middle part leaves degraded is only so while the protocols are suspended; the
+    # whole plan's own residual notes say what stays degraded at the end
+    passing = set(middle.goal.residual_notes())
+    whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + whole.notes \
+        + [n for n in middle.notes if n not in passing and n not in whole.notes and not n.startswith("verification:")]
+    problems = suspension_problems(whole, hoods)
+    if problems:
+        raise NoSafePlan(problems)
+    _watch(whole, old_infos, new_infos)
+    return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _neighbourhoods(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo],
+                    new_infos: list[ExpansionInfo]) -> dict[str, set[str]]:
+    """Every surviving protocol whose neighbourhood changes, with that neighbourhood."""
+    hoods: dict[str, set[str]] = {}
+    by_server = {i.server: i for i in new_infos}
+    for oi in old_infos:
+        ni = by_server.get(oi.server)
+        if ni is not None:
+            hoods.update(affected_protocols(old, new, oi, ni))
+    return hoods
+
+
+def _watch(plan: Plan, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo]) -> None:
+    """Tell `plan` which proxies must keep serving, and through which protocols."""
+    plan.serving = serving(old_infos, new_infos)
+    plan.handover = handover(old_infos, new_infos)
+    plan.protocols = protocols(old_infos, new_infos)
+
+
+def _linked_after_resume(system: ir.System, start: Configuration, final: Goal,
+                         keep: set[tuple[str, str, str]], funcs: list[FuncId]) -> set[tuple[str, str, str]]:
+    """The new roles of nodes left degraded by the suspension whose degraded guarantee falls
+    short of their connector: they wait for the resume."""
     late: set[tuple[str, str, str]] = set()
     while True:
         settled = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
         down = {c for c, _ in settled.degraded}
         more = {r for r in final.roles - start.roles if r[1] in down and _falls_short(system, r)} - late
         if not more:
-            break
+            return late
         late |= more
+
+
+def _substitute_and_link(plan: Plan, old: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
+                         mid: Configuration, keep: set[tuple[str, str, str]], late: set[tuple[str, str, str]],
+                         funcs: list[FuncId], strategy: str) -> tuple[Plan, list[Action], Configuration]:
+    """The middle part, with the protocols suspended: substitute and link, keeping the old
+    request path until the new one is linked, then unlink it. Returns the middle plan, its
+    steps (with the unlinking) and the state they end in."""
+    system, start, final = plan.system, plan.states[0], plan.goal
+    # The proxies' old request path stays too (their request outputs, and the suspended
+    # protocols' inputs reading them), so requests reach a protocol, which queues them,
+    # until the new path is linked; it is unlinked then, before the resume.
+    path, through = _request_path(system, start, old_infos, new_infos)
+    switch = path - final.roles
+    stay = sorted(through - final.components) if switch else []
     kept = Goal(final.components | frozenset(stay), (final.roles - late) | keep | switch, frozenset(funcs))
     olds = {c.name for c in old.components}
     replaced = [(plan.renames[n], n) for n in plan.renames if plan.renames[n] in olds and n in final.components]
@@ -303,8 +323,15 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         unlinked = settle(system, Goal(final.components, (final.roles - late) | keep, frozenset(funcs)))
         moved = solve(Problem(system, end, unlinked, removed=stay, renames=dict(plan.renames)), strategy)
         steps, end = steps + moved.steps, moved.states[-1]
-    # A protocol whose neighbourhood still has links to make (new outputs that waited for their
-    # node's resume) stays suspended until they are made, if those nodes do not depend on it.
+    return middle, steps, end
+
+
+def _link_before_resume(plan: Plan, hoods: dict[str, set[str]], late: set[tuple[str, str, str]],
+                        steps: list[Action], end: Configuration, strategy: str) -> tuple[list[Action], Configuration]:
+    """`steps` and `end` extended by the links that waited for their node's resume, made while
+    each protocol whose neighbourhood they are in stays suspended, if those nodes do not
+    depend on it."""
+    system, final = plan.system, plan.goal
     hold: set[FuncId] = set()
     for p, hood in sorted(hoods.items()):
         nodes = {r[1] for r in late if r[1] in hood or plan.renames.get(r[1], r[1]) in hood}
@@ -313,28 +340,14 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         held = settle(system, Goal(final.components, final.roles, frozenset({_func(system, p)})))
         if not any(c in nodes for c, _ in held.degraded):
             hold.add(_func(system, p))
-    if hold:
-        held = settle(system, Goal(final.components, final.roles, frozenset(hold)))
-        down = {c for c, _ in held.degraded}
-        roles = final.roles - {r for r in late if r[1] in down}
-        linked = solve(Problem(system, end, settle(system, Goal(final.components, roles, frozenset(hold))),
-                               renames=dict(plan.renames)), strategy)
-        steps, end = steps + linked.steps, linked.states[-1]
-    post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
-        if late or keep else _resume_steps(system, end)
-    whole = verify(system, start, pre + steps + post, final, strategy, plan.renames)
-    # what the middle part leaves degraded is only so while the protocols are suspended; the
-    # whole plan's own residual notes say what stays degraded at the end
-    passing = set(middle.goal.residual_notes())
-    whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + whole.notes \
-        + [n for n in middle.notes if n not in passing and n not in whole.notes and not n.startswith("verification:")]
-    problems = suspension_problems(whole, hoods)
-    if problems:
-        raise NoSafePlan(problems)
-    whole.serving = serving(old_infos, new_infos)
-    whole.handover = handover(old_infos, new_infos)
-    whole.protocols = protocols(old_infos, new_infos)
-    return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+    if not hold:
+        return steps, end
+    held = settle(system, Goal(final.components, final.roles, frozenset(hold)))
+    down = {c for c, _ in held.degraded}
+    roles = final.roles - {r for r in late if r[1] in down}
+    linked = solve(Problem(system, end, settle(system, Goal(final.components, roles, frozenset(hold))),
+                           renames=dict(plan.renames)), strategy)
+    return steps + linked.steps, linked.states[-1]
 
 
 def _detectors(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],

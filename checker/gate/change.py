@@ -31,7 +31,7 @@ from checker.reports.plan_document import plan_document
 from checker.ftm.change import plan_change, planned_on
 from checker.planning import NoSafePlan
 from checker.alloy import AlloyError, AlloyUnavailable
-from checker.planning.alloy_verify import alloy_evidence as evidence
+from checker.planning.alloy_verify import alloy_evidence
 
 
 
@@ -111,7 +111,7 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
     with status(f"planning the migration {old.name} → {new.name}…"):
         try:
             verified = plan_verified(lambda fb: plan_change(old, new, policy.strategy, fb), use_alloy=use_alloy,
-                                     chain=True, judge=lambda p: alloy_evidence(p, solver))
+                                     chain=True, judge=lambda p: verified_in_alloy(p, solver))
         except NoSafePlan as e:
             out.fail("gate.policy", "a verified migration plan exists", error(
                 "RC501", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy and "
@@ -156,9 +156,11 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
                 notes=(f"plan: {p.summary()}",)))
 
 
-def alloy_evidence(p: Any, solver: str) -> dict[str, Any]:
+def verified_in_alloy(p: Any, solver: str) -> dict[str, Any]:
+    """Alloy's evidence for plan `p` (`checker.planning.alloy_verify.alloy_evidence`), with Alloy
+    missing or refusing the module reported as the gate's engine diagnostics (RC301, RC302)."""
     try:
-        return evidence(p, solver)
+        return alloy_evidence(p, solver)
     except AlloyUnavailable as e:
         raise EngineUnavailable(error("RC301", str(e), Span.unknown("<alloy>"),
                                       notes=("or use --engine python",))) from None

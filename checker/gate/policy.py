@@ -325,91 +325,122 @@ BOOLEAN_WORDS = {"yes": "true", "no": "false", "true": "true", "false": "false",
 
 def parse_policy(table: dict[str, Any], shown: str, text: str = "", tables: tuple[str, ...] = ("", TABLE)) -> Policy:
     """The policy of a TOML table (keys with `-` or `_`), every value checked for its type (RC505)."""
-    errors: list[Diagnostic] = []
-    where = locate(text, shown, tables)
-    fallback = Span(shown, 1, 1, 1, 1)
-    spans = {k: where[k].line if k in where else fallback for k in KEYS}
+    r = _PolicyReader(locate(text, shown, tables), Span(shown, 1, 1, 1, 1))
+    r.read_keys(table)
+    md = r.max_disruption()
+    nd, nd_spans = r.never_degrade()
+    kf, kf_spans = r.names("keep-ftm", "component and FTM names", True)
+    strategy = r.strategy()
+    unsafe = r.allow_unsafe_base()
+    if r.errors:
+        raise DiagnosticError(sorted(r.errors, key=lambda d: (d.span.line, d.span.col)))
+    return Policy(md, tuple(nd), tuple(kf), str(strategy), shown, r.spans, unsafe is True,
+                  {"never-degrade": tuple(nd_spans), "keep-ftm": tuple(kf_spans)})
 
-    def value_span(key: str) -> Span:
-        return where[key].value if key in where else spans[key]
 
-    def entry(key: str, i: int) -> Span:
-        located = where.get(key)
-        return located.entries[i] if located is not None and i < len(located.entries) else value_span(key)
+@dataclass
+class _PolicyReader:
+    """The checks of one policy table, each reporting into `errors` at the span of what it checks."""
 
-    values: dict[str, Any] = {}
-    for raw_key, value in table.items():
-        key = raw_key.replace("_", "-")
-        if key not in KEYS:
-            close = difflib.get_close_matches(key, KEYS, n=1)
-            errors.append(error("RC505", f"unknown policy key '{raw_key}'" + (f"; did you mean '{close[0]}'?"
-                                                                              if close else ""),
-                                where[key].line if key in where else fallback,
-                                notes=("known keys: " + ", ".join(KEYS),)))
-            continue
-        values[key] = value
+    where: dict[str, _Located]  # what `locate` found: each key's line, value and list entries
+    fallback: Span              # where a key the text does not show is reported
+    values: dict[str, Any] = field(default_factory=dict)
+    errors: list[Diagnostic] = field(default_factory=list)
+    spans: dict[str, Span] = field(init=False)     # each key's line
 
-    md = values.get("max-disruption")
-    if md is not None and (isinstance(md, bool) or not isinstance(md, int) or md < 0):
-        notes = (f"write max-disruption = {md.strip()} (no quotes)",) if isinstance(md, str) and \
-            md.strip().isdigit() else ()
-        errors.append(error("RC505", f"max-disruption must be a whole number ≥ 0, not {_describe(md)}",
-                            value_span("max-disruption"), notes=notes))
-        md = None
+    def __post_init__(self) -> None:
+        self.spans = {k: self.where[k].line if k in self.where else self.fallback for k in KEYS}
 
-    def names(key: str, what: str, allow_bool: bool) -> tuple[list[str], list[Span]]:
+    def value_span(self, key: str) -> Span:
+        return self.where[key].value if key in self.where else self.spans[key]
+
+    def entry(self, key: str, i: int) -> Span:
+        located = self.where.get(key)
+        return located.entries[i] if located is not None and i < len(located.entries) else self.value_span(key)
+
+    def read_keys(self, table: dict[str, Any]) -> None:
+        """Keep the values of known keys (`_` read as `-`); report the others."""
+        for raw_key, value in table.items():
+            key = raw_key.replace("_", "-")
+            if key not in KEYS:
+                close = difflib.get_close_matches(key, KEYS, n=1)
+                self.errors.append(error("RC505", f"unknown policy key '{raw_key}'"
+                                         + (f"; did you mean '{close[0]}'?" if close else ""),
+                                         self.where[key].line if key in self.where else self.fallback,
+                                         notes=("known keys: " + ", ".join(KEYS),)))
+                continue
+            self.values[key] = value
+
+    def max_disruption(self) -> Optional[int]:
+        md = self.values.get("max-disruption")
+        if md is not None and (isinstance(md, bool) or not isinstance(md, int) or md < 0):
+            notes = (f"write max-disruption = {md.strip()} (no quotes)",) if isinstance(md, str) and \
+                md.strip().isdigit() else ()
+            self.errors.append(error("RC505", f"max-disruption must be a whole number ≥ 0, not {_describe(md)}",
+                                     self.value_span("max-disruption"), notes=notes))
+            return None
+        return md
+
+    def names(self, key: str, what: str, allow_bool: bool) -> tuple[list[str], list[Span]]:
         """A list of names (or, with `allow_bool`, true for every one and false for none)."""
-        v = values.get(key)
+        v = self.values.get(key)
         if v is None or v is False and allow_bool:
             return [], []
         if v is True and allow_bool:
             return ["*"], []
         if not isinstance(v, list):
             shape = "true, false, or a list of " if allow_bool else "a list of "
-            notes: tuple[str, ...] = ()
-            if isinstance(v, str) and allow_bool and v.strip().lower() in BOOLEAN_WORDS:
-                notes = (f"write {key} = {BOOLEAN_WORDS[v.strip().lower()]} (no quotes)",)
-            elif isinstance(v, str):
-                notes = (f'write {key} = ["{v}"] for a list of one name',)
-            elif isinstance(v, bool):
-                notes = (f'write {key} = [] for none',)
-            errors.append(error("RC505", f"{key} must be {shape}{what}, not {_describe(v)}", value_span(key),
-                                notes=notes))
+            self.errors.append(error("RC505", f"{key} must be {shape}{what}, not {_describe(v)}",
+                                     self.value_span(key), notes=_names_notes(key, v, allow_bool)))
             return [], []
         good, good_spans = [], []
         for i, x in enumerate(v):
             if not isinstance(x, str):
-                errors.append(error("RC505", f"each entry of {key} must be a name in quotes, not {_describe(x)}",
-                                    entry(key, i)))
+                self.errors.append(error("RC505", f"each entry of {key} must be a name in quotes, "
+                                         f"not {_describe(x)}", self.entry(key, i)))
             elif not x.strip():
-                errors.append(error("RC505", f"an empty name in {key}", entry(key, i)))
+                self.errors.append(error("RC505", f"an empty name in {key}", self.entry(key, i)))
             else:
                 good.append(x)
-                good_spans.append(entry(key, i))
+                good_spans.append(self.entry(key, i))
         return good, good_spans
 
-    nd, nd_spans = names("never-degrade", "COMPONENT.FUNCTIONALITY or FUNCTIONALITY names", False)
-    for x, s in zip(nd, nd_spans):
-        if x.count(".") > 1 or x.startswith(".") or x.endswith("."):
-            errors.append(error("RC505", f"'{x}' in never-degrade is neither COMPONENT.FUNCTIONALITY nor "
-                                "FUNCTIONALITY", s))
-    kf, kf_spans = names("keep-ftm", "component and FTM names", True)
-    strategy = values.get("strategy", "default")
-    if strategy not in STRATEGIES or not isinstance(strategy, str):
-        close = difflib.get_close_matches(strategy, STRATEGIES, n=1) if isinstance(strategy, str) else []
-        errors.append(error("RC505", f"strategy must be one of {', '.join(STRATEGIES)} (in quotes), "
-                            f"not {_describe(strategy)}" + (f"; did you mean '{close[0]}'?" if close else ""),
-                            value_span("strategy")))
-    unsafe = values.get("allow-unsafe-base", False)
-    if not isinstance(unsafe, bool):
-        notes = (f"write allow-unsafe-base = {BOOLEAN_WORDS[unsafe.strip().lower()]} (no quotes)",) \
-            if isinstance(unsafe, str) and unsafe.strip().lower() in BOOLEAN_WORDS else ()
-        errors.append(error("RC505", f"allow-unsafe-base must be true or false, not {_describe(unsafe)}",
-                            value_span("allow-unsafe-base"), notes=notes))
-    if errors:
-        raise DiagnosticError(sorted(errors, key=lambda d: (d.span.line, d.span.col)))
-    return Policy(md, tuple(nd), tuple(kf), str(strategy), shown, spans, unsafe is True,
-                  {"never-degrade": tuple(nd_spans), "keep-ftm": tuple(kf_spans)})
+    def never_degrade(self) -> tuple[list[str], list[Span]]:
+        nd, nd_spans = self.names("never-degrade", "COMPONENT.FUNCTIONALITY or FUNCTIONALITY names", False)
+        for x, s in zip(nd, nd_spans):
+            if x.count(".") > 1 or x.startswith(".") or x.endswith("."):
+                self.errors.append(error("RC505", f"'{x}' in never-degrade is neither COMPONENT.FUNCTIONALITY "
+                                         "nor FUNCTIONALITY", s))
+        return nd, nd_spans
+
+    def strategy(self) -> Any:
+        strategy = self.values.get("strategy", "default")
+        if strategy not in STRATEGIES or not isinstance(strategy, str):
+            close = difflib.get_close_matches(strategy, STRATEGIES, n=1) if isinstance(strategy, str) else []
+            self.errors.append(error("RC505", f"strategy must be one of {', '.join(STRATEGIES)} (in quotes), "
+                                     f"not {_describe(strategy)}" + (f"; did you mean '{close[0]}'?" if close else ""),
+                                     self.value_span("strategy")))
+        return strategy
+
+    def allow_unsafe_base(self) -> Any:
+        unsafe = self.values.get("allow-unsafe-base", False)
+        if not isinstance(unsafe, bool):
+            notes = (f"write allow-unsafe-base = {BOOLEAN_WORDS[unsafe.strip().lower()]} (no quotes)",) \
+                if isinstance(unsafe, str) and unsafe.strip().lower() in BOOLEAN_WORDS else ()
+            self.errors.append(error("RC505", f"allow-unsafe-base must be true or false, not {_describe(unsafe)}",
+                                     self.value_span("allow-unsafe-base"), notes=notes))
+        return unsafe
+
+
+def _names_notes(key: str, v: Any, allow_bool: bool) -> tuple[str, ...]:
+    """How to write a list of names given as something else."""
+    if isinstance(v, str) and allow_bool and v.strip().lower() in BOOLEAN_WORDS:
+        return (f"write {key} = {BOOLEAN_WORDS[v.strip().lower()]} (no quotes)",)
+    if isinstance(v, str):
+        return (f'write {key} = ["{v}"] for a list of one name',)
+    if isinstance(v, bool):
+        return (f'write {key} = [] for none',)
+    return ()
 
 
 # ---------------------------------------------------------------- names against the architectures

@@ -274,7 +274,7 @@ def revisions() -> Iterator[Revisions]:
         revs.close()
 
 
-def resolve(spec: str, revs: Revisions, includes: bool = True) -> str:
+def path_to_load(spec: str, revs: Revisions, includes: bool = True) -> str:
     """A path to load for a path or a `git:REF:PATH` (with `includes`, what it includes is read too)."""
     if not spec.startswith(GIT_PREFIX):
         return spec

@@ -207,35 +207,48 @@ class _Action:
         return z3.And([cond for label, cond in self.pre if label not in weaken])
 
 
-def _actions(v: _Vocabulary, s: _State, weaken: frozenset[str]) -> dict[str, _Action]:
-    """The six actions from s, each with its preconditions and its Post (frame: all else unchanged)."""
-    z3 = v.z3
-    And, Or, Not, If, Implies = z3.And, z3.Or, z3.Not, z3.If, z3.Implies
-    c = z3.Const("c", v.Component)
-    k = z3.Const("k", v.Connector)
-    pi, po = z3.Const("p_in", v.Input), z3.Const("p_out", v.Output)
-    is_in = z3.Bool("p_is_input")   # the port of detach/attach: an input (pi) or an output (po)
-    f0 = z3.Const("f", v.Functionality)
+@dataclass
+class _Args:
+    """The actions' arguments as z3 constants, shared by the six (as the meta-model's are)."""
+
+    c: Any          # the component of remove and create
+    k: Any          # the connector of detach and attach
+    p_in: Any       # their port when it is an input,
+    p_out: Any      # ... when it is an output,
+    is_input: Any   # ... and which of the two it is
+    f: Any          # the functionality of degrade and upgrade
+
+    @property
+    def port(self) -> dict[str, Any]:
+        return {"k": self.k, "p_in": self.p_in, "p_out": self.p_out, "p_is_input": self.is_input}
+
+
+def _remove(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, c = v.z3, x.c
     kk, ii, oo = v.var(v.Connector, "k"), v.var(v.Input, "i"), v.var(v.Output, "o")
-    port = {"k": k, "p_in": pi, "p_out": po, "p_is_input": is_in}
-    out: dict[str, _Action] = {}
-
-    out["remove"] = _Action("remove", {"c": c}, [
+    return _Action("remove", {"c": c}, [
         ("remove.present", s.comps(c)),
-        ("remove.isolated", And(z3.ForAll([kk, ii], Implies(v.iowner(ii) == c, Not(s.rin(kk, ii)))),
-                                z3.ForAll([kk, oo], Implies(v.oowner(oo) == c, Not(s.rout(kk, oo)))))),
-    ], s.but(comps=lambda y: And(s.comps(y), y != c),
-             degraded=lambda g: Or(s.degraded(g), v.fowner(g) == c)))
+        ("remove.isolated", z3.And(z3.ForAll([kk, ii], z3.Implies(v.iowner(ii) == c, z3.Not(s.rin(kk, ii)))),
+                                   z3.ForAll([kk, oo], z3.Implies(v.oowner(oo) == c, z3.Not(s.rout(kk, oo)))))),
+    ], s.but(comps=lambda y: z3.And(s.comps(y), y != c),
+             degraded=lambda g: z3.Or(s.degraded(g), v.fowner(g) == c)))
 
+
+def _create(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, c = v.z3, x.c
     g = v.var(v.Functionality, "g")
-    out["create"] = _Action("create", {"c": c}, [
-        ("create.absent", Not(s.comps(c))),
-        ("create.degraded", z3.ForAll([g], Implies(v.fowner(g) == c, s.degraded(g)))),
-    ], s.but(comps=lambda y: Or(s.comps(y), y == c)))
+    return _Action("create", {"c": c}, [
+        ("create.absent", z3.Not(s.comps(c))),
+        ("create.degraded", z3.ForAll([g], z3.Implies(v.fowner(g) == c, s.degraded(g)))),
+    ], s.but(comps=lambda y: z3.Or(s.comps(y), y == c)))
 
+
+def _detach(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, k, pi, po, is_in = v.z3, x.k, x.p_in, x.p_out, x.is_input
+    And, Not, Implies = z3.And, z3.Not, z3.Implies
     others = (lambda o: False) if "detach.counts_itself" in weaken else (lambda o: o == po)
-    out["detach"] = _Action("detach", port, [
-        ("detach.attached", If(is_in, s.rin(k, pi), s.rout(k, po))),
+    return _Action("detach", x.port, [
+        ("detach.attached", z3.If(is_in, s.rin(k, pi), s.rout(k, po))),
         ("detach.input", Implies(is_in, s.safe(lambda h: v.fowner(h) == v.iowner(pi),
                                                lambda k2, i2: And(k2 == k, i2 == pi)))),
         ("detach.output", Implies(And(Not(is_in), Not(s.conn_sat(k, others))),
@@ -244,8 +257,12 @@ def _actions(v: _Vocabulary, s: _State, weaken: frozenset[str]) -> dict[str, _Ac
     ], s.but(rin=lambda k2, i2: And(s.rin(k2, i2), Not(And(is_in, k2 == k, i2 == pi))),
              rout=lambda k2, o2: And(s.rout(k2, o2), Not(And(Not(is_in), k2 == k, o2 == po)))))
 
+
+def _attach(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, k, pi, po, is_in = v.z3, x.k, x.p_in, x.p_out, x.is_input
+    And, Or, Not, If, Implies = z3.And, z3.Or, z3.Not, z3.If, z3.Implies
     h = v.var(v.Functionality, "h")
-    out["attach"] = _Action("attach", port, [
+    return _Action("attach", x.port, [
         ("attach.present", If(is_in, s.comps(v.iowner(pi)), s.comps(v.oowner(po)))),
         ("attach.detached", If(is_in, Not(s.rin(k, pi)), Not(s.rout(k, po)))),
         ("attach.output", Implies(Not(is_in), z3.Exists([h], And(s.present(h), v.assoc_out(h, po),
@@ -254,6 +271,10 @@ def _actions(v: _Vocabulary, s: _State, weaken: frozenset[str]) -> dict[str, _Ac
     ], s.but(rin=lambda k2, i2: Or(s.rin(k2, i2), And(is_in, k2 == k, i2 == pi)),
              rout=lambda k2, o2: Or(s.rout(k2, o2), And(Not(is_in), k2 == k, o2 == po))))
 
+
+def _degrade(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, f0 = v.z3, x.f
+    And, Not = z3.And, z3.Not
     # The connectors degrading f0 leaves unsatisfied: attached to an output of f0, satisfied by
     # no other attached output, nor by f0's degraded guarantee on an attached output of f0.
     own = (lambda o: False) if "degrade.counts_own_outputs" in weaken else (lambda o: v.assoc_out(f0, o))
@@ -266,20 +287,37 @@ def _actions(v: _Vocabulary, s: _State, weaken: frozenset[str]) -> dict[str, _Ac
                                            v.sat(v.dguar(f0, o2), v.cguar(k2))))))
     exempt = ((lambda h2: v.fowner(h2) != v.fowner(f0)) if "degrade.exempts_component" in weaken
               else (lambda h2: h2 != f0))    # f0's degraded mode assumes nothing
-    out["degrade"] = _Action("degrade", {"f": f0}, [
+    return _Action("degrade", {"f": f0}, [
         ("degrade.present", s.present(f0)),
         ("degrade.normal", Not(s.degraded(f0))),
         ("degrade.safe", s.safe(lambda h2: And(exempt(h2), s.reads(v.fowner(h2), aff)),
                                 lambda k2, i2: aff(k2))),
-    ], s.but(degraded=lambda h2: Or(s.degraded(h2), h2 == f0)))
+    ], s.but(degraded=lambda h2: z3.Or(s.degraded(h2), h2 == f0)))
 
+
+def _upgrade(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
+    z3, f0 = v.z3, x.f
     a = v.var(v.Data, "a")
-    out["upgrade"] = _Action("upgrade", {"f": f0}, [
+    return _Action("upgrade", {"f": f0}, [
         ("upgrade.present", s.present(f0)),
         ("upgrade.degraded", s.degraded(f0)),
-        ("upgrade.assumptions", z3.ForAll([a], Implies(v.nasms(f0, a), s.holds(f0, a)))),
-    ], s.but(degraded=lambda h2: And(s.degraded(h2), h2 != f0)))
-    return out
+        ("upgrade.assumptions", z3.ForAll([a], z3.Implies(v.nasms(f0, a), s.holds(f0, a)))),
+    ], s.but(degraded=lambda h2: z3.And(s.degraded(h2), h2 != f0)))
+
+
+# One entry per action: its preconditions and its Post (frame: all else unchanged), from s.
+_ACTIONS: dict[str, Callable[[_Vocabulary, _State, _Args, frozenset[str]], _Action]] = {
+    "remove": _remove, "create": _create, "detach": _detach, "attach": _attach,
+    "degrade": _degrade, "upgrade": _upgrade,
+}
+
+
+def _actions(v: _Vocabulary, s: _State, weaken: frozenset[str]) -> dict[str, _Action]:
+    """The six actions from s, each with its preconditions and its Post (frame: all else unchanged)."""
+    z3 = v.z3
+    args = _Args(z3.Const("c", v.Component), z3.Const("k", v.Connector), z3.Const("p_in", v.Input),
+                 z3.Const("p_out", v.Output), z3.Bool("p_is_input"), z3.Const("f", v.Functionality))
+    return {name: build(v, s, args, weaken) for name, build in _ACTIONS.items()}
 
 
 def _setup(weaken: frozenset[str]) -> tuple[Any, _Vocabulary, _State, dict[str, _Action]]:
@@ -350,74 +388,94 @@ def prove_all(weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_MS,
 
 # --- a counterexample, in the model's element names ------------------------------------
 
-def _describe(m: Any, v: _Vocabulary, pre: _State, weakened: frozenset[str], acts: list[_Action],
-              bad: Callable[[_State], Any]) -> dict[str, Any]:
-    """Model m as Pre, the action (the first of `acts` whose preconditions hold in m and whose
-    Post is `bad`) and Post, the configurations in words, and the static relations."""
-    z3 = v.z3
+@dataclass
+class _Reading:
+    """A z3 model read in the meta-model's element names."""
 
-    def elems(sort: Any) -> list[Any]:
-        return list(m.get_universe(sort) or [])
+    m: Any
+    v: _Vocabulary
 
-    def name(e: Any) -> str:
+    def elems(self, sort: Any) -> list[Any]:
+        return list(self.m.get_universe(sort) or [])
+
+    def name(self, e: Any) -> str:
         text = str(e)
         return text.replace("!val!", "") if "!val!" in text else text
 
-    def true(expr: Any) -> bool:
+    def true(self, expr: Any) -> bool:
         """expr's value in m, quantifiers expanded over m's finite universes (m.eval leaves them)."""
+        z3 = self.v.z3
         if z3.is_quantifier(expr):
             n = expr.num_vars()
-            combos = itertools.product(*(elems(expr.var_sort(j)) for j in range(n)))
+            combos = itertools.product(*(self.elems(expr.var_sort(j)) for j in range(n)))
             # substitute_vars replaces the de Bruijn variable 0, the last bound, first
-            cases = (true(z3.substitute_vars(expr.body(), *reversed(vals))) for vals in combos)
+            cases = (self.true(z3.substitute_vars(expr.body(), *reversed(vals))) for vals in combos)
             return any(cases) if expr.is_exists() else all(cases)
         if z3.is_and(expr) or z3.is_or(expr):
-            return (all if z3.is_and(expr) else any)(true(c) for c in expr.children())
+            return (all if z3.is_and(expr) else any)(self.true(c) for c in expr.children())
         if z3.is_not(expr):
-            return not true(expr.arg(0))
+            return not self.true(expr.arg(0))
         if z3.is_implies(expr):
-            return not true(expr.arg(0)) or true(expr.arg(1))
-        return z3.is_true(m.eval(expr, model_completion=True))
+            return not self.true(expr.arg(0)) or self.true(expr.arg(1))
+        return z3.is_true(self.m.eval(expr, model_completion=True))
 
-    C, I, O, F, K, D = (elems(s) for s in (v.Component, v.Input, v.Output, v.Functionality, v.Connector, v.Data))
+    def ev(self, expr: Any) -> str:
+        return self.name(self.m.eval(expr, model_completion=True))
 
-    def ev(expr: Any) -> str:
-        return name(m.eval(expr, model_completion=True))
+    def of(self, owner: Any, x: Any) -> str:
+        """`x` qualified by its component: Component1.Input0."""
+        return f"{self.ev(owner(x))}.{self.name(x)}"
 
-    static = {
-        "functionalities": {name(f): {
-            "component": ev(v.fowner(f)),
-            "inputs": [name(i) for i in I if true(v.assoc_in(f, i))],
-            "outputs": {name(o): {"normal": ev(v.nguar(f, o)), "degraded": ev(v.dguar(f, o))}
-                        for o in O if true(v.assoc_out(f, o))},
-            "assumes": [name(d) for d in D if true(v.nasms(f, d))]} for f in F},
-        "inputs": {name(i): {"component": ev(v.iowner(i)), "assumes": ev(v.iasm(i))} for i in I},
-        "outputs": {name(o): ev(v.oowner(o)) for o in O},
-        "connectors": {name(k): ev(v.cguar(k)) for k in K},
-        "environment": [name(d) for d in D if true(v.envg(d))],
-        "satisfies": [f"{name(p)} sat {name(q)}" for p in D for q in D if true(v.sat(p, q))],
-    }
+    def sorts(self) -> tuple[list[Any], ...]:
+        """The elements of the components, inputs, outputs, functionalities, connectors, data."""
+        v = self.v
+        return tuple(self.elems(s) for s in (v.Component, v.Input, v.Output, v.Functionality, v.Connector, v.Data))
 
-    def of(owner: Any, x: Any) -> str:   # qualified by its component: Component1.Input0
-        return f"{ev(owner(x))}.{name(x)}"
+    def static(self) -> dict[str, Any]:
+        """The static relations: what each element owns, assumes and guarantees."""
+        v, name, ev, true = self.v, self.name, self.ev, self.true
+        _, I, O, F, K, D = self.sorts()
+        return {
+            "functionalities": {name(f): {
+                "component": ev(v.fowner(f)),
+                "inputs": [name(i) for i in I if true(v.assoc_in(f, i))],
+                "outputs": {name(o): {"normal": ev(v.nguar(f, o)), "degraded": ev(v.dguar(f, o))}
+                            for o in O if true(v.assoc_out(f, o))},
+                "assumes": [name(d) for d in D if true(v.nasms(f, d))]} for f in F},
+            "inputs": {name(i): {"component": ev(v.iowner(i)), "assumes": ev(v.iasm(i))} for i in I},
+            "outputs": {name(o): ev(v.oowner(o)) for o in O},
+            "connectors": {name(k): ev(v.cguar(k)) for k in K},
+            "environment": [name(d) for d in D if true(v.envg(d))],
+            "satisfies": [f"{name(p)} sat {name(q)}" for p in D for q in D if true(v.sat(p, q))],
+        }
 
-    def config(s: _State) -> dict[str, Any]:
+    def config(self, s: _State) -> dict[str, Any]:
+        """The configuration `s` in words."""
+        v, name, of, true = self.v, self.name, self.of, self.true
+        C, I, O, F, K, D = self.sorts()
         return {"components": [name(c) for c in C if true(s.comps(c))],
                 "degraded": [of(v.fowner, f) for f in F if true(s.degraded(f))],
                 "roles": [f"{name(k)} -> {of(v.iowner, i)}" for k in K for i in I if true(s.rin(k, i))]
                 + [f"{name(k)} -> {of(v.oowner, o)}" for k in K for o in O if true(s.rout(k, o))],
                 "unsatisfied": [f"{of(v.fowner, f)} assumes {name(d)}" for f in F for d in D
-                                if true(z3.And(s.present(f), s.assumes(f, d))) and not true(s.holds(f, d))]}
+                                if true(v.z3.And(s.present(f), s.assumes(f, d))) and not true(s.holds(f, d))]}
 
-    out: dict[str, Any] = {"pre": config(pre)}
-    act = next((a for a in acts if true(a.precondition(weakened, z3)) and true(bad(a.post))), None)
+
+def _describe(m: Any, v: _Vocabulary, pre: _State, weakened: frozenset[str], acts: list[_Action],
+              bad: Callable[[_State], Any]) -> dict[str, Any]:
+    """Model m as Pre, the action (the first of `acts` whose preconditions hold in m and whose
+    Post is `bad`) and Post, the configurations in words, and the static relations."""
+    r = _Reading(m, v)
+    static = r.static()
+    out: dict[str, Any] = {"pre": r.config(pre)}
+    act = next((a for a in acts if r.true(a.precondition(weakened, v.z3)) and r.true(bad(a.post))), None)
     if act is not None:
         args = dict(act.params)
         if "p_is_input" in args:
-            is_in = true(args.pop("p_is_input"))
+            is_in = r.true(args.pop("p_is_input"))
             args.pop("p_out" if is_in else "p_in")
-        out["action"] = act.name + " " + ", ".join(f"{k}={ev(x)}" for k, x in args.items())
-        out["post"] = config(act.post)
+        out["action"] = act.name + " " + ", ".join(f"{k}={r.ev(x)}" for k, x in args.items())
+        out["post"] = r.config(act.post)
     out["static"] = static
     return out
 

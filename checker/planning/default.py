@@ -16,20 +16,9 @@ moves towards the goal without degrading anything, in this order:
 improvement (`improve`), is kept: cleaning up first sometimes frees a `single` connector
 sooner; creating first keeps an old publisher that a new component needs to start.)
 
-So a new version is created, wired, upgraded and publishing before the old one is detached,
-and nobody is degraded where the connector allows two publishers. When no free action is
-left, some unwanted attachment must go although something still needs it (a `single`
-topic, a leaving component's input). For each such detach the closure of functionalities
-that would lose an assumption is computed on the configuration after it — redundant
-publishers and degraded guarantees that still satisfy are taken into account, and the
-closure grows monotonically, so cycles terminate. The detach whose closure has the least
-criticality is chosen, a leaving component's own inputs last (what they degrade stays
-degraded until the component is removed). Its closure is degraded least critical first, in
-an order each degrade's preconditions accept, then the detach runs. Free actions then
-repair the damage.
-
-Every turn either makes progress that is never undone (attach a wanted role, detach an
-unwanted one, create, remove) or upgrades, so the loop terminates.
+When no free action is left, the detach that degrades the least is chosen. Why this keeps
+nobody degraded that need not be, and why the loop terminates:
+docs/soundness.md#the-default-strategy.
 """
 from __future__ import annotations
 

@@ -1,61 +1,8 @@
 """The `exhaustive` strategy: decides whether a plan exists and, as far as its budget allows,
-finds one of least disruption.
-
-**The space searched.** From a configuration the actions considered are: create an arriving
-component, remove a leaving one, attach a wanted attachment, detach an unwanted one, and
-degrade or upgrade a *relevant* functionality (`relevant`). So every attachment and every
-component changes at most once, towards the target: "reachable" below means reachable by
-safe steps of this kind. A plan that attaches a port where neither the start nor the target
-has it is outside this space (the Alloy planner, `checker.planning.alloy_search`, searches those too,
-up to a number of steps).
-
-**Relevant functionalities.** A functionality normal in the start and in the target, of a
-component that stays, never needs to change mode unless it reads a connector the change can
-*touch*: one whose attachments differ, or one a relevant functionality publishes on, unless a
-publisher that is not relevant keeps it satisfied throughout (attached in the start and the
-target, of a component that stays, its normal guarantee satisfying the connector). Relevant
-are the functionalities of components that arrive or leave, those degraded in the start or
-the target, and those reading a touched connector, grown to a fixpoint. Take any plan and drop
-the degrades and upgrades of the others: they stay normal, so every connector they read stays
-satisfied as in the start and they stay safe; every connector is at least as satisfied as in
-the plan (a normal guarantee satisfies whatever the degraded one does: rule iii, which the DSL
-enforces, RC112); validity and every precondition only gain from satisfied connectors, so the
-plan stays safe, with fewer steps and no more disruption. Their modes are never searched.
-
-**Three answers, one budget** (`Budget`: configurations and seconds).
-
-1. Relaxation (`checker.planning.relaxed`), in milliseconds: every step that could ever be
-   safe taken at once and nothing ever undone, first over the components and attachments of
-   the start and the target changed any number of times, then over the space above. A fact
-   of the target it never reaches proves that no plan exists, and says why.
-2. Reachability, to decide. A greedy best-first search over configurations closed under
-   the steps that never hurt, taken at once: creating an arriving component (degraded and
-   unattached, it changes nothing for the others), attaching a wanted input (an input attached
-   to one more connector only adds ways to be satisfied, and nothing detaches it again),
-   removing a leaving component once it is isolated (nothing can attach it again). Any plan
-   can be reordered to take those steps as soon as they are possible and stay safe, so the
-   closure loses no plan. It goes first where the fewest steps seem left (`_Space.distance`:
-   the steps every plan still needs, and what the blocked detaches would degrade). Duplicate
-   configurations are recognised (a configuration is its three sets). When the frontier
-   empties, no plan exists in the space, and the answer says how many configurations were
-   visited.
-3. A* (for the optimum): cost (disruption, steps) of the path, plus a lower bound that
-   never overestimates (`_Space.bound`), each functionality counted in states no other term
-   counts it in: one that must be upgraded is degraded in every state before its upgrade,
-   one upgrade a step, and only one that can be upgraded now may go first (Σ i·w_i, the
-   heaviest first); one that must end degraded and is not yet is degraded from its degrade to
-   the end, one degrade a step (Σ (i+1)·w_i); one that must end degraded and is, in the last
-   state; one of an arriving component in the state after its creation, and the next too if
-   its assumptions wait for an input to be attached; one of a leaving component that assumes
-   more than the environment gives, if normal, in its own degrade's state and the last input
-   detach's, if degraded for good (no input left to give what it assumes), in the state
-   after each detach its component still needs, else in two of them at least. Among
-   equal estimates the deeper configuration goes first. The first plan taken from the queue
-   is least disruptive, then shortest; the plan reachability found bounds the queue.
-
-When A* runs out of budget the reachability plan is returned, locally improved, and said not
-to be proved least disruptive. When reachability runs out of budget, `SearchTooLarge` says
-how far it got: the question is not decided.
+finds one of least disruption: the relaxation (`checker.planning.relaxed`), then reachability
+over the steps towards the target, then A* for the optimum, within one `Budget`. The space
+searched, why leaving out the functionalities that are not `relevant` loses no plan, and why
+A*'s bound never overestimates: docs/soundness.md#the-exhaustive-search.
 """
 from __future__ import annotations
 
@@ -387,7 +334,7 @@ def _astar(space: _Space, clock: _Clock, ceiling: Optional[tuple[int, int]],
     frontier = [(h[0], h[1], 0, next(tie), (0, 0), start)]
     expanded = 0
     while frontier:
-        f0, f1, _, _, g, config = heapq.heappop(frontier)
+        _, _, _, _, g, config = heapq.heappop(frontier)
         if g != best[config]:
             continue
         if goal.reached(config):

@@ -8,11 +8,8 @@ way (degrade first) before the arrivals and attached after them. Finally the deg
 functionalities of the other components are upgraded (until none can be), except those
 the target keeps degraded (residual degradation, `plan.settle`).
 
-Degrade(c, f) = DegradeByConn(AffectedConns(f)); ExecDegrade(c, f), and
-DegradeByConn(conns) degrades AffectedFuncs(c, inputs of conns) of every reader c. The paper
-notes this recursion assumes no cyclic dependencies: on a cycle it would not terminate. A
-visited set guards it here: a functionality already being degraded is not entered again, so
-the recursion terminates, and the refused ExecDegrade then says why no plan exists.
+The paper's recursive Degrade would not terminate on a cyclic dependency; a visited set
+guards it here: docs/soundness.md#the-papers-algorithm-1.
 """
 from __future__ import annotations
 

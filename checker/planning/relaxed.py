@@ -1,24 +1,7 @@
 """A necessary condition for a plan to exist, checked in polynomial time: the relaxation in
-which nothing is ever lost.
-
-A configuration is described by facts: a component present or absent, an attachment attached
-or detached, a functionality normal or degraded. The relaxation starts from the facts of the
-start and adds the facts of every action whose preconditions *could* hold in some
-configuration made of facts gathered so far, never taking one away, until nothing is added
-(`reachable`). Each precondition is read generously (`_Relaxed`), so that whenever it holds in
-a real configuration whose facts are all gathered, it holds in the relaxation too: a reader is
-safe without a connector if it may be absent, detached or degraded, or if each assumption of
-its normal mode may hold through another connector that may be satisfied; a connector may be
-satisfied if some output that may be attached, of a component that may be present, may be in
-a mode whose guarantee satisfies it; a `single` connector's one-publisher rule is dropped.
-Every configuration reachable by safe steps therefore has all its facts gathered. So when a
-fact of the target is never gathered, no plan exists, and the facts never gathered say why.
-
-Which actions are considered is the caller's choice: every attachment of the start or the
-target attached or detached, every component of either created or removed, every mode
-changed, any number of times (`restricted=False`), or only the steps towards the target that
-`checker.planning.exhaustive` searches (each attachment and component changed once, the
-relevant functionalities' modes).
+which nothing is ever lost (`reachable`). A fact of the target it never gathers proves that no
+plan exists, and says why. Why each precondition's generous reading (`_Relaxed`) makes it
+necessary: docs/soundness.md#the-relaxation.
 """
 from __future__ import annotations
 

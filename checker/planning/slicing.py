@@ -1,31 +1,7 @@
-"""The part of a plan's architecture that the plan can affect, for verifying it in Alloy.
-
-T: every component an action names. R: every component reading (in some state) a connector
-that a component of T publishes on (in some state). P: every other component publishing on a
-connector that T ∪ R reads. The slice keeps T ∪ R as they are, and P as *stubs*: same outputs
-and guarantees, no assumptions, no inputs attached (their modes and attachments never change
-in the plan, so what they offer T ∪ R is exactly what they offer in the whole architecture).
-
-Why the slice suffices: a component outside T ∪ R reads only connectors on which no component
-of T ever publishes, and only T changes modes or attachments, so its assumptions hold in every
-state exactly when they hold in the first (which the Python engine checks on the whole
-architecture, as it checks every state, and Alloy in `checker.planning.alloy_verify`). The assumptions of T ∪ R, and the preconditions of
-each action (on the acting component and on the readers of the connectors it affects, all in
-T ∪ R), depend only on connectors whose every publisher is in the slice.
-
-The lean slice (`slice_plan(plan, lean=True)`) is smaller on two counts, both sound because
-satisfaction is monotone (another publisher can only satisfy a connector more, and every
-precondition and `valid` only gain from satisfied connectors):
-- *stable* connectors: those T publishes on that are satisfied in every state. Their readers
-  are left out of R: a reader's assumptions read only whether its connectors are satisfied,
-  so they hold in every state exactly when in the first. The plan module then must prove
-  each stable connector satisfied in every state (`Plan.stable`), which also makes every
-  precondition about their readers vacuous (they are about connectors that become
-  unsatisfied).
-- *witnesses*: of the stubs publishing on a connector, only the first (by name) whose output
-  satisfies it is kept. Proving the plan with fewer publishers proves it with all.
-A lean slice that Alloy refutes may be refuted only for what it left out: the caller then
-verifies the full slice, whose verdict stands.
+"""The part of a plan's architecture that the plan can affect, for verifying it in Alloy: the
+components the plan names (T), their readers (R), the other publishers those read, as stubs (P);
+the lean slice leaves out the readers of stable connectors and all but one witness publisher.
+Why verifying the slice verifies the plan: docs/soundness.md#slicing-a-plan-for-alloy.
 """
 from __future__ import annotations
 

@@ -16,11 +16,8 @@ from reconf_dsl.words import agree
 
 
 # Graphviz `dot` takes time that grows steeply with a picture's nodes (components, connectors,
-# environment inputs), and more on some shapes than others. Measured on systems of
-# `python -m bench.gen` (Graphviz 2.43, a 2-core machine): at about 300 nodes every shape took
-# under 1.2 s; at about 400, 2-3 s (chain, cycle, DAG); at about 500, 0.9 s (DAG) to 18 s (chain);
-# at about 590, 8-15 s; a tree of 2,854 nodes 51 s; 1,000 components of a DAG, over 10 minutes.
-# A larger picture is drawn as SVG only when asked to be (`--force`).
+# environment inputs), so a larger picture is drawn as SVG only when asked to be (`--force`);
+# the times measured are in bench/README.md ("Pictures").
 SVG_MAX_NODES = 400
 
 # What an output file's extension says of its format; the image formats reconf does not write.

@@ -182,7 +182,7 @@ class _Reader:
 
     def system_mode(self, system: str, mode: str, key: Node, value: Node) -> SystemMode:
         parts = []
-        for part, pkey, pvalue in self.mapping(value, f"mode {mode} of {system}"):
+        for part, _, pvalue in self.mapping(value, f"mode {mode} of {system}"):
             self.count(pvalue)
             if not isinstance(pvalue, ScalarNode):
                 raise self.fail(pvalue, f"in mode {mode} of {system}, {part} must be `state` or `state.MODE`")
