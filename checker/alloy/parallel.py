@@ -1,4 +1,4 @@
-"""A second analyzer in a helper process, for many independent modules (docs/internals.md,
+"""A second analyzer in a helper process, for many independent modules (docs/soundness.md,
 "Slicing a large check").
 
 The slices of a configuration, and the windows of a plan, are independent modules, and the

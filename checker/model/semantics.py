@@ -91,7 +91,7 @@ def witnesses(system: System, config: Configuration, wide: int) -> dict[str, set
     """For each connector with more than `wide` attached outputs, one of them, (component,
     port), whose present functionality guarantees in its current mode what satisfies the
     connector's guarantee; connectors none satisfies are left out. A check's slice may
-    show such a connector's witness alone (docs/internals.md, "Slicing a large check")."""
+    show such a connector's witness alone (docs/soundness.md, "Slicing a large check")."""
     comps = _components(system, config)
     attached: dict[str, list[tuple[str, str]]] = {}
     for conn, c, p in config.roles:
