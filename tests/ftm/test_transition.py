@@ -1,7 +1,6 @@
 """Transitions between FTMs as verified plans: kept nodes, suspension, no lost request."""
 from __future__ import annotations
 
-import os
 
 import pytest
 
@@ -117,7 +116,7 @@ def test_unprotecting_a_server_hands_its_clients_over_first() -> None:
 
 def test_alloy_refuses_taking_a_mechanism_down_under_its_clients(monkeypatch: pytest.MonkeyPatch,
                                                                 bridge) -> None:  # type: ignore[no-untyped-def]
-
+    from checker.planning.alloy_verify import alloy_evidence
     import checker.ftm.transition as tr
     kept = alloy_evidence(plan_transition(load_text(client_server("PBR")), "server", None).plan)
     assert kept["valid"], kept["reason"]
@@ -130,14 +129,14 @@ def test_alloy_refuses_taking_a_mechanism_down_under_its_clients(monkeypatch: py
 
 
 def test_alloy_verifies_a_nested_transition(bridge) -> None:  # type: ignore[no-untyped-def]
-
+    from checker.planning.alloy_verify import alloy_evidence
     ev = alloy_evidence(transition("TR", "SEC(TR)").plan)
     assert ev["valid"], ev["reason"]
 
 
 @pytest.mark.parametrize("a, b", [("PBR", "LFR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "SEC(PBR(TR))")])
 def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # type: ignore[no-untyped-def]
-
+    from checker.planning.alloy_verify import alloy_evidence
     t = transition(a, b)
     assert t.plan.serving
     ev = alloy_evidence(t.plan, slice_=False)
@@ -149,7 +148,7 @@ def test_alloy_verifies_duplex_transitions(a: str, b: str, bridge) -> None:  # t
 def test_alloy_verifies_every_transition_of_the_table(a: str, b: str, bridge) -> None:  # type: ignore[no-untyped-def]
     """Both engines on every pair of the table: the plan as `reconf plan transition` verifies it
     (on its slice), every state valid and lossless, every step an instance of its action."""
-
+    from checker.planning.alloy_verify import alloy_evidence
     ev = alloy_evidence(transition(a, b).plan)
     assert ev["valid"], ev["reason"]
     assert ev["lossless"]
@@ -178,7 +177,7 @@ def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  #
     verdict = alloy_plan_verdict(p.system, states, serving=p.serving, protocols=p.protocols)
     assert verdict.lossless[k] is False and all(v for i, v in enumerate(verdict.lossless) if i != k)
     assert not verdict.ok
-
+    from checker.planning.alloy_verify import alloy_evidence
     broken = dc_replace(p, states=states)
     ev = alloy_evidence(broken, slice_=False)
     assert not ev["valid"] and ev["reason"], ev
@@ -186,7 +185,7 @@ def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  #
 
 def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) -> None:  # type: ignore[no-untyped-def]
     from bench.bench_ftm import generate
-
+    from checker.planning.alloy_verify import alloy_evidence
     from checker.planning.slicing import slice_plan
     t = plan_transition(load_text(generate(3, "TR")), "server1", "SEC(TR)")
     sliced = slice_plan(t.plan)
@@ -249,7 +248,7 @@ def test_alloy_follows_the_request_path(bridge) -> None:  # type: ignore[no-unty
 
 def test_alloy_refuses_a_transition_that_loses_the_request_path(monkeypatch: pytest.MonkeyPatch,
                                                                 bridge) -> None:  # type: ignore[no-untyped-def]
-
+    from checker.planning.alloy_verify import alloy_evidence
     ev = alloy_evidence(_without_the_old_request_path(monkeypatch).plan)
     assert not ev["valid"] and "reach no protocol" in ev["reason"], ev
     kept = alloy_evidence(transition("SEC(PBR(TR))", "PBR(TR)").plan)
