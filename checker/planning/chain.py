@@ -22,6 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
+from checker.alloy.errors import AlloyUnavailable
+from checker.planning.alloy_search import alloy_search
 from checker.planning.exhaustive import Budget, Impossible, SearchTooLarge
 from checker.planning.plan import Attempt, NoSafePlan, Plan, Problem, ready, verify
 from checker.planning.strategies import STRATEGIES, solve
@@ -81,12 +83,6 @@ class _Unavailable(Exception):
 
 def _alloy_work(out: Any, problem: Problem, max_steps: int) -> None:
     """In a worker process: the steps of the first Alloy plan, or why there is none."""
-    try:
-        from checker.alloy.errors import AlloyUnavailable
-        from checker.planning.alloy_search import alloy_search
-    except ImportError as e:
-        out.put(("unavailable", str(e)))
-        return
     try:
         out.put(("ok", alloy_search(problem, max_steps, minimise=False).steps))
     except NoSafePlan as e:
