@@ -46,8 +46,7 @@ from typing import Iterator, Optional
 from checker.planning import Fallback, NoPlanFound, NoSafePlan, plan_with_fallback, solve
 from checker.planning.exhaustive import Budget, exhaustive_search
 from checker.planning.operations import remove_problem, replace_problem
-from checker.planning.plan import ready
-from checker.planning.plan import Problem, verify
+from checker.planning.plan import Problem, ready, verify
 from reconf_dsl.loader import load_text
 
 from .gen import SHAPES, Model, build, hub_component, render

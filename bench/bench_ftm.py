@@ -25,11 +25,11 @@ from __future__ import annotations
 import argparse
 import time
 
-from checker.model.config import Configuration
 from checker.ftm.expand import expand
 from checker.ftm.library import compose
 from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.transition import parse_ftm, plan_transition
+from checker.model.config import Configuration
 from checker.model.semantics import evaluate
 from reconf_dsl.loader import load_text
 

@@ -28,8 +28,7 @@ from checker.model.actions import kind_of, recognise
 from checker.model.config import Configuration
 from reconf_dsl.ir import Component, Connector, Predicate, System
 
-from .alloy_module import (Architecture, Family, Fun, InstanceModule, Meaning, PlanModule, PlannerModule, Serving,
-                           Step)
+from .alloy_module import Architecture, Family, Fun, InstanceModule, Meaning, PlanModule, PlannerModule, Serving, Step
 
 if TYPE_CHECKING:
     import jinja2

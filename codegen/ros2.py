@@ -28,10 +28,22 @@ import json
 from importlib import resources
 from typing import Any, Optional
 
-from reconf_dsl.ir import Component, Connector, Functionality, Mode, Predicate, System
+from reconf_dsl.ir import (
+    Component,
+    Connector,
+    EnvGuarantee,
+    Functionality,
+    Guarantee,
+    Host,
+    MessageType,
+    Mode,
+    Port,
+    PortRef,
+    Predicate,
+    Rate,
+    System,
+)
 from reconf_ros.executor import PlanStates
-from reconf_dsl.ir import Rate
-from reconf_dsl.ir import EnvGuarantee, Guarantee, Host, MessageType, Port, PortRef
 
 __all__ = ["FORMAT_VERSION", "model_data", "render_plan_script", "system_at", "system_from_model_data",
            "state_at"]
@@ -118,7 +130,7 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
     # A raw triple-quoted string holds any JSON text: JSON escapes every quote inside strings,
     # so three quotes in a row never occur, and the text ends with "}", never a backslash.
     assert '"""' not in text
-    from .render import render          # jinja2, only when a script is written
+    from .render import render  # jinja2, only when a script is written
     plan = plan_doc["plan"]
     return render("plan_ros2.py.j2", doc_json=text, executor=executor_source(), system=str(plan_doc["system"]),
                   fingerprint=str(plan_doc["fingerprint"]), strategy=str(plan.get("strategy", "")),

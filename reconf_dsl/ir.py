@@ -7,8 +7,8 @@ Rates are exact fractions in hertz: `@ 100 ms` and `@ 10 Hz` are the same rate.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 from fractions import Fraction
+from functools import cached_property
 from typing import Literal, Optional
 
 from .span import NO_SPAN, Span

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from checker.alloy import alloy_verdict
-from checker.model.config import Configuration
 from checker.alloy.engines import python_failing
+from checker.model.config import Configuration
 from checker.model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.loader import load

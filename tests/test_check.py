@@ -120,6 +120,7 @@ def path_of(name: str) -> str:
 @pytest.mark.alloy
 def test_a_thousand_components_are_judged_by_alloy_in_slices(tmp_path: "object") -> None:
     import os
+
     from bench.gen import generate
     path = os.path.join(str(tmp_path), "big.arch")
     with open(path, "w") as f:

@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from checker.cli.main import main
-from reconf_dsl.words import agree, plural
 from reconf_dsl.loader import load
+from reconf_dsl.words import agree, plural
 from tests.examples_table import BY_NAME, ROOT
 
 CHATTER = BY_NAME["chatter"].file
@@ -75,8 +75,8 @@ def test_duplex_on_too_few_hosts(tmp_path: Path) -> None:
 
 
 def _replay(states: int) -> str:
-    from checker.reports.plan_document import plan_document
     from checker.planning import plan_migrate, plan_replace
+    from checker.reports.plan_document import plan_document
     from reconf_ros.executor import replay
     system = load([CHATTER])
     plan = plan_replace(system, "talker", "talker_v2") if states > 1 else plan_migrate(system, system)

@@ -16,9 +16,9 @@ from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from checker.cli.main import main
 from checker.cli.common import write_atomically
 from checker.cli.inputs import expand
+from checker.cli.main import main
 from reconf_dsl import ir
 from reconf_dsl.formatter import format_document
 from reconf_dsl.lexer import MASTER

@@ -19,6 +19,7 @@ from reconf_dsl.span import Span
 from tests.examples_table import BY_NAME, EXAMPLES, Example
 from tests.support.sarif import sarif_schema, validate_sarif
 
+
 @pytest.mark.parametrize("ex", EXAMPLES, ids=lambda e: e.name)
 def test_sarif_for_every_example(ex: Example) -> None:
     result = CliRunner().invoke(main, ["check", ex.file, "--output-format", "sarif", "--engine", "python"])
@@ -140,8 +141,8 @@ def test_plan_pictures_per_step(tmp_path) -> None:
 
 
 def test_degraded_is_orange_in_a_step() -> None:
-    from checker.reports.pictures import step_pictures
     from checker.planning import plan_migrate
+    from checker.reports.pictures import step_pictures
     from reconf_dsl.loader import load
     p = plan_migrate(load([BY_NAME["chatter"].file]), load([BY_NAME["redundant"].file]))
     degraded = [[(n.label, n.tooltip) for n in pic.nodes if n.status == "degraded"] for pic in step_pictures(p)]

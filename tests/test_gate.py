@@ -9,14 +9,13 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from click.testing import CliRunner
 
+from checker.cli.main import main
 from checker.ftm.library import LIBRARY
 from checker.gate.policy import coverage, load_policy
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import FtmExpr
-from click.testing import CliRunner
-
-from checker.cli.main import main
 from tests.examples_table import BY_NAME, ROOT, path
 from tests.support.gatekit import gate, git
 from tests.support.sarif import sarif_schema

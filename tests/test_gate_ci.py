@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from bench.gen import generate
 import checker.gate.comment as gate_comment
+from bench.gen import generate
 from checker.cli.common import EXIT_CHANGES
 from tests.examples_table import BY_NAME
 from tests.support.gatekit import gate
@@ -144,8 +144,8 @@ def mermaid_blocks(md: str) -> list[str]:
 
 
 def test_the_picture_shows_the_changed_neighbourhood_of_a_300_component_system(here, dag300) -> None:
-    from checker.reports.pictures import plan_picture
     from checker.planning import plan_migrate
+    from checker.reports.pictures import plan_picture
     from codegen.graph import to_mermaid
     from reconf_dsl.loader import load
     base, head = dag300

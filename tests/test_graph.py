@@ -10,10 +10,11 @@ from typing import Optional
 
 import pytest
 from click.testing import CliRunner
-from checker.cli import common    # draws SVG through its own name for pictures.to_svg
-from checker.reports import pictures
+
+from checker.cli import common  # draws SVG through its own name for pictures.to_svg
 from checker.cli.main import main
 from checker.model.config import Configuration
+from checker.reports import pictures
 from checker.reports.pictures import picture
 from codegen.graph import GraphNode, Picture, to_dot, to_mermaid
 from reconf_dsl.loader import load

@@ -13,8 +13,8 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from checker.cli.main import main
 from checker.cli.hooks import roots_of
+from checker.cli.main import main
 from tests.examples_table import ROOT
 from tests.support.gatekit import MESSAGES, NODES, SPLIT, git, write_tree
 

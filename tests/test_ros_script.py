@@ -20,9 +20,9 @@ import pytest
 
 from checker.model.actions import Action, Degrade, Detach, Upgrade
 from checker.model.config import Configuration
+from checker.model.semantics import evaluate
 from checker.planning import Plan, plan_replace
 from checker.planning.plan import Goal, run_actions
-from checker.model.semantics import evaluate
 from checker.reports.plan_document import plan_document
 from codegen.ros2 import FORMAT_VERSION, model_data, render_plan_script
 from reconf_dsl.ir import Predicate, Rate, System

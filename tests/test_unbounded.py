@@ -9,11 +9,23 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
-from checker.model import unbounded
-from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Upgrade, catalogue,
-                             effect, is_valid, preconditions)
-from checker.model.config import Configuration
+
 from checker.cli.main import main
+from checker.model import unbounded
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Upgrade,
+    catalogue,
+    effect,
+    is_valid,
+    preconditions,
+)
+from checker.model.config import Configuration
 from checker.model.unbounded import ASSERTIONS, WEAKENINGS, prove, satisfiable
 from reconf_dsl.ir import NOTHING, Predicate, System, satisfies
 from reconf_dsl.loader import load

@@ -325,9 +325,9 @@ class AlloyBridge:
         """A large generated module parsed in two parts (`checker.alloy.split`): the
         skeleton as text, then each atom declared as a `one sig` through the API and bound
         by name to a constant of its parent's type, then each body parsed and set."""
-        from java.util import HashMap
         from edu.mit.csail.sdg.alloy4 import Pos  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.ast import Attr, ExprCall, Func, Sig  # type: ignore[import-not-found]
+        from java.util import HashMap
 
         # the hollowed bodies too: an empty body written as the placeholder is not hollowed,
         # and a reused skeleton must have every body it was given replaced

@@ -8,14 +8,13 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
+from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
+from checker.alloy.bridge import AlloyBridge
+from checker.model.config import Configuration
+from checker.model.semantics import Evaluation, evaluate, witnesses
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
-
-from checker.model.config import Configuration
-from checker.model.semantics import Evaluation, evaluate, witnesses
-from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
-from checker.alloy.bridge import AlloyBridge
 
 Failing = tuple[tuple[str, str, int], ...]
 

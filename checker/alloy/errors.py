@@ -1,5 +1,6 @@
 """Exceptions of the Alloy bridge."""
 from __future__ import annotations
+
 from reconf_dsl.span import Span
 
 

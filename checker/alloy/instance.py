@@ -5,18 +5,14 @@ import time
 from dataclasses import dataclass
 from typing import Collection, Iterable, Mapping, Sequence
 
-from reconf_dsl.ir import Predicate, System
-
-from checker.model.actions import KINDS
-from checker.model.config import Configuration
-
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from checker.alloy.errors import AlloyError
 from checker.alloy.parallel import Job, helper_for, judge, judge_many
 from checker.alloy.spans import with_span
-from codegen.alloy import render_instance, slice_index
-from codegen.alloy import alloy_view, step_action
-from codegen.alloy import render_plan
+from checker.model.actions import KINDS
+from checker.model.config import Configuration
+from codegen.alloy import alloy_view, render_instance, render_plan, slice_index, step_action
+from reconf_dsl.ir import Predicate, System
 
 MAIN = "instance.als"
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from importlib.resources import files
+
 from codegen.alloy import DEFAULT_SCOPE, RUN_SCOPE, render_metamodel
 
 MAIN = "reconf.als"

@@ -18,6 +18,7 @@ import os
 import queue
 import time
 from typing import Any, Callable, NamedTuple, Optional
+
 from checker.alloy.bridge import AlloyBridge
 
 # below this many modules in a batch the helper's start-up (about 1.5 s) is not paid back

@@ -12,9 +12,8 @@ from __future__ import annotations
 import re
 from typing import Any, Mapping, Optional
 
-from reconf_dsl.span import Span
-
 from checker.alloy.errors import AlloyError
+from reconf_dsl.span import Span
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 

@@ -6,10 +6,9 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
-from checker.alloy import AlloyBridge, CommandOutcome, metamodel_modules
+from checker.alloy import AlloyBridge, CommandOutcome, metamodel_modules, parallel
 from checker.alloy.bridge import DEFAULT_SOLVER
 from checker.alloy.metamodel import MAIN
-from checker.alloy import parallel
 
 STATES = ("Pre", "Post")
 

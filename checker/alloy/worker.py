@@ -9,9 +9,8 @@ import multiprocessing as mp
 import queue
 from typing import Any, Mapping, Sequence
 
-from checker.alloy.bridge import DEFAULT_SOLVER, CommandOutcome
+from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, CommandOutcome
 from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
-from checker.alloy.bridge import AlloyBridge
 
 
 def _work(out: Any, modules: dict[str, str], main: str, command: str | None, solver: str,

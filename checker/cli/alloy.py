@@ -7,10 +7,10 @@ from typing import Optional
 import click
 
 from checker.cli.common import console, files_argument, guarded, write_atomically
-from checker.reports.report import OutputFormat
 from checker.model.config import Configuration
-from reconf_dsl.loader import Sources, load
+from checker.reports.report import OutputFormat
 from codegen.alloy import render_instance
+from reconf_dsl.loader import Sources, load
 
 
 @click.command("alloy")

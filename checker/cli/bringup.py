@@ -14,14 +14,13 @@ from typing import Any, Callable, NoReturn
 
 import click
 
-from reconf_dsl.loader import Sources, load
-from reconf_ros import executor
-
 from checker.cli.common import guarded
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
 from checker.cli.plan import run
 from checker.cli.plan_options import with_plan_options
 from checker.planning.bringup import plan_down, plan_up
+from reconf_dsl.loader import Sources, load
+from reconf_ros import executor
 
 __all__ = ["up_cmd", "down_cmd"]
 

@@ -11,11 +11,11 @@ import click
 from checker.cli.common import EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, solver_option
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
 from checker.cli.recording import bag_options, judge_bag, refuse_bag_options_alone
+from checker.gate.check import check_system
 from checker.reports import formats, report
 from checker.reports.progress import status
 from checker.reports.report import ReportFormat
 from reconf_dsl.loader import Sources, load
-from checker.gate.check import check_system
 
 
 @click.command()

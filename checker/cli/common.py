@@ -13,23 +13,28 @@ from typing import Any, Callable, Optional, TypeVar
 import click
 from rich.console import Console
 
+from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES  # the one table of solvers
+from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.errors import AlloyUnavailable
+from checker.ftm.expand import FtmRuleBroken
+from checker.planning.plan import BadRequest
+from checker.reports import formats, report
+from checker.reports.pictures import (
+    SVG_MAX_NODES,
+    GraphvizUnavailable,
+    format_of_output,
+    largest,
+    series,
+    stale,
+    to_svg,
+)
+from checker.reports.progress import status
+from checker.reports.report import OutputFormat, ReportFormat
+from codegen.graph import to_dot, to_mermaid
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
 from reconf_dsl.loader import Sources
 from reconf_dsl.span import Span
-
-from checker.reports import formats, report
-from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES   # the one table of solvers
-from checker.alloy.errors import AlloyUnavailable
-from checker.alloy.engines import EngineUnavailable, EnginesDisagree
 from reconf_dsl.words import plural
-from checker.ftm.expand import FtmRuleBroken
-from checker.planning.plan import BadRequest
-from checker.reports.progress import status
-from checker.reports.report import OutputFormat, ReportFormat
-from checker.reports.pictures import format_of_output
-from codegen.graph import to_dot, to_mermaid
-from checker.reports.pictures import SVG_MAX_NODES, GraphvizUnavailable, largest, to_svg
-from checker.reports.pictures import series, stale
 
 EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_CHANGES = 3          # only with --detailed-exitcode: a safe plan with at least one step

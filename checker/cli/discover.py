@@ -7,11 +7,11 @@ from typing import Optional
 
 import click
 
-from reconf_dsl.loader import Sources, load_text
-from checker.reports import report
 from checker.cli.common import console, guarded, plural, write_atomically
-from checker.reality.discover import architecture, placeholders
 from checker.cli.live_options import live_options, snapshot
+from checker.reality.discover import architecture, placeholders
+from checker.reports import report
+from reconf_dsl.loader import Sources, load_text
 
 SYSTEM_NAME = re.compile(r"[^\W\d]\w*")
 

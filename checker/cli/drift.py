@@ -7,14 +7,13 @@ from typing import Optional
 
 import click
 
-from reconf_dsl.loader import Sources, load
-
-from checker.reports import formats, report
 from checker.cli.common import EXIT_OK, EXIT_UNSAFE, console, emit_report, format_option, guarded, plural
-from checker.reality.drift import KINDS, deployed, drift
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
 from checker.cli.live_options import live_options, snapshot
+from checker.reality.drift import KINDS, deployed, drift
+from checker.reports import formats, report
 from checker.reports.report import ReportFormat
+from reconf_dsl.loader import Sources, load
 
 
 @click.command("drift")

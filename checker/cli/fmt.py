@@ -17,14 +17,13 @@ from dataclasses import dataclass
 
 import click
 
+from checker.cli.common import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
+from checker.cli.inputs import exclude_option, expand, paths_argument
+from checker.reports.report import OutputFormat
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
 from reconf_dsl.formatter import format_document
 from reconf_dsl.loader import STDIN, Sources, display_path, read_source
 from reconf_dsl.parser import parse_text
-
-from checker.cli.common import EXIT_BAD_INPUT, EXIT_UNSAFE, CannotWrite, Failure, console, guarded, write_atomically
-from checker.cli.inputs import exclude_option, expand, paths_argument
-from checker.reports.report import OutputFormat
 
 BOM = "\ufeff"
 

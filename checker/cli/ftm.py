@@ -13,23 +13,21 @@ from typing import Any, Optional
 
 import click
 
-from reconf_dsl.diagnostics import error
-from reconf_dsl.loader import Sources, load
-from reconf_dsl.span import Span
-
 from checker.cli.common import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, write_atomically
-from checker.cli.plan import default_files
+from checker.cli.plan import default_files, run
 from checker.cli.plan_options import with_common
-from checker.reports.report import OutputFormat
-from reconf_dsl.words import plural
+from checker.ftm.alloy_rules import alloy_profiles
 from checker.ftm.expand import expand, to_text
 from checker.ftm.library import compose
 from checker.ftm.select import Candidate, profile, select
-from checker.ftm.alloy_rules import alloy_profiles
-from codegen.graph import to_dot
-from checker.reports.pictures import picture
-from checker.cli.plan import run
 from checker.ftm.transition import parse_ftm, plan_transition
+from checker.reports.pictures import picture
+from checker.reports.report import OutputFormat
+from codegen.graph import to_dot
+from reconf_dsl.diagnostics import error
+from reconf_dsl.loader import Sources, load
+from reconf_dsl.span import Span
+from reconf_dsl.words import plural
 
 __all__ = ["ftm_group", "transition_cmd"]
 

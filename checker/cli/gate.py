@@ -11,25 +11,30 @@ from typing import Callable, Optional
 
 import click
 
+from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.cli.common import (
+    EXIT_CHANGES,
+    EXIT_OK,
+    EXIT_UNSAFE,
+    CannotWrite,
+    Failure,
+    emit_report,
+    engine_option,
+    format_option,
+    guarded,
+    plural,
+    solver_option,
+    write_atomically,
+)
+from checker.gate.change import judge_change
+from checker.gate.comment import comment, failure_comment
+from checker.gate.policy import Policy, check_names, load_policy
+from checker.gate.revisions import GIT_PREFIX, Revisions, path_to_load, rename_sources, revisions, split_ref
+from checker.reports import formats, report
+from checker.reports.report import ReportFormat
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, error
 from reconf_dsl.loader import Sources, display_path, load
 from reconf_dsl.span import Span
-
-from checker.reports import formats, report
-from checker.cli.common import (EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, CannotWrite, Failure, emit_report, engine_option,
-                  format_option, guarded, plural, solver_option, write_atomically)
-from checker.alloy.engines import EngineUnavailable, EnginesDisagree
-from checker.gate.policy import Policy, check_names, load_policy
-from checker.reports.report import ReportFormat
-
-
-
-from checker.gate.change import judge_change
-from checker.gate.revisions import GIT_PREFIX, Revisions, path_to_load, rename_sources, revisions, split_ref
-from checker.gate.comment import failure_comment
-from checker.gate.comment import comment
-
-
 
 REPORT_FORMATS = ("json", "sarif", "github", "junit", "markdown")
 

@@ -6,8 +6,17 @@ from typing import Optional
 
 import click
 
-from checker.cli.common import (EXIT_UNSAFE, Failure, draw, files_argument, force_option,
-                                guarded, picture_format_for, picture_format_option, write_pictures)
+from checker.cli.common import (
+    EXIT_UNSAFE,
+    Failure,
+    draw,
+    files_argument,
+    force_option,
+    guarded,
+    picture_format_for,
+    picture_format_option,
+    write_pictures,
+)
 from checker.ftm.change import plan_change
 from checker.gate.revisions import path_to_load, revisions
 from checker.planning import STRATEGIES, Fallback, NoSafePlan

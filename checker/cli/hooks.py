@@ -20,12 +20,11 @@ from typing import Optional
 
 import click
 
+from checker.cli.common import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, solver_option
+from checker.cli.main import main as reconf
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.parser import parse_text
-
-from checker.cli.main import main as reconf
-from checker.cli.common import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, solver_option
 from reconf_dsl.words import plural
 
 

@@ -7,12 +7,11 @@ from typing import Any, Callable, Optional
 
 import click
 
+from checker.cli.common import Failure, console, write_atomically
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.span import Span
-from reconf_ros.graph import RosUnavailable, Snapshot, read_snapshot
-
-from checker.cli.common import Failure, console, write_atomically
 from reconf_dsl.words import plural
+from reconf_ros.graph import RosUnavailable, Snapshot, read_snapshot
 
 F = Callable[..., Any]
 

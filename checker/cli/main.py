@@ -20,8 +20,8 @@ from checker.cli.modes import modes_group
 from checker.cli.plan import plan
 from checker.cli.recover import recover_cmd
 from checker.cli.verify_model import verify_model_cmd
-from reconf_dsl.loader import ALLOW_OUTSIDE_ENV
 from reconf_dsl import loader
+from reconf_dsl.loader import ALLOW_OUTSIDE_ENV
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})

@@ -10,19 +10,27 @@ from typing import Optional
 
 import click
 
-from reconf_dsl.diagnostics import Diagnostic, Severity, error
-from reconf_dsl.loader import Sources, display_path, load, read_source
-from reconf_dsl.span import Span
-
-from checker.reports import formats, report
-from checker.cli.common import (EXIT_OK, EXIT_UNSAFE, emit_failure, emit_report, files_argument, format_option,
-                      guarded, plural, write_atomically)
+from checker.cli.common import (
+    EXIT_OK,
+    EXIT_UNSAFE,
+    emit_failure,
+    emit_report,
+    files_argument,
+    format_option,
+    guarded,
+    plural,
+    write_atomically,
+)
 from checker.model.config import Configuration
-from checker.reports.report import ReportFormat
 from checker.model.semantics import evaluate
 from checker.reality.smh.export import UnsafeDeployment, export, render
 from checker.reality.smh.read import read_model
 from checker.reality.smh.to_arch import to_arch
+from checker.reports import formats, report
+from checker.reports.report import ReportFormat
+from reconf_dsl.diagnostics import Diagnostic, Severity, error
+from reconf_dsl.loader import Sources, display_path, load, read_source
+from reconf_dsl.span import Span
 
 output_option = click.option("-o", "--output", type=click.Path(dir_okay=False),
                              help="write here (atomically) instead of stdout")

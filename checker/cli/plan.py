@@ -17,24 +17,22 @@ from typing import Any, Callable, Optional, Sequence
 import click
 from rich.markup import escape
 
-from reconf_dsl.ir import System
-from codegen.ros2 import FORMAT_VERSION
-from reconf_dsl.diagnostics import Diagnostic, Severity
-from reconf_dsl.loader import Sources, load
-from reconf_dsl.span import Span
 from checker.cli.common import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from checker.cli.plan_options import with_common, with_plan_options
 from checker.ftm.change import has_ftm, plan_change, planned_on
+from checker.planning import Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace
+from checker.planning.alloy_verify import alloy_evidence
+from checker.planning.plan import BadRequest, degradation, unknown
+from checker.planning.verified import plan_verified
 from checker.reports.plan_document import plan_document
 from checker.reports.progress import status
-from checker.planning import (Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace)
-from checker.planning.plan import BadRequest, degradation, unknown
 from checker.reports.report import OutputFormat
+from codegen.ros2 import FORMAT_VERSION, render_plan_script
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.ir import System
+from reconf_dsl.loader import Sources, load
+from reconf_dsl.span import Span
 from reconf_dsl.words import agree
-from checker.planning.alloy_verify import alloy_evidence
-from checker.planning.verified import plan_verified
-from codegen.ros2 import render_plan_script
-
 
 
 def default_files() -> list[str]:

@@ -6,13 +6,12 @@ from typing import Any, Callable, Optional
 
 import click
 
+from checker.cli.common import Failure
+from checker.reality.recording import RecordingVerdict, Unreadable, judge_recording
+from checker.reports.progress import status
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
-
-from checker.cli.common import Failure
-from checker.reports.progress import status
-from checker.reality.recording import RecordingVerdict, Unreadable, judge_recording
 
 __all__ = ["bag_options", "judge_bag", "refuse_bag_options_alone"]
 

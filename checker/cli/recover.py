@@ -8,14 +8,13 @@ from typing import Any, Optional
 
 import click
 
-from reconf_dsl.loader import Sources
-
 from checker.cli.common import guarded
-from checker.model.config import Configuration
 from checker.cli.plan import run
 from checker.cli.plan_options import with_plan_options
+from checker.model.config import Configuration
 from checker.planning.recovery import plan_recovery
 from codegen.ros2 import state_at, system_from_model_data
+from reconf_dsl.loader import Sources
 
 
 def _config(doc: dict[str, Any]) -> Configuration:

@@ -88,7 +88,7 @@ def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model
     from rich.console import Console
 
     if unbounded:
-        import checker.model.unbounded as z3proof      # z3 loads only for --unbounded: start-up time
+        import checker.model.unbounded as z3proof  # z3 loads only for --unbounded: start-up time
         try:
             sys.exit(z3proof.command(output_format))
         except z3proof.Z3Unavailable as exc:

@@ -10,13 +10,12 @@ from dataclasses import dataclass
 from importlib.resources import files
 from typing import Optional
 
-from reconf_dsl import ir
-
-from checker.ftm.library import LIBRARY, Composition, all_compositions, compose, layers
-from checker.ftm.select import Profile, profile
 from checker.alloy import AlloyBridge
 from checker.alloy.bridge import atom_name as atom
+from checker.ftm.library import LIBRARY, Composition, all_compositions, compose, layers
+from checker.ftm.select import Profile, profile
 from codegen.alloy import union
+from reconf_dsl import ir
 
 __all__ = ["ftm_rules_text", "instance_text", "AlloyFtmVerdict", "alloy_ftm_verdict", "alloy_profiles"]
 

@@ -17,12 +17,11 @@ from dataclasses import replace as dc_replace
 from fractions import Fraction
 from typing import Optional
 
+from checker.ftm.library import Composition, RoleSpec, compose, roles
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError, error
-from reconf_dsl.span import NO_SPAN, Span
-
-from checker.ftm.library import Composition, RoleSpec, compose, roles
 from reconf_dsl.formatter import format_document
+from reconf_dsl.span import NO_SPAN, Span
 
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
            "node_prefix", "ExpansionInfo"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable
-from checker.alloy.engines import EngineUnavailable, EnginesDisagree
+from checker.alloy.engines import EnginesDisagree, EngineUnavailable
 from checker.ftm.alloy_rules import alloy_ftm_verdict
 from checker.ftm.rules import ftm_findings, in_order
 from reconf_dsl.diagnostics import Diagnostic, Severity

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 from typing import Iterable, Optional
 
-from reconf_dsl import ir
-from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
-
 from checker.ftm.expand import protected_connector
 from checker.ftm.library import compose
 from checker.ftm.select import judge, profile
+from reconf_dsl import ir
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
 
 __all__ = ["ftm_diagnostics", "ftm_findings", "in_order"]
 

@@ -12,9 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from reconf_dsl import ir
-
 from checker.ftm.library import BANDWIDTH, Composition, all_compositions, bandwidth_rank
+from reconf_dsl import ir
 
 __all__ = ["Profile", "profile", "Reason", "Candidate", "judge", "select"]
 

@@ -11,19 +11,28 @@ from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
-from reconf_dsl import ir
-from reconf_dsl.ir import satisfies
-from reconf_dsl.parser import parse_text
-
-from checker.model.actions import (Action, Attach, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, failing_assumptions,
-                       preconditions)
-from checker.model.config import Configuration, FuncId
-from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
-from checker.planning.plan import settle, verify
-from checker.model.semantics import evaluate
 from checker.ftm.expand import ExpansionInfo, expand
 from checker.ftm.library import LAYER_ORDER
 from checker.ftm.rules import ftm_diagnostics
+from checker.model.actions import (
+    Action,
+    Attach,
+    Degrade,
+    Detach,
+    Remove,
+    Snapshot,
+    Upgrade,
+    catalogue,
+    failing_assumptions,
+    preconditions,
+)
+from checker.model.config import Configuration, FuncId
+from checker.model.semantics import evaluate
+from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
+from checker.planning.plan import settle, verify
+from reconf_dsl import ir
+from reconf_dsl.ir import satisfies
+from reconf_dsl.parser import parse_text
 
 __all__ = ["Transition", "parse_ftm", "with_ftm", "plan_transition", "plan_ftm_migrate", "expand_for_planning",
            "suspension_problems", "client_side_ok", "protocols", "reaches_protocol", "handover",

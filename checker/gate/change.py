@@ -11,30 +11,24 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
-
+from checker.alloy import AlloyError, AlloyUnavailable
+from checker.alloy.engines import EngineUnavailable
+from checker.ftm.change import plan_change, planned_on
+from checker.gate.check import check_system
+from checker.gate.policy import Policy, coverage, covered, ftm_names
+from checker.model.actions import failing_assumptions
+from checker.model.config import Configuration
+from checker.planning import NoSafePlan
+from checker.planning.alloy_verify import alloy_evidence
+from checker.planning.plan import degraded_runs
+from checker.planning.verified import plan_verified
+from checker.reports import formats
+from checker.reports.plan_document import plan_document
+from checker.reports.progress import status
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
-from reconf_dsl.words import agree
-
-from checker.reports import formats
-from reconf_dsl.words import plural
-from checker.model.config import Configuration
-from checker.alloy.engines import EngineUnavailable
-from checker.planning.plan import degraded_runs
-from checker.gate.check import check_system
-from checker.model.actions import failing_assumptions
-from checker.gate.policy import Policy, covered, coverage, ftm_names
-from checker.reports.progress import status
-from checker.planning.verified import plan_verified
-from checker.reports.plan_document import plan_document
-from checker.ftm.change import plan_change, planned_on
-from checker.planning import NoSafePlan
-from checker.alloy import AlloyError, AlloyUnavailable
-from checker.planning.alloy_verify import alloy_evidence
-
-
-
+from reconf_dsl.words import agree, plural
 
 
 @dataclass

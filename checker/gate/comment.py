@@ -15,11 +15,10 @@ from __future__ import annotations
 import re
 from typing import Any, Optional
 
+from checker.reports.pictures import plan_picture
 from codegen.graph import Picture, to_mermaid
 from reconf_dsl.diagnostics import Diagnostic
-
 from reconf_dsl.words import plural
-from checker.reports.pictures import plan_picture
 
 MERMAID_LIMIT = 50_000          # Mermaid's default maxTextSize: over it, nothing is drawn
 COMMENT_LIMIT = 65_536          # GitHub's limit on the body of a comment

@@ -32,13 +32,12 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from typing import Any, Optional
 
+from checker.ftm.library import LIBRARY, layers
+from checker.planning import STRATEGIES
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error
 from reconf_dsl.ir import Component, FtmExpr, System
 from reconf_dsl.loader import Sources, display_path, read_source
 from reconf_dsl.span import Span
-
-from checker.ftm.library import LIBRARY, layers
-from checker.planning import STRATEGIES
 
 # What each FTM covers: the library's Table I, read once (never written out again here).
 COVERAGE: dict[str, frozenset[str]] = {name: m.covers for name, m in LIBRARY.items()}

@@ -13,16 +13,11 @@ import tempfile
 from dataclasses import dataclass, field, replace
 from typing import IO, Iterator, Optional
 
-
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, error
 from reconf_dsl.loader import MAX_FILE_BYTES, Sources, display_path
 from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
-
-
-
-
 
 GIT_PREFIX = "git:"
 

@@ -29,12 +29,10 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import ClassVar, Iterable, Optional, TypeVar, Union, cast
 
-
-from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
-from reconf_dsl.ir import satisfies as _satisfies
-
 from checker.model.action_kinds import ActionKind, Change, Kind, Meaning
 from checker.model.config import Configuration, FuncId, Role
+from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
+from reconf_dsl.ir import satisfies as _satisfies
 
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
            "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",

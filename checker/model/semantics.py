@@ -12,11 +12,10 @@ from typing import Iterable, Optional
 
 import networkx as nx
 
-from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, format_number, satisfies
-from reconf_dsl.gcpause import gc_paused
-from reconf_dsl.span import Span
-
 from checker.model.config import Configuration, FuncId
+from reconf_dsl.gcpause import gc_paused
+from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, format_number, satisfies
+from reconf_dsl.span import Span
 
 __all__ = ["satisfies", "shortfall", "Link", "AssumptionResult", "Evaluation", "evaluate", "build_graph",
            "current_mode", "witnesses"]

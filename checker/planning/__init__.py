@@ -6,8 +6,8 @@ optimum). See each module; `chain` goes from one to the next when one fails.
 """
 from checker.planning.chain import Attempt, Fallback, NoPlanFound, plan_with_fallback
 from checker.planning.operations import plan_add, plan_migrate, plan_remove, plan_replace
-from checker.planning.strategies import STRATEGIES, solve
 from checker.planning.plan import BadRequest, Goal, NoSafePlan, Plan, Problem, disruption, verify
+from checker.planning.strategies import STRATEGIES, solve
 
 __all__ = ["STRATEGIES", "Attempt", "BadRequest", "Fallback", "Goal", "NoPlanFound", "NoSafePlan", "Plan", "Problem",
            "disruption", "plan_add", "plan_migrate", "plan_remove", "plan_replace", "plan_with_fallback", "solve",

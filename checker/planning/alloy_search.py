@@ -33,17 +33,14 @@ from dataclasses import dataclass, field
 from typing import Iterable, Optional
 
 import codegen.alloy as gen
-from codegen.alloy_module import PlannerModule, StateTerms
-from reconf_dsl.ir import Component, System
-
-from checker.model.actions import Action, catalogue, changes
-from checker.model.config import Configuration
-from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, verify
-from reconf_dsl.words import plural
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from checker.alloy.errors import AlloyError
-from checker.planning.plan import disruption
-from checker.planning.plan import ready
+from checker.model.actions import Action, catalogue, changes
+from checker.model.config import Configuration
+from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, disruption, ready, verify
+from codegen.alloy_module import PlannerModule, StateTerms
+from reconf_dsl.ir import Component, System
+from reconf_dsl.words import plural
 
 __all__ = ["AlloySearch", "Solve", "alloy_plan", "alloy_search", "plan_with_alloy", "render_planner"]
 

@@ -7,19 +7,16 @@ from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
-from codegen.alloy import TERNARY_ATOMS
-from reconf_dsl.ir import Predicate
-
-from checker.alloy.errors import AlloyError
-from checker.planning import Plan
-from reconf_dsl.words import plural
 from checker.alloy import alloy_plan_verdict, alloy_verdict
 from checker.alloy.bridge import AlloyBridge
+from checker.alloy.errors import AlloyError
 from checker.alloy.instance import PLAN_MAIN, AlloyPlanVerdict
 from checker.alloy.parallel import Job, judge_many
+from checker.planning import Plan
 from checker.planning.slicing import PlanSlicer
-from codegen.alloy import render_plan
-
+from codegen.alloy import TERNARY_ATOMS, render_plan
+from reconf_dsl.ir import Predicate
+from reconf_dsl.words import plural
 
 # states x components of a plan module past which it is not run (about a minute of work here)
 MODULE_BUDGET = 40_000

@@ -25,13 +25,23 @@ from __future__ import annotations
 import heapq
 from typing import Optional
 
-from reconf_dsl.ir import System
-
-from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, catalogue, check,
-                       effect)
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Snapshot,
+    Upgrade,
+    catalogue,
+    check,
+    effect,
+)
 from checker.model.config import Configuration, FuncId
 from checker.planning.improve import cost, improve
 from checker.planning.plan import Goal, NoSafePlan
+from reconf_dsl.ir import System
 
 __all__ = ["default_steps"]
 

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 from dataclasses import replace as dc_replace
 
-from reconf_dsl.ir import System
-
 from checker.model.actions import failing_assumptions, satisfies
 from checker.model.config import Configuration
+from reconf_dsl.ir import System
 
 
 def missing_environment(old: System, new: System, old_name: str = "the deployed architecture",

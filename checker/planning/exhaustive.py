@@ -12,16 +12,28 @@ from dataclasses import dataclass
 from itertools import count
 from typing import Callable, Iterator, Optional
 
-from reconf_dsl.ir import Functionality, Predicate, System
-
-from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, _Catalogue, catalogue,
-                       check, effect, satisfies)
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Snapshot,
+    Upgrade,
+    _Catalogue,
+    catalogue,
+    check,
+    effect,
+    satisfies,
+)
 from checker.model.config import Configuration, FuncId
-from reconf_dsl.words import plural
+from checker.planning.default import _closure
+from checker.planning.improve import cost, improve
 from checker.planning.plan import Goal, NoSafePlan, state_weight
 from checker.planning.relaxed import Relaxation, reachable
-from checker.planning.improve import cost, improve
-from checker.planning.default import _closure
+from reconf_dsl.ir import Functionality, Predicate, System
+from reconf_dsl.words import plural
 
 __all__ = ["Budget", "Impossible", "Search", "SearchTooLarge", "exhaustive_search", "exhaustive_steps", "relevant"]
 

@@ -11,12 +11,11 @@ from __future__ import annotations
 
 from typing import Iterator, Optional, Sequence
 
-from reconf_dsl.ir import System
-
 from checker.model.actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
 from checker.model.config import Configuration
 from checker.planning.plan import Goal, next_weight, state_weight
 from checker.planning.states import States
+from reconf_dsl.ir import System
 
 __all__ = ["improve", "cost"]
 

@@ -13,12 +13,23 @@ guards it here: docs/soundness.md#the-papers-algorithm-1.
 """
 from __future__ import annotations
 
-from reconf_dsl.ir import System
-
-from checker.model.actions import (Action, Attach, Create, Degrade, Detach, Remove, Snapshot, Upgrade, affected_connectors,
-                       catalogue, check, effect)
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Snapshot,
+    Upgrade,
+    affected_connectors,
+    catalogue,
+    check,
+    effect,
+)
 from checker.model.config import Configuration, FuncId
 from checker.planning.plan import NoSafePlan, Problem
+from reconf_dsl.ir import System
 
 __all__ = ["paper_steps"]
 

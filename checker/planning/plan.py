@@ -15,13 +15,24 @@ from dataclasses import replace as dc_replace
 from itertools import pairwise
 from typing import Any, Iterable, Optional, Sequence
 
-from reconf_dsl.ir import System
-
-from checker.model.actions import (Action, Attach, Create, Detach, Remove, Snapshot, _Catalogue, catalogue, effect,
-                       failing_assumptions, preconditions, satisfies)
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Detach,
+    Remove,
+    Snapshot,
+    _Catalogue,
+    catalogue,
+    effect,
+    failing_assumptions,
+    preconditions,
+    satisfies,
+)
 from checker.model.config import Configuration, FuncId, Role
 from checker.model.semantics import evaluate
 from checker.planning.states import States
+from reconf_dsl.ir import System
 from reconf_dsl.words import plural
 
 __all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 from dataclasses import replace as dc_replace
 
-from reconf_dsl.ir import System
-
 from checker.model.actions import Degrade, effect
 from checker.model.config import Configuration
-from checker.planning.strategies import solve
 from checker.planning.plan import Goal, Plan, Problem, disruption, settle
 from checker.planning.states import States
+from checker.planning.strategies import solve
+from reconf_dsl.ir import System
 
 __all__ = ["plan_recovery"]
 

@@ -9,11 +9,10 @@ import time
 from dataclasses import dataclass
 from typing import Optional
 
-from reconf_dsl.ir import Functionality, Predicate, System
-
 from checker.model.actions import catalogue, satisfies
 from checker.model.config import Configuration, FuncId, Role
 from checker.planning.plan import Goal
+from reconf_dsl.ir import Functionality, Predicate, System
 
 __all__ = ["Relaxation", "reachable"]
 

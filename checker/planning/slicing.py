@@ -8,11 +8,10 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Callable
 
-from reconf_dsl import ir
-
 from checker.model.actions import Snapshot, catalogue
 from checker.model.config import Configuration
 from checker.planning.plan import Plan
+from reconf_dsl import ir
 
 __all__ = ["PlanSlicer", "affected", "slice_plan", "stable_connectors"]
 

@@ -12,10 +12,9 @@ from __future__ import annotations
 
 from typing import Iterator, Optional, Sequence, Union, overload
 
-from reconf_dsl.ir import System
-
 from checker.model.actions import Action, effect
 from checker.model.config import Configuration
+from reconf_dsl.ir import System
 
 __all__ = ["States", "EVERY"]
 

@@ -20,14 +20,13 @@ from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, Optional
 
+from checker.reality.naming import unique
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
 from reconf_dsl.formatter import format_document, pred
 from reconf_dsl.ir import Component, Document, MessageType, Mode, Predicate
 from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
 from reconf_ros.graph import NodeInfo, Snapshot, parse_model
-
-from checker.reality.naming import unique
 
 __all__ = ["architecture", "placeholders", "PLACEHOLDER"]
 

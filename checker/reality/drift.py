@@ -10,15 +10,14 @@ from __future__ import annotations
 
 from typing import Callable, Optional
 
+from checker.model.actions import failing_assumptions
+from checker.model.config import Configuration
+from checker.planning.bringup import up_state
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Component, MessageType, Mode, Predicate, System, format_number
 from reconf_dsl.span import Span
 from reconf_ros.executor import find_node
 from reconf_ros.graph import NodeInfo, Snapshot, parse_model
-
-from checker.model.actions import failing_assumptions
-from checker.model.config import Configuration
-from checker.planning.bringup import up_state
 
 __all__ = ["drift", "deployed", "locate", "KINDS"]
 

@@ -8,12 +8,10 @@ import shutil
 import subprocess
 from typing import Any, Optional
 
+from checker.model.config import Configuration, Role
 from codegen.graph import GraphEdge, GraphNode, Picture
 from reconf_dsl.ir import System
-
-from checker.model.config import Configuration, Role
 from reconf_dsl.words import agree
-
 
 # Graphviz `dot` takes time that grows steeply with a picture's nodes (components, connectors,
 # environment inputs), so a larger picture is drawn as SVG only when asked to be (`--force`);

@@ -4,16 +4,15 @@ Stages never print; the CLI hands their data to one of these."""
 from __future__ import annotations
 
 import enum
-import os
 import json
+import os
 from typing import Any, Optional, TextIO
 
+from checker.model.semantics import AssumptionResult, Evaluation
+from checker.reports.formats import CheckCase
 from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
 from reconf_dsl.span import Span
-
-from checker.reports.formats import CheckCase
-from checker.model.semantics import AssumptionResult, Evaluation
 
 FORMAT_VERSION = 1
 

@@ -118,8 +118,8 @@ def test_a_sig_of_thousands_of_atoms_translates() -> None:
 
 def test_evidence_names_the_solver_that_ran(bridge: AlloyBridge) -> None:
     """A native solver whose library does not load falls back to sat4j, and the evidence says sat4j."""
-    from checker.model.config import Configuration
     from checker.alloy.engines import alloy_judgement
+    from checker.model.config import Configuration
     from reconf_dsl.loader import load
     from tests.examples_table import BY_NAME
 

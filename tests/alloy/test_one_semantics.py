@@ -10,13 +10,23 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from checker.model.actions import Action, Attach, Create, Degrade, Detach, Remove, Upgrade, effect, is_valid, \
-    preconditions
 from checker.alloy import AlloyBridge
 from checker.alloy.instance import alloy_plan_verdict
-from checker.planning.alloy_verify import alloy_evidence
+from checker.model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Upgrade,
+    effect,
+    is_valid,
+    preconditions,
+)
 from checker.model.config import Configuration
 from checker.planning import plan_migrate, plan_remove
+from checker.planning.alloy_verify import alloy_evidence
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import path
@@ -127,8 +137,8 @@ def test_subscriber_moved_between_topics_is_accepted(bridge: AlloyBridge, strate
 
 def test_the_alloy_planner_reads_them_alike(bridge: AlloyBridge) -> None:
     """The Alloy planner's actions are the same templates: it finds the same two plans."""
-    from checker.planning.alloy_search import plan_with_alloy
     from checker.planning import Problem
+    from checker.planning.alloy_search import plan_with_alloy
 
     old, new = _moves()
     for p in (plan_remove(load([path("tests", "good_inputs", "self_loop.arch")]), "a"), plan_migrate(old, new)):

@@ -5,9 +5,9 @@ import pytest
 
 from bench.gen import generate
 from checker.alloy import AlloyBridge, alloy_verdict
+from checker.alloy.engines import python_failing
 from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted
 from checker.model.config import Configuration
-from checker.alloy.engines import python_failing
 from checker.model.semantics import evaluate
 from reconf_dsl.loader import load_text
 

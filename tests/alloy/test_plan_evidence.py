@@ -7,8 +7,8 @@ from dataclasses import replace
 import pytest
 
 from checker.alloy import AlloyBridge
-from checker.planning.alloy_verify import alloy_evidence
 from checker.planning import NoSafePlan, Plan, plan_remove, plan_replace
+from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import run_actions
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

@@ -10,9 +10,9 @@ from click.testing import CliRunner
 
 from bench.gen import generate, hub_component
 from checker.alloy import AlloyBridge
-from checker.planning.alloy_verify import _window, alloy_evidence
 from checker.cli.main import main
 from checker.planning import Plan
+from checker.planning.alloy_verify import _window, alloy_evidence
 from checker.planning.slicing import PlanSlicer, affected, slice_plan, stable_connectors
 from tests.support.plans import break_state, hub_plan
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import pytest
 
+from bench.gen import generate, hub_component
 from checker.alloy import AlloyBridge, alloy_plan_verdict, alloy_verdict
 from checker.alloy import split as split_mod
 from checker.alloy.errors import AlloyError
@@ -13,8 +14,6 @@ from checker.planning import plan_replace
 from codegen.alloy import render_plan
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
-
-from bench.gen import generate, hub_component
 
 CHATTER = next(e for e in EXAMPLES if e.name == "chatter").file
 

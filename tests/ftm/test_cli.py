@@ -7,7 +7,6 @@ from click.testing import CliRunner
 
 from checker.cli.ftm import ftm_group, transition_cmd
 from reconf_dsl.loader import load_text
-
 from tests.support.ftm import EXAMPLES
 
 

@@ -5,15 +5,14 @@ from dataclasses import replace
 
 import pytest
 
-from checker.model.config import Configuration
 from checker.ftm.expand import expand, to_text
 from checker.ftm.library import LIBRARY, all_compositions, compose
 from checker.ftm.select import nodes
 from checker.ftm.transition import parse_ftm
+from checker.model.config import Configuration
 from checker.model.semantics import evaluate
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.loader import load_text
-
 from tests.support.ftm import client_server
 
 ALL = [str(c) for c in all_compositions()]

@@ -10,7 +10,6 @@ from click.testing import CliRunner
 
 from checker.cli.ftm import ftm_group
 from reconf_dsl.loader import load
-
 from tests.support.ftm import EXAMPLES
 
 SOURCE = f"{EXAMPLES}/client_server_pbr.arch"

@@ -11,7 +11,6 @@ from checker.ftm.library import all_compositions, compose
 from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.select import Profile, judge, profile, select
 from reconf_dsl.loader import load, load_text
-
 from tests.support.ftm import EXAMPLES, client_server
 
 

@@ -7,7 +7,6 @@ import pytest
 from click.testing import CliRunner
 
 from checker.cli.ftm import columns, ftm_group
-
 from tests.support.ftm import EXAMPLES
 
 

@@ -1,15 +1,19 @@
 """Transitions between FTMs as verified plans: kept nodes, suspension, no lost request."""
 from __future__ import annotations
 
-
 import pytest
 
+from checker.ftm.transition import (
+    Transition,
+    affected_protocols,
+    client_side_ok,
+    plan_ftm_migrate,
+    plan_transition,
+    suspension_problems,
+)
 from checker.model.actions import Create, Degrade, Remove, Upgrade
-from checker.ftm.transition import (Transition, client_side_ok, plan_ftm_migrate, plan_transition,
-                                    suspension_problems, affected_protocols)
 from checker.planning.plan import verify
 from reconf_dsl.loader import load, load_text
-
 from tests.support.ftm import EXAMPLES, client_server
 
 PAIRS = [("PBR", "LFR"), ("LFR", "PBR"), ("PBR", "PBR(TR)"), ("PBR(TR)", "PBR"), ("PBR(TR)", "SEC(PBR(TR))"),
@@ -116,8 +120,8 @@ def test_unprotecting_a_server_hands_its_clients_over_first() -> None:
 
 def test_alloy_refuses_taking_a_mechanism_down_under_its_clients(monkeypatch: pytest.MonkeyPatch,
                                                                 bridge) -> None:  # type: ignore[no-untyped-def]
-    from checker.planning.alloy_verify import alloy_evidence
     import checker.ftm.transition as tr
+    from checker.planning.alloy_verify import alloy_evidence
     kept = alloy_evidence(plan_transition(load_text(client_server("PBR")), "server", None).plan)
     assert kept["valid"], kept["reason"]
     monkeypatch.setattr(tr, "_hand_over_first", lambda plan, *args: plan)
@@ -198,8 +202,8 @@ def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) ->
 
 
 def test_requests_must_reach_a_protocol_and_a_lossy_transition_says_so() -> None:
-    from checker.model.config import Configuration
     from checker.ftm.transition import protocols, reaches_protocol
+    from checker.model.config import Configuration
 
     t = transition("PBR(TR)", "SEC(PBR(TR))")
     (conn, proxy), = t.plan.serving
@@ -222,8 +226,8 @@ def _without_the_old_request_path(monkeypatch: pytest.MonkeyPatch) -> Transition
 
 
 def test_a_transition_that_loses_the_request_path_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
-    from checker.planning import NoSafePlan
     import checker.ftm.transition as tr
+    from checker.planning import NoSafePlan
     monkeypatch.setattr(tr, "_request_path", lambda *args: (set(), set()))
     with pytest.raises(NoSafePlan, match="could be lost: state [0-9]+: the requests of server__proxy reach no"):
         plan_transition(load_text(client_server("SEC(PBR(TR))")), "server", "PBR(TR)")

@@ -6,8 +6,21 @@ from typing import get_args
 
 import pytest
 
-from checker.model.actions import (KINDS, Action, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict,
-                             changes, effect, kind_of, recognise)
+from checker.model.actions import (
+    KINDS,
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Upgrade,
+    action_from_dict,
+    changes,
+    effect,
+    kind_of,
+    recognise,
+)
 from checker.model.config import Configuration
 from codegen.alloy import alloy_view, step_action
 from reconf_dsl.ir import System

@@ -7,11 +7,23 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from checker.model.actions import (Action, ActionRefused, Attach, Create, Degrade, Detach, Remove, Upgrade, action_from_dict,
-                             apply, effect, is_valid, preconditions)
+from checker.model.actions import (
+    Action,
+    ActionRefused,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Upgrade,
+    action_from_dict,
+    apply,
+    effect,
+    is_valid,
+    preconditions,
+)
 from checker.model.config import Configuration
 from checker.model.semantics import evaluate
-
 from tests.support.random_systems import random_system
 from tests.support.systems import talker_system
 

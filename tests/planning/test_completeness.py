@@ -17,11 +17,9 @@ from checker.planning import Fallback, NoPlanFound, Plan, plan_replace, plan_wit
 from checker.planning.exhaustive import Budget, Impossible, _astar, _Clock, _Space, exhaustive_search
 from checker.planning.improve import cost
 from checker.planning.operations import remove_problem, replace_problem
-from checker.planning.plan import ready
-from checker.planning.plan import NoSafePlan, Problem, settle, verify
+from checker.planning.plan import NoSafePlan, Problem, ready, settle, verify
 from checker.planning.relaxed import reachable
 from reconf_dsl.loader import load, load_text
-
 from tests.support.random_systems import random_system
 from tests.support.systems import chain_system, talker_system
 

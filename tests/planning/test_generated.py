@@ -11,8 +11,8 @@ from typing import Callable, Optional, Sequence
 from checker.planning import NoSafePlan, Plan, plan_migrate, plan_replace
 from checker.planning.default import default_steps
 from checker.planning.improve import cost
-
 from tests.support.random_systems import random_migration, random_system
+
 from .test_planning import assert_safe
 
 

@@ -8,12 +8,11 @@ import pytest
 
 from checker.model.actions import Attach, Degrade, Detach, preconditions
 from checker.model.config import Configuration
+from checker.model.semantics import evaluate
 from checker.planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from checker.planning.plan import disruption
-from checker.model.semantics import evaluate
 from reconf_dsl.ir import PortRef
 from reconf_dsl.loader import load
-
 from tests.support.systems import chain_system, ring_system, talker_system
 
 EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "examples")

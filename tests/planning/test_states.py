@@ -7,17 +7,16 @@ from itertools import pairwise
 
 import pytest
 
+from bench.gen import generate
 from checker.model.actions import effect
 from checker.model.config import Configuration
 from checker.planning import plan_replace
-from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning import states as states_module
+from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning.states import States
 from codegen.ros2 import state_at
 from reconf_dsl.loader import load_text
 from reconf_ros.executor import PlanStates
-
-from bench.gen import generate
 
 
 @pytest.fixture()

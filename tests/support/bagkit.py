@@ -48,9 +48,9 @@ def write(path: Path, topics: Iterable[tuple[str, str, list[int]]], storage: str
     with `bounds` (ns from START), the recorder's start and stop in custom_data, as reconf_ros.record
     writes them."""
     from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
 
     from checker.reality.bag import STARTED, STOPPED
-    from rosbags.typesys import Stores, get_typestore
     store = get_typestore(Stores.ROS2_JAZZY)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     events = []

@@ -10,11 +10,22 @@ from dataclasses import replace
 from fractions import Fraction
 from typing import Optional
 
-from reconf_dsl.ir import (Component, Connector, EnvGuarantee, Functionality, Guarantee, MessageType, Mode, Port,
-                           PortRef, Predicate, Rate, System)
-
 from checker.model.actions import is_valid
 from checker.model.config import Configuration
+from reconf_dsl.ir import (
+    Component,
+    Connector,
+    EnvGuarantee,
+    Functionality,
+    Guarantee,
+    MessageType,
+    Mode,
+    Port,
+    PortRef,
+    Predicate,
+    Rate,
+    System,
+)
 
 TYPES = ("A", "B")
 RATES = (5, 10, 20)

@@ -15,13 +15,12 @@ from typing import Iterable
 
 import yaml
 
-from reconf_dsl.ir import Component, Predicate, System
-
 from checker.model.actions import Snapshot, catalogue, failing_assumptions, is_valid
 from checker.model.config import Configuration, FuncId
-from checker.reality.naming import unique
 from checker.planning.plan import Goal, settle
+from checker.reality.naming import unique
 from checker.reality.smh import DEFAULT, DEGRADED, DEGRADED_VALUE, NORMAL_VALUE, PARAM
+from reconf_dsl.ir import Component, Predicate, System
 
 __all__ = ["NodeMode", "SystemMode", "SmhExport", "UnsafeDeployment", "export", "render"]
 

@@ -13,10 +13,9 @@ from typing import Optional
 import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from checker.reality.smh import DEFAULT, STATES
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, error, warning
 from reconf_dsl.span import Span
-
-from checker.reality.smh import DEFAULT, STATES
 
 __all__ = ["Param", "NodeMode", "PartMode", "SystemMode", "Part", "Model", "read_model"]
 

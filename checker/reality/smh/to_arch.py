@@ -11,11 +11,10 @@ from __future__ import annotations
 import os
 import re
 
-from reconf_dsl.diagnostics import Diagnostic, warning
-
 from checker.reality.naming import unique
 from checker.reality.smh import DEGRADED_VALUE, PARAM
 from checker.reality.smh.read import Model, Part, SystemMode
+from reconf_dsl.diagnostics import Diagnostic, warning
 
 __all__ = ["to_arch"]
 

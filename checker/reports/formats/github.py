@@ -4,10 +4,9 @@ Escaping follows the runner's rules: in the message `%`, CR and LF are percent-e
 property values `:` and `,` are too. Severities map to error, warning and notice."""
 from __future__ import annotations
 
-from reconf_dsl.diagnostics import Severity
-
 from checker.reports.formats.model import Report
 from checker.reports.formats.sarif import known, message_text
+from reconf_dsl.diagnostics import Severity
 
 COMMAND = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "notice"}
 

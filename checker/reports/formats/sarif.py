@@ -12,11 +12,10 @@ from importlib import metadata
 from typing import Any, Optional
 from urllib.parse import quote
 
-from reconf_dsl.diagnostics import Diagnostic, Severity
-from reconf_dsl.span import Span
-
 from checker.reports.formats.model import Report
 from checker.reports.formats.rules import rule
+from reconf_dsl.diagnostics import Diagnostic, Severity
+from reconf_dsl.span import Span
 
 SCHEMA = "https://json.schemastore.org/sarif-2.1.0.json"
 LEVEL = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
