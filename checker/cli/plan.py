@@ -24,7 +24,7 @@ from checker.planning import Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, p
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import BadRequest, degradation, unknown
 from checker.planning.verified import plan_verified
-from checker.reports.plan_document import plan_document
+from checker.reports.plan_document import plan_document, with_model
 from checker.reports.progress import status
 from checker.reports.report import OutputFormat
 from codegen.ros2 import FORMAT_VERSION, render_plan_script
@@ -162,7 +162,7 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
         return no_plan(label, [verified.refuted], fmt, p, evidence, attempts=p.attempts)
     doc = plan_document(label, system, p, evidence, target)
     if output or apply is not None:
-        script_doc = plan_document(label, system, p, evidence, target, model=True)
+        script_doc = with_model(doc, p)
         if output:
             write_atomically(output, render_plan_script(script_doc))
     if fmt is OutputFormat.JSON:

@@ -29,6 +29,9 @@ def plan_document(label: str, system: System, p: Plan, evidence: dict[str, Any],
                            "degradation": degradation(p), "evidence": evidence}
     if target is not None:
         doc["target_fingerprint"] = fingerprint(target)
-    if model:
-        doc["model"] = model_data(p.system)
-    return doc
+    return with_model(doc, p) if model else doc
+
+
+def with_model(doc: dict[str, Any], p: Plan) -> dict[str, Any]:
+    """A plan document as a plan script embeds it: with the plan's system as the executor reads it."""
+    return dict(doc, model=model_data(p.system))
