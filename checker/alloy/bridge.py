@@ -421,18 +421,11 @@ class AlloyBridge:
                       else commands[command:command + 1])
             if not chosen:
                 raise AlloyError(f"no command {command!r} in {main}")
-            opts = self.options(solver_id)
-            began = time.perf_counter()
-            try:
-                sol = self._Translate.execute_command(self._A4Reporter(), world.sigs(), chosen[0], opts)
-                elapsed = time.perf_counter() - began
-                if not sol.satisfiable():
-                    return Trace(False, elapsed)
-                parsed = {e: self._CompUtil.parseOneExpression_fromString(world.module, e) for e in exprs}
-                states = [{e: {tuple(str(t.atom(i)) for i in range(t.arity())) for t in sol.eval(x, state)}
-                           for e, x in parsed.items()} for state in range(int(sol.getTraceLength()))]
-            except self._Err as err:
-                raise self._error(err) from None
+            sol, elapsed = self._solve(world, chosen[0], self.options(solver_id))
+            if not sol.satisfiable():
+                return Trace(False, elapsed)
+            states = [{e: self._eval(world, sol, e, state) for e in exprs}
+                      for state in range(int(sol.getTraceLength()))]
             return Trace(True, elapsed, states)
 
     def bounds(self, modules: Mapping[str, str], main: str) -> dict[str, dict[str, tuple[int, bool]]]:
@@ -478,15 +471,19 @@ class AlloyBridge:
     def _execute(self, world: _World, cmd: Any, opts: Any, solver_id: str) -> CommandOutcome:
         if not world.current:  # e.g. a progress callback ran another module on its skeleton
             raise AlloyError("the module was replaced by a later one before all its commands ran")
+        sol, elapsed = self._solve(world, cmd, opts)
+        satisfiable = bool(sol.satisfiable())
+        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
+        return self._outcome(cmd, satisfiable, elapsed, solver_id, evaluator)
+
+    def _solve(self, world: _World, cmd: Any, opts: Any) -> tuple[Any, float]:
+        """The analyzer's solution of `cmd`, and the seconds it took (translation included)."""
         start = time.perf_counter()
         try:
             sol = on_big_stack(self._Translate.execute_command, self._A4Reporter(), world.sigs(), cmd, opts)
         except self._Err as err:
             raise self._error(err) from None
-        elapsed = time.perf_counter() - start
-        satisfiable = bool(sol.satisfiable())
-        evaluator = (lambda expr: self._eval(world, sol, expr)) if satisfiable else None
-        return self._outcome(cmd, satisfiable, elapsed, solver_id, evaluator)
+        return sol, time.perf_counter() - start
 
     @staticmethod
     def _outcome(cmd: Any, satisfiable: bool, elapsed: float, solver_id: str,
@@ -510,14 +507,15 @@ class AlloyBridge:
             return [self._outcome(c, *judged[str(c.label)], solver)
                     for c in world.module.getAllCommands() if str(c.label) in judged]
 
-    def _eval(self, world: _World, sol: Any, expr: str) -> Tuples:
+    def _eval(self, world: _World, sol: Any, expr: str, state: int | None = None) -> Tuples:
+        """`expr`'s value in `sol` (in trace state `state`, when given)."""
         with self._lock:
             if not world.current:
                 raise AlloyError("the solution's module was replaced by a later one: evaluate its expressions "
                                  "before running another module")
             try:
                 parsed = self._CompUtil.parseOneExpression_fromString(world.module, expr)
-                value = sol.eval(parsed)
+                value = sol.eval(parsed) if state is None else sol.eval(parsed, state)
             except self._Err as err:
                 raise self._error(err) from None
             if isinstance(value, bool) or str(type(value)).endswith("Boolean'>"):
