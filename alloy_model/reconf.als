@@ -436,7 +436,7 @@ assert ConnectorEncodingsAgree {
 
 -- The joins that instance and plan modules use for satisfaction, the satisfied connectors and inputs,
 -- validity and safety without inputs agree with the quantified definitions.
-assert SatEncodingsAgree { Sem.sat = mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~(rate.*rate_next)) }
+assert SatEncodingsAgree { Sem.sat = mtype.~mtype & (Msg -> (Msg - rate.Rate) + rate.~rate + rate.~(rate.^rate_next)) }
 -- (with ConnectorEncodingsAgree, sat_conns_j = sat_conns_q)
 assert ConnectorsEncodingsAgree { sat_conns_j[Pre] = {k: Connector | conn_satisfied_no_out_j[Pre, k, none]} }
 assert InputsEncodingsAgree { sat_inputs_q[Pre] = sat_inputs_j[Pre] }

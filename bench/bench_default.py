@@ -86,9 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     missed = False
     print(f"(a) default `reconf check`, a fresh process per case (python {sys.version.split()[0]}, "
           f"{os.cpu_count()} cpus; seconds; growth per doubling of N)")
-    print("| shape | N | wall | start-up | parsing | Python engine | Alloy start | rendering | Alloy | modules | "
-          "processes | growth | target |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| shape | N | wall | start-up | parsing | Python engine | Alloy start | rendering | Alloy | instances | "
+          "growth | target |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for shape in shapes:
             walls: dict[int, float] = {}
@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
                 cells = [f"{t.get(k, 0):.2f}" for k in ("start_up", "parsing", "python_engine", "alloy_start",
                                                         "rendering", "alloy")]
                 print(f"| {shape} | {n} | {row['wall']:.2f} | " + " | ".join(cells) +
-                      f" | {al.get('slices', '-')} | {al.get('processes', '-')} | "
+                      f" | {al.get('instances', '-')} | "
                       f"{'-' if growth is None else f'{growth:.2f}x'} | {'ok' if ok else 'MISS'} |", flush=True)
         if args.plan_seeds:
             print(f"\n(b) `reconf plan replace HUB` with Alloy verification, {args.plan_size} components, "

@@ -28,7 +28,19 @@ from checker.model.actions import kind_of, recognise
 from checker.model.config import Configuration
 from reconf_dsl.ir import Component, Connector, Predicate, System
 
-from .alloy_module import Architecture, Family, Fun, InstanceModule, Meaning, PlanModule, PlannerModule, Serving, Step
+from .alloy_module import (
+    EVALUATION_SIGS,
+    Architecture,
+    Family,
+    Fun,
+    InstanceData,
+    InstanceModule,
+    Meaning,
+    PlanModule,
+    PlannerModule,
+    Serving,
+    Step,
+)
 
 if TYPE_CHECKING:
     import jinja2
@@ -364,7 +376,7 @@ class _Parts:
     outputs: list[str] = field(default_factory=list)
     # (functionality, output, meaning, normal datum, degraded datum) per guarantee
     guarantees: list[tuple[str, str, Meaning, str, str]] = field(default_factory=list)
-    rel: dict[str, list[str]] = field(default_factory=lambda: {k: [] for k in (
+    rel: dict[str, list[tuple[str, ...]]] = field(default_factory=lambda: {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
         "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg")})
 
@@ -419,11 +431,11 @@ def _declare_ports(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
         pa = parts.ports[c.name, p.name] = parts.name(mangle("port", c.name, p.name), ("port", c.name, p.name))
         if p.kind == "input":
             parts.inputs.append(pa)
-            parts.rel["inputs"].append(f"{ca} -> {pa}")
-            parts.rel["iasm"].append(f"{pa} -> {data.atom(p.assumption)}")
+            parts.rel["inputs"].append((ca, pa))
+            parts.rel["iasm"].append((pa, data.atom(p.assumption)))
         else:
             parts.outputs.append(pa)
-            parts.rel["outputs"].append(f"{ca} -> {pa}")
+            parts.rel["outputs"].append((ca, pa))
 
 
 def _declare_functionalities(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
@@ -433,23 +445,23 @@ def _declare_functionalities(parts: _Parts, scope: _Scope, c: Component, ca: str
             continue
         fa = parts.funcs[c.name, f.name] = parts.name(mangle("functionality", c.name, f.name),
                                                       ("functionality", c.name, f.name))
-        parts.rel["funcs"].append(f"{ca} -> {fa}")
+        parts.rel["funcs"].append((ca, fa))
         for pname in f.ports:
             port = c.port(pname)
             if port is None or (c.name, pname) not in parts.ports:
                 continue
             pa = parts.ports[c.name, pname]
             if port.kind == "input":
-                parts.rel["assoc_in"].append(f"{fa} -> {pa}")
+                parts.rel["assoc_in"].append((fa, pa))
                 continue
-            parts.rel["assoc_out"].append(f"{fa} -> {pa}")
+            parts.rel["assoc_out"].append((fa, pa))
             # written once the encoding is chosen (see `_guarantee_atoms`)
             normal, degraded = (parts.data.atom(m.guarantee(pname) if m is not None else None)
                                 for m in (f.normal, f.degraded))
             parts.guarantees.append((fa, pa, ("guarantee", c.name, f.name, pname), normal, degraded))
         if f.normal is not None and judged:
             for a in f.normal.assumptions:
-                parts.rel["nasms"].append(f"{fa} -> {parts.data.atom(a)}")
+                parts.rel["nasms"].append((fa, parts.data.atom(a)))
 
 
 def _collect(system: System, scope: _Scope, names: dict[str, Meaning]) -> _Parts:
@@ -462,9 +474,9 @@ def _collect(system: System, scope: _Scope, names: dict[str, Meaning]) -> _Parts
         _declare_functionalities(parts, scope, c, ca)
     for k in scope.connectors:
         ka = parts.conns[k.name] = parts.name(mangle("connector", k.name), ("connector", k.name))
-        parts.rel["cguar"].append(f"{ka} -> {parts.data.atom(k.guarantee)}")
+        parts.rel["cguar"].append((ka, parts.data.atom(k.guarantee)))
     for e in system.environment:
-        parts.rel["envg"].append(parts.data.atom(e.guarantee))
+        parts.rel["envg"].append((parts.data.atom(e.guarantee),))
     return parts
 
 
@@ -480,15 +492,15 @@ def _guarantee_atoms(parts: _Parts, ternary: bool) -> list[str]:
     rel = parts.rel
     for fa, pa, meaning, normal, degraded in parts.guarantees:
         if ternary:
-            rel["nguar"].append(f"{fa} -> {pa} -> {normal}")
-            rel["dguar"].append(f"{fa} -> {pa} -> {degraded}")
+            rel["nguar"].append((fa, pa, normal))
+            rel["dguar"].append((fa, pa, degraded))
             continue
         ga = parts.name(f"g_{len(guar_atoms)}", meaning)
         guar_atoms.append(ga)
-        rel["gfunc"].append(f"{ga} -> {fa}")
-        rel["gout"].append(f"{ga} -> {pa}")
-        rel["gn"].append(f"{ga} -> {normal}")
-        rel["gd"].append(f"{ga} -> {degraded}")
+        rel["gfunc"].append((ga, fa))
+        rel["gout"].append((ga, pa))
+        rel["gn"].append((ga, normal))
+        rel["gd"].append((ga, degraded))
     return guar_atoms
 
 
@@ -511,31 +523,42 @@ def _families(parts: _Parts, rates: list[tuple[Fraction, str]], guar_atoms: list
     return tuple(families)
 
 
-def _grouped(pairs: list[str]) -> list[str]:
-    """`a -> x` terms as `a -> (x + y + ...)`, one per distinct `a` (order kept)."""
+def _grouped(pairs: list[tuple[str, ...]]) -> list[str]:
+    """`(a, x)` pairs as terms `a -> (x + y + ...)`, one per distinct `a` (order kept)."""
     by_left: dict[str, list[str]] = {}
-    for term in pairs:
-        left, right = term.split(" -> ", 1)
+    for left, right in pairs:
         by_left.setdefault(left, []).append(right)
     return [f"{a} -> {union(rs, 'none')}" if len(rs) > 1 else f"{a} -> {rs[0]}" for a, rs in by_left.items()]
 
 
+def _terms(tuples: Iterable[tuple[str, ...]]) -> list[str]:
+    return [" -> ".join(t) for t in tuples]
+
+
+def _fixed_relations(parts: _Parts, rates: list[tuple[Fraction, str]]) -> dict[str, list[tuple[str, ...]]]:
+    """Every fixed relation of the architecture as tuples of atoms, by name (besides the
+    collected ones: the rates' order, each datum's message type and rate)."""
+    rate_of = dict(rates)
+    atoms = parts.data.atoms.items()
+    return {**parts.rel,
+            "rate_next": [(a, b) for (_, a), (_, b) in zip(rates, rates[1:])],
+            "mtype": [(atom, parts.data.messages[msg]) for (msg, _), atom in atoms],
+            "rate": [(atom, rate_of[hz]) for (_, hz), atom in atoms if hz is not None],
+            "envg": sorted(set(parts.rel["envg"]))}
+
+
 def _architecture_funs(parts: _Parts, rates: list[tuple[Fraction, str]], ternary: bool) -> tuple[Fun, ...]:
     """The fixed relations as constants."""
-    rel = {k: (_grouped(v) if k in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms") else v)
-           for k, v in parts.rel.items()}
-    rate_of = dict(rates)
-    data = parts.data
-    mtype_rel = [f"{atom} -> {data.messages[msg]}" for (msg, _), atom in data.atoms.items()]
-    rate_rel = [f"{atom} -> {rate_of[hz]}" for (_, hz), atom in data.atoms.items() if hz is not None]
+    rel = {k: (_grouped(v) if k in ("inputs", "outputs", "funcs", "assoc_in", "assoc_out", "nasms") else _terms(v))
+           for k, v in _fixed_relations(parts, rates).items()}
     guarantees = ([_fun("nguar", "Functionality -> Output -> Data", rel["nguar"]),
                    _fun("dguar", "Functionality -> Output -> Data", rel["dguar"])] if ternary else
                   [_fun("gfunc", "Guar -> Functionality", rel["gfunc"]), _fun("gout", "Guar -> Output", rel["gout"]),
                    _fun("gn", "Guar -> Data", rel["gn"]), _fun("gd", "Guar -> Data", rel["gd"])])
     return (
-        _fun("rate_next", "Rate -> Rate", [f"{a} -> {b}" for (_, a), (_, b) in zip(rates, rates[1:])]),
-        _fun("mtype", "Msg -> MType", mtype_rel),
-        _fun("rate", "Msg -> Rate", rate_rel),
+        _fun("rate_next", "Rate -> Rate", rel["rate_next"]),
+        _fun("mtype", "Msg -> MType", rel["mtype"]),
+        _fun("rate", "Msg -> Rate", rel["rate"]),
         _fun("inputs", "Component -> Input", rel["inputs"]),
         _fun("outputs", "Component -> Output", rel["outputs"]),
         _fun("funcs", "Component -> Functionality", rel["funcs"]),
@@ -545,7 +568,7 @@ def _architecture_funs(parts: _Parts, rates: list[tuple[Fraction, str]], ternary
         _fun("nasms", "Functionality -> Data", rel["nasms"]),
         *guarantees,
         _fun("cguar", "Connector -> Data", rel["cguar"]),
-        Fun("envg", "set Data", union(sorted(set(rel["envg"])), "(Data - Data)")),
+        Fun("envg", "set Data", union(rel["envg"], "(Data - Data)")),
     )
 
 
@@ -573,9 +596,9 @@ def describe_architecture(system: System) -> Architecture:
     return arch
 
 
-def _instance_configuration(parts: _Parts, scope: _Scope) -> tuple[Fun, ...]:
-    """The one configuration's relations; the roles grouped (a connector -> a union of
-    ports): fewer products for Alloy to type-check."""
+def _configuration_tuples(parts: _Parts, scope: _Scope) -> tuple[list[str], list[str], list[tuple[str, str]]]:
+    """The one configuration's present components, degraded functionalities and roles
+    (connector, port), as atoms of `parts`."""
     (config,) = scope.configs
     index = scope.index
     roles: Iterable[tuple[str, str, str]]
@@ -585,24 +608,59 @@ def _instance_configuration(parts: _Parts, scope: _Scope) -> tuple[Fun, ...]:
         degraded = sorted(cf for cf in parts.funcs if cf in config.degraded)
     else:
         roles, comps, degraded = sorted(config.roles), sorted(config.components), sorted(config.degraded)
+    return ([parts.comps[n] for n in comps if n in parts.comps],
+            [parts.funcs[cf] for cf in degraded if cf in parts.funcs],
+            [(parts.conns[k], parts.ports[c, p]) for k, c, p in roles if k in parts.conns and (c, p) in parts.ports])
+
+
+def _instance_configuration(parts: _Parts, scope: _Scope) -> tuple[Fun, ...]:
+    """The one configuration's relations; the roles grouped (a connector -> a union of
+    ports): fewer products for Alloy to type-check."""
+    comps, degraded, roles = _configuration_tuples(parts, scope)
     by_conn: dict[str, list[str]] = {}
-    for k, c, p in roles:
-        if k in parts.conns and (c, p) in parts.ports:
-            by_conn.setdefault(parts.conns[k], []).append(parts.ports[c, p])
+    for k, port in roles:
+        by_conn.setdefault(k, []).append(port)
     return (
-        Fun("comps", "set Component", union([parts.comps[n] for n in comps if n in parts.comps], "none")),
-        Fun("degraded", "set Functionality", union([parts.funcs[cf] for cf in degraded if cf in parts.funcs], "none")),
+        Fun("comps", "set Component", union(comps, "none")),
+        Fun("degraded", "set Functionality", union(degraded, "none")),
         _fun("roles", "Connector -> Port", [f"{k} -> {union(ps, 'none')}" for k, ps in by_conn.items()]),
     )
+
+
+def _scope(system: System, config: Configuration, focus: Iterable[str] | None, index: SliceIndex | None,
+           keep: Mapping[str, Collection[tuple[str, str]]] | None) -> _Scope:
+    return _whole(system, [config]) if focus is None else _slice(system, config, focus, index, keep)
 
 
 def describe_instance(system: System, config: Configuration, module_name: str = "instance",
                       focus: Iterable[str] | None = None, index: SliceIndex | None = None,
                       keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> InstanceModule:
     """The instance module of `render_instance`, before it is text."""
-    scope = _whole(system, [config]) if focus is None else _slice(system, config, focus, index, keep)
+    scope = _scope(system, config, focus, index, keep)
     arch, parts = _describe_architecture(system, scope, None)
     return InstanceModule(module_name, system.name, arch, _instance_configuration(parts, scope))
+
+
+def describe_instance_data(system: System, config: Configuration, focus: Iterable[str] | None = None,
+                           index: SliceIndex | None = None,
+                           keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> InstanceData:
+    """The same configuration (or slice: see `render_instance`) as an instance of the
+    evaluation module (`render_evaluation_module`): the atoms and tuples that the instance
+    module writes as `one sig`s and `fun` constants, with guarantees as atoms."""
+    scope = _scope(system, config, focus, index, keep)
+    parts = _collect(system, scope, {})
+    rates = _rate_atoms(parts)
+    guar_atoms = _guarantee_atoms(parts, ternary=False)
+    atoms = {f.parent: f.atoms for f in _families(parts, rates, guar_atoms)}
+    atoms["Nothing"] = ("Nothing",)
+    atoms.pop("Data")
+    comps, degraded, roles = _configuration_tuples(parts, scope)
+    fixed = _fixed_relations(parts, rates)
+    envg = tuple(d for (d,) in fixed.pop("envg"))
+    atoms.update(comps=tuple(comps), degraded=tuple(degraded), envg=envg)
+    fields = {name: tuple(tuples) for name, tuples in fixed.items() if name in EVALUATION_FIELDS}
+    fields["roles"] = tuple(roles)
+    return InstanceData(system.name, atoms, fields, parts.names)
 
 
 def _plan_relations(configs: list[Configuration], states: list[str], parts: _Parts,
@@ -734,6 +792,18 @@ def describe_plan(system: System, configs: Sequence[Configuration], module_name:
 
 
 # -- Rendering a description --------------------------------------------------------------
+
+EVALUATION_FIELDS = frozenset(f for sig in EVALUATION_SIGS for f, _ in sig.fields)
+
+
+@functools.lru_cache(maxsize=1)
+def render_evaluation_module() -> str:
+    """The evaluation module: the sigs and fields of EVALUATION_SIGS, the satisfaction
+    relation and the shared semantics over them, and `unsatisfied`. Every instance of it
+    (`describe_instance_data`, codegen.alloy_xml) is one configuration; `valid` is evaluated
+    in it (docs/soundness.md, "Judging a configuration")."""
+    return environment().get_template("evaluate.als.j2").render(st=FIXED_STATE, sigs=EVALUATION_SIGS)
+
 
 def render_instance_module(module: InstanceModule) -> str:
     st = FIXED_STATE if module.architecture.guar_atoms else FIXED_TERNARY_STATE

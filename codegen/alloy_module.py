@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["Architecture", "Family", "Fun", "InstanceModule", "Meaning", "PlanModule", "PlannerModule",
-           "Serving", "StateTerms", "Step"]
+__all__ = ["EVALUATION_SIGS", "Architecture", "EvaluationSig", "Family", "Fun", "InstanceData", "InstanceModule",
+           "Meaning", "PlanModule", "PlannerModule", "Serving", "StateTerms", "Step"]
 
 # What an atom stands for: ("component", c), ("port", c, p), ("functionality", c, f),
 # ("connector", k), ("message", m), ("rate", hz), ("data", message, hz or ""), ("state", i),
@@ -66,6 +66,54 @@ class InstanceModule:
     system_name: str
     architecture: Architecture
     configuration: tuple[Fun, ...]
+
+
+@dataclass(frozen=True)
+class EvaluationSig:
+    """A sig of the evaluation module (codegen/templates/alloy/evaluate.als.j2): its name,
+    the sig it extends (or, `subset`, is a subset of), and its fields (name, range; every
+    field is `set`, so the module constrains nothing an instance gives)."""
+
+    name: str
+    parent: str = ""
+    abstract: bool = False
+    one: bool = False
+    subset: bool = False
+    fields: tuple[tuple[str, str], ...] = ()
+
+
+# The evaluation module's sigs, in order: the one table from which the module's declarations
+# and every instance of it (codegen.alloy_xml) are written. The relations are those of an
+# instance module's `fun` constants, with guarantees as atoms (binary relations only).
+EVALUATION_SIGS = (
+    EvaluationSig("MType"),
+    EvaluationSig("Rate", fields=(("rate_next", "Rate"),)),
+    EvaluationSig("Data", abstract=True),
+    EvaluationSig("Nothing", "Data", one=True),
+    EvaluationSig("Msg", "Data", fields=(("mtype", "MType"), ("rate", "Rate"))),
+    EvaluationSig("Component", fields=(("inputs", "Input"), ("outputs", "Output"), ("funcs", "Functionality"))),
+    EvaluationSig("Port", abstract=True),
+    EvaluationSig("Input", "Port", fields=(("iasm", "Data"),)),
+    EvaluationSig("Output", "Port"),
+    EvaluationSig("Functionality", fields=(("assoc_in", "Input"), ("assoc_out", "Output"), ("nasms", "Data"))),
+    EvaluationSig("Guar", fields=(("gfunc", "Functionality"), ("gout", "Output"), ("gn", "Data"), ("gd", "Data"))),
+    EvaluationSig("Connector", fields=(("cguar", "Data"), ("roles", "Port"))),
+    EvaluationSig("comps", "Component", subset=True),
+    EvaluationSig("degraded", "Functionality", subset=True),
+    EvaluationSig("envg", "Data", subset=True),
+)
+
+
+@dataclass(frozen=True)
+class InstanceData:
+    """One configuration of (a slice of) an architecture as an instance of the evaluation
+    module: each sig's own atoms and each field's tuples, by name (EVALUATION_SIGS), and
+    what each atom stands for."""
+
+    system_name: str
+    atoms: dict[str, tuple[str, ...]]
+    fields: dict[str, tuple[tuple[str, ...], ...]]
+    names: dict[str, Meaning]
 
 
 @dataclass(frozen=True)

@@ -163,8 +163,8 @@ def test_the_summary_says_where_the_time_went() -> None:
     assert sum(parts.values()) <= timing["wall"] + 1e-3
     text = CliRunner().invoke(main, ["check", path_of("chatter")]).output
     assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d, parsing \d+\.\d\d, Python engine \d+\.\d\d, "
-                     r"Alloy start \d+\.\d\d, rendering \d+\.\d\d, Alloy \d+\.\d\d \(1 module, front end \d+\.\d\d s, "
-                     r"solving \d+\.\d\d s\)", text), text
+                     r"Alloy start \d+\.\d\d, rendering \d+\.\d\d, Alloy \d+\.\d\d \(1 instance, read \d+\.\d\d s, "
+                     r"evaluated \d+\.\d\d s\)", text), text
 
 
 def test_check_takes_the_arch_files_under_a_directory(tmp_path: "object") -> None:

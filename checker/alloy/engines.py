@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
-from checker.alloy.bridge import AlloyBridge
 from checker.model.config import Configuration
 from checker.model.semantics import Evaluation, evaluate, witnesses
 from reconf_dsl.diagnostics import Diagnostic, Severity
@@ -52,13 +51,13 @@ class Judgement:
         if al.get("verdict") == "not run":
             return " (Python engine; too large for Alloy, see the warning)"
         if "python" not in self.engines:
-            return f" (Alloy, {al['solver']})"
-        return f" (proved by Alloy, {al['solver']}; explained by the Python engine)"
+            return " (evaluated by Alloy)"
+        return " (proved by Alloy's evaluator; explained by the Python engine)"
 
     def timing(self) -> tuple[list[tuple[str, float]], dict[str, str]]:
         """Where the judgement's wall time went, in order (the Python engine, Alloy's start,
-        rendering the modules, the analyzer judging them), and what the analyzer's part was
-        made of (see `report.timing_note`)."""
+        writing the instances, the analyzer reading them and evaluating in them), and what
+        the analyzer's part was made of (see `report.timing_note`)."""
         out: list[tuple[str, float]] = []
         if "python" in self.engines:
             out.append(("Python engine", self.engines["python"]["seconds"]))
@@ -66,10 +65,8 @@ class Judgement:
         if not al:
             return out, {}
         out += [("Alloy start", al["start"]), ("rendering", al["render"]), ("Alloy", al["judging"])]
-        by = f"{al['processes']} processes, " if al["processes"] > 1 else ""
-        summed = " summed" if al["processes"] > 1 else ""
-        detail = (f"{al['slices']} module{'s' if al['slices'] != 1 else ''}, {by}"
-                  f"front end {al['front_end']:.2f} s, solving {al['solve']:.2f} s{summed}")
+        n = al["instances"]
+        detail = f"{n} instance{'s' if n != 1 else ''}, read {al['read']:.2f} s, evaluated {al['evaluate']:.2f} s"
         return out, {"Alloy": detail}
 
 
@@ -77,7 +74,7 @@ def python_failing(ev: Evaluation) -> Failing:
     return tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
 
 
-def judge(system: System, config: Configuration, engine: str = "both", solver: str = "glucose") -> Judgement:
+def judge(system: System, config: Configuration, engine: str = "both") -> Judgement:
     started = time.perf_counter()
     ev = evaluate(system, config)
     engines: dict[str, Any] = {}
@@ -88,7 +85,7 @@ def judge(system: System, config: Configuration, engine: str = "both", solver: s
     if engine == "python":
         return Judgement(ev, ev.valid, engines)
     try:
-        valid, failing, info = alloy_judgement(system, config, solver)
+        valid, failing, info = alloy_judgement(system, config)
     except AlloyTooLarge as e:
         if engine != "both":
             raise
@@ -108,9 +105,9 @@ def judge(system: System, config: Configuration, engine: str = "both", solver: s
     return Judgement(ev, valid, engines)
 
 
-def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple[bool, Failing, dict[str, Any]]:
+def alloy_judgement(system: System, config: Configuration) -> tuple[bool, Failing, dict[str, Any]]:
     try:
-        v = alloy_verdict(system, config, solver=solver, keep=witnesses(system, config, WIDE))
+        v = alloy_verdict(system, config, keep=witnesses(system, config, WIDE))
     except AlloyUnavailable as e:
         raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
                                            notes=("or use --engine python",))) from None
@@ -127,9 +124,8 @@ def alloy_judgement(system: System, config: Configuration, solver: str) -> tuple
             f"{system.name} is too large for the Alloy Analyzer here ({_first_line(e)}); "
             "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
             notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
-    used = AlloyBridge.get().solver_used(solver)
     return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
-                                                    "seconds": round(v.seconds, 4), "solver": used,
+                                                    "seconds": round(v.seconds, 4), "method": "evaluation",
                                                     "timing": v.timing(),
                                                     "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
 

@@ -7,61 +7,58 @@ from typing import Collection, Iterable, Mapping, Sequence
 
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
 from checker.alloy.errors import AlloyError
-from checker.alloy.parallel import Job, helper_for, judge, judge_many
+from checker.alloy.evaluate import evaluator
 from checker.alloy.spans import with_span
 from checker.model.actions import KINDS
 from checker.model.config import Configuration
-from codegen.alloy import alloy_view, render_instance, render_plan, slice_index, step_action
+from codegen.alloy import alloy_view, describe_instance_data, render_plan, slice_index, step_action
+from codegen.alloy_module import Meaning
+from codegen.alloy_xml import instance_xml
 from reconf_dsl.ir import Predicate, System
 
-MAIN = "instance.als"
-
-
-# Components judged per module: a large architecture is judged as a partition of slices
-# of about this many components each (render_instance with `focus`); validity is local, so
-# the configuration is valid exactly when every slice is. The analyzer's translation grows
-# faster than its atoms, its per-module work does not: on the DAG of 1,000 components,
-# slices of 24 to 64 take the same time, 128 half as long again.
-SLICE = 32
+# Components judged per instance: a large architecture is judged as a partition of slices
+# of about this many components each (describe_instance_data with `focus`); validity is
+# local, so the configuration is valid exactly when every slice is. Reading an instance and
+# evaluating in it grow faster than its atoms (the evaluator's matrices are indexed by the
+# universe), a slice's fixed cost is small: on the DAG of 1,000 components, slices of 32
+# to 128 take the same time, the whole architecture in one instance five times as long.
+SLICE = 64
 
 
 @dataclass(frozen=True)
 class AlloyVerdict:
     """`valid` as Alloy judges it; `unsatisfied` lists (component, functionality,
     assumption index) of every assumption that does not hold, sorted. `texts` are the
-    modules the analyzer judged: the whole architecture, or one slice each."""
+    instances the analyzer read (instance XML of the evaluation module): the whole
+    architecture, or one slice each."""
 
     valid: bool
     unsatisfied: tuple[tuple[str, str, int], ...]
     seconds: float
     texts: tuple[str, ...]
-    # where the rest of the time went: starting the analyzer (the JVM, once per process),
-    # rendering the modules, and the analyzer's front end (parsing them); `seconds` is solving
+    # where the rest of the time went: starting the analyzer (the JVM, and parsing the
+    # evaluation module, once per process), writing the instances, and the analyzer reading
+    # them; `seconds` is evaluating in them
     start_seconds: float = 0.0
     render_seconds: float = 0.0
-    front_seconds: float = 0.0
-    # the wall time of judging the slices, by `processes` analyzers (parallel.py); the front
-    # end's and the solver's seconds are summed over them; the helper judged `helped` slices
+    read_seconds: float = 0.0
     judging_seconds: float = 0.0
-    processes: int = 1
-    helped: int = 0
 
     def timing(self) -> dict[str, float]:
         return {"start": round(self.start_seconds, 4), "render": round(self.render_seconds, 4),
-                "judging": round(self.judging_seconds, 4), "processes": self.processes,
-                "slices": len(self.texts), "helped": self.helped,
-                "front_end": round(self.front_seconds, 4), "solve": round(self.seconds, 4)}
+                "judging": round(self.judging_seconds, 4), "instances": len(self.texts),
+                "read": round(self.read_seconds, 4), "evaluate": round(self.seconds, 4)}
 
     @property
     def text(self) -> str:
-        """The judged module, or the slices one after another."""
+        """The instances read, one after another."""
         return "\n".join(self.texts)
 
 
 def slices(system: System, config: Configuration, size: int = SLICE, only: Iterable[str] | None = None) -> list[set[str]] | None:
     """A partition of the present components (of those in `only`, if given) into slices of
     `size` in declaration order (neighbours in the file tend to read each other), or None
-    when one module of the whole architecture will do."""
+    when one instance of the whole architecture will do."""
     judged = config.components if only is None else config.components & set(only)
     present = [c.name for c in system.components if c.name in judged]
     present += sorted(judged - set(present))
@@ -70,92 +67,64 @@ def slices(system: System, config: Configuration, size: int = SLICE, only: Itera
     return [set(present[i:i + size]) for i in range(0, len(present), size)]
 
 
-def alloy_verdict(system: System, config: Configuration, solver: str = DEFAULT_SOLVER,
-                  bridge: AlloyBridge | None = None, slice_size: int = SLICE,
-                  only: Iterable[str] | None = None,
+def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | None = None,
+                  slice_size: int = SLICE, only: Iterable[str] | None = None,
                   keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> AlloyVerdict:
     """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
-    in Alloy, through instance modules rendered from the shared semantics. With `only` (a
-    set of component names), judge the assumptions of those components alone. `keep`
-    (checker.model.semantics.witnesses) lets a slice show a wide connector's witness alone; a
-    slice that is not valid so is judged again with every publisher."""
-
+    in Alloy: `valid` of the shared semantics evaluated in each slice as an instance
+    (checker.alloy.evaluate). With `only` (a set of component names), judge the assumptions
+    of those components alone. `keep` (checker.model.semantics.witnesses) lets a slice show a
+    wide connector's witness alone; a slice that is not valid so is judged again with every
+    publisher."""
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
-    # a second analyzer in a helper process, started first so the two start-ups overlap
-    helper = helper_for(len(focuses), solver) if bridge is None else None
     clock = time.perf_counter()
-    bridge = bridge or AlloyBridge.get()
+    judge = evaluator(bridge or AlloyBridge.get())
     start = time.perf_counter() - clock
-    clock = time.perf_counter()
     index = slice_index(system, config) if parts else None
-    rendered = [render_instance(system, config, focus=focus, index=index, keep=keep) for focus in focuses]
-    render = time.perf_counter() - clock
-
-    def spanned(i: int, err: BaseException) -> BaseException:
-        text, names = rendered[i]
-        return with_span(err, text, names, system) if isinstance(err, AlloyError) else err
-
+    texts: list[str] = []
+    failing: set[tuple[str, str, int]] = set()
+    render = read = evaluate = 0.0
     clock = time.perf_counter()
-    # `check Valid`: over constants the solver folds `valid` to true or false while
-    # translating, so a valid configuration costs no evaluation; only a counterexample is
-    # asked which assumptions fail.
-    work = [_valid(text) for text, _ in rendered]
-    judged, processes, helped = judge_many(work, solver, None if helper is not None else bridge, spanned)
-    for i, verdict in enumerate(judged):
-        if verdict.satisfiable and keep and focuses[i] is not None:   # judged again with every publisher
-            whole = render_instance(system, config, focus=focuses[i], index=index)
-            if whole[0] != rendered[i][0]:
-                rendered[i] = whole
-                try:
-                    judged[i] = judge(bridge, _valid(whole[0]), solver)
-                except Exception as err:  # noqa: BLE001 - positioned as the batch's errors are
-                    raise spanned(i, err) from None
-    judging = time.perf_counter() - clock
+    for focus in focuses:
+        for lean in ((True, False) if keep and focus is not None else (False,)):
+            tick = time.perf_counter()
+            data = describe_instance_data(system, config, focus, index, keep if lean else None)
+            xml = instance_xml(data)
+            render += time.perf_counter() - tick
+            verdict = judge.judge(xml)
+            read, evaluate = read + verdict.read, evaluate + verdict.evaluate
+            if verdict.valid or not lean:
+                break   # a lean slice that is not valid is judged again with every publisher
+        texts.append(xml)
+        if not verdict.valid:
+            failing |= _failing(system, verdict.unsatisfied, data.names) or {("", "", -1)}
+    judging = time.perf_counter() - clock - render
+    return AlloyVerdict(not failing, tuple(sorted(failing)), evaluate, tuple(texts), start, render, read, judging)
+
+
+def _failing(system: System, pairs: Iterable[tuple[str, str]], names: Mapping[str, Meaning]) -> set[tuple[str, str, int]]:
+    """Each (functionality atom, datum atom) that does not hold, as (component,
+    functionality, assumption index) of every assumption of that datum."""
+    atoms = {meaning: atom for atom, meaning in names.items()}
     failing: set[tuple[str, str, int]] = set()
-    seconds = front = 0.0
-    for (text, names), verdict in zip(rendered, judged):
-        seconds += verdict.solve
-        front += verdict.front
-        if verdict.satisfiable:
-            failing |= _failing(system, verdict.values["unsatisfied"], text, names)
-            if not failing:  # a counterexample with nothing failing: say so, not "valid"
-                failing.add(("", "", -1))
-    texts = [text for text, _ in rendered]
-    valid = not failing
-    return AlloyVerdict(valid, tuple(sorted(failing)), seconds, tuple(texts), start, render, front,
-                        judging, processes, helped)
-
-
-def _valid(text: str) -> Job:
-    """`check Valid` of an instance module, asking which assumptions fail if it is not."""
-    return Job(MAIN, text, "Valid", ("unsatisfied",))
-
-
-def _failing(system: System, pairs: Iterable[tuple[str, ...]], text: str,
-             names: dict[str, tuple[str, ...]]) -> set[tuple[str, str, int]]:
-    failing: set[tuple[str, str, int]] = set()
-    for f_atom, a_atom in pairs:
-        _, comp, func = names[atom_name(f_atom)]
+    for f_atom, d_atom in pairs:
+        _, comp, func = names[f_atom]
         component = system.component(comp)
-        assert component is not None, "the module's components are the system's"
+        assert component is not None, "the instance's components are the system's"
         functionality = next(f for f in component.functionalities if f.name == func)
         assert functionality.normal is not None, "resolved IR has both modes"
-        want = atom_name(a_atom)
         for index, a in enumerate(functionality.normal.assumptions):
-            if _data_atom(a, text, names) == want:
+            if _datum_atom(a, atoms) == d_atom:
                 failing.add((comp, func, index))
     return failing
 
 
-def _data_atom(pred: Predicate, text: str, names: dict[str, tuple[str, ...]]) -> str:
+def _datum_atom(pred: Predicate, atoms: Mapping[Meaning, str]) -> str:
+    """The atom of an assumption's datum (codegen.alloy._Data)."""
     if pred.message is None:
         return "Nothing"
-    key = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
-    for atom, meaning in names.items():
-        if meaning == key:
-            return atom
-    return ""
+    return atoms.get(("data", pred.message, "" if pred.hz is None else str(pred.hz)), "")
 
 
 ACTIONS = tuple(k.name for k in KINDS)

@@ -8,7 +8,15 @@ from typing import Optional
 
 import click
 
-from checker.cli.common import EXIT_OK, EXIT_UNSAFE, emit_report, engine_option, format_option, guarded, solver_option
+from checker.cli.common import (
+    EXIT_OK,
+    EXIT_UNSAFE,
+    emit_report,
+    engine_option,
+    format_option,
+    guarded,
+    solver_option_unused,
+)
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
 from checker.cli.recording import bag_options, judge_bag, refuse_bag_options_alone
 from checker.gate.check import check_system
@@ -23,7 +31,7 @@ from reconf_dsl.loader import Sources, load
 @exclude_option
 @format_option
 @engine_option
-@solver_option
+@solver_option_unused
 @bag_options
 @guarded("check")
 def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str,
@@ -36,13 +44,14 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     every rate and message type against a rosbag2 recording (docs/recordings.md).
     """
 
+    del solver     # no effect on a check (solver_option_unused)
     refuse_bag_options_alone(bag)
     age = report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
     system = load(expand(files, exclude) or nothing_left(files), sources)
     parsed = time.perf_counter() - started - age
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
-        outcome = check_system(system, engine, solver)
+        outcome = check_system(system, engine)
     outcome.recording = judge_bag(system, bag, window, tolerance)
     judging, details = outcome.timing_parts()
     parts = [("start-up", age), ("parsing", parsed)] + judging

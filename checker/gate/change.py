@@ -201,7 +201,7 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
     out = Outcome()
     ftm_findings(old, new, policy, out)
     with status(f"checking {new.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
-        head = check_system(new, engine, solver)        # the head is judged as `reconf check` judges it
+        head = check_system(new, engine)        # the head is judged as `reconf check` judges it
     broken = [d for d in head.ftm if d.is_error]
     out.safe, out.engines = head.safe, head.engines
     out.cases[:0] = head.cases()

@@ -74,10 +74,10 @@ class CheckOutcome:
         return f"{s.name} — {counts}, {held}{self.judged.how()}{ftm_note}{recorded}; {timing}"
 
 
-def check_system(system: System, engine: str = "both", solver: str = "glucose",
+def check_system(system: System, engine: str = "both",
                  recording: Optional[RecordingVerdict] = None) -> CheckOutcome:
     """Judge `system`'s deployed configuration; raises EngineUnavailable or EnginesDisagree."""
-    judged = judge(system, Configuration.initial(system), engine, solver)
+    judged = judge(system, Configuration.initial(system), engine)
     ftm, ftm_alloy = judge_ftm(system, engine)
     if ftm_alloy is not None:
         judged.engines.setdefault("alloy", {})["ftm_rules"] = ftm_alloy

@@ -76,7 +76,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
         return _not_run(plan, solver, tally.seconds, str(e))
     outside = set(plan.states[0].components) - tally.judged
     if not reason and outside:
-        first = alloy_verdict(plan.system, plan.states[0], solver, only=outside)
+        first = alloy_verdict(plan.system, plan.states[0], only=outside)
         tally.seconds += first.seconds
         tally.texts += list(first.texts)
         if not first.valid:

@@ -117,21 +117,23 @@ def test_a_sig_of_thousands_of_atoms_translates() -> None:
 
 
 def test_evidence_names_the_solver_that_ran(bridge: AlloyBridge) -> None:
-    """A native solver whose library does not load falls back to sat4j, and the evidence says sat4j."""
-    from checker.alloy.engines import alloy_judgement
-    from checker.model.config import Configuration
+    """A native solver whose library does not load falls back to sat4j, and a plan's
+    evidence says sat4j."""
+    from checker.planning import plan_replace
+    from checker.planning.alloy_verify import alloy_evidence
     from reconf_dsl.loader import load
     from tests.examples_table import BY_NAME
 
     system = load([BY_NAME["chatter"].file])
+    plan = plan_replace(system, "talker", "talker_v2")
     key = bridge.usable_solver("glucose")
     assert bridge.solver_used("glucose") == ("glucose" if key != "sat4j" else "sat4j")
     saved = dict(bridge._usable)
     try:
         bridge._usable[str(bridge._solver("glucose").id())] = False      # as on a machine where it does not load
         assert bridge.solver_used("glucose") == "sat4j"
-        valid, _, evidence = alloy_judgement(system, Configuration.initial(system), "glucose")
-        assert valid and evidence["solver"] == "sat4j"
+        evidence = alloy_evidence(plan, "glucose")
+        assert evidence["valid"] and evidence["solver"] == "sat4j"
     finally:
         bridge._usable.clear()
         bridge._usable.update(saved)

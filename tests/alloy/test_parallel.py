@@ -4,28 +4,32 @@ from __future__ import annotations
 import pytest
 
 from bench.gen import generate
-from checker.alloy import AlloyBridge, alloy_verdict
+from checker.alloy import AlloyBridge
 from checker.alloy.engines import python_failing
-from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted
+from checker.alloy.instance import slices
+from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted, judge_many
 from checker.model.config import Configuration
 from checker.model.semantics import evaluate
+from codegen.alloy import render_instance
 from reconf_dsl.loader import load_text
 
 
-def test_a_helper_process_judges_slices_and_the_verdict_is_the_same(monkeypatch: pytest.MonkeyPatch,
-                                                                     bridge: AlloyBridge) -> None:
+def test_a_helper_process_judges_modules_and_the_verdicts_are_the_same(monkeypatch: pytest.MonkeyPatch,
+                                                                        bridge: AlloyBridge) -> None:
+    """Many modules (a plan's windows; here a configuration's slices as instance modules)
+    judged by this process and a helper give the verdicts this process alone gives."""
     system = load_text(generate("fanin", 1000, 1, unsafe=True), "big.arch")
     config = Configuration.initial(system)
-    expected = python_failing(evaluate(system, config))
-    assert expected, "the generated system has one violated assumption"
+    assert python_failing(evaluate(system, config)), "the generated system has one violated assumption"
+    work = [Job("instance.als", render_instance(system, config, focus=f)[0], "Valid")
+            for f in slices(system, config, 32) or []]
     monkeypatch.delenv(ENV, raising=False)
-    together = alloy_verdict(system, config)
-    assert together.processes == 2 and len(together.texts) >= MIN_MODULES
-    assert (together.valid, together.unsatisfied) == (False, expected)
+    together, processes, helped = judge_many(work, "glucose")
+    assert processes == 2 and len(work) >= MIN_MODULES
     monkeypatch.setenv(ENV, "1")
-    alone = alloy_verdict(system, config)
-    assert (alone.processes, alone.helped) == (1, 0)
-    assert (alone.valid, alone.unsatisfied, alone.texts) == (together.valid, together.unsatisfied, together.texts)
+    alone, processes, helped = judge_many(work, "glucose")
+    assert (processes, helped) == (1, 0)
+    assert [j.satisfiable for j in alone] == [j.satisfiable for j in together] and sum(j.satisfiable for j in alone) == 1
 
 
 def test_modules_a_dead_helper_had_taken_are_judged_here() -> None:
