@@ -40,6 +40,7 @@ from .alloy_module import (
     PlannerModule,
     Serving,
     Step,
+    plan_evaluation_sigs,
 )
 
 if TYPE_CHECKING:
@@ -641,26 +642,100 @@ def describe_instance(system: System, config: Configuration, module_name: str = 
     return InstanceModule(module_name, system.name, arch, _instance_configuration(parts, scope))
 
 
+def _architecture_data(system: System, scope: _Scope, names: dict[str, Meaning] | None = None
+                       ) -> tuple[_Parts, dict[str, tuple[str, ...]], dict[str, tuple[tuple[str, ...], ...]]]:
+    """The architecture in `scope` as instance data: its parts, each sig's own atoms and each
+    fixed field's tuples, guarantees as atoms (what an instance module writes as `one sig`s
+    and `fun` constants)."""
+    parts = _collect(system, scope, names if names is not None else {})
+    rates = _rate_atoms(parts)
+    atoms = {f.parent: f.atoms for f in _families(parts, rates, _guarantee_atoms(parts, ternary=False))}
+    atoms["Nothing"] = ("Nothing",)
+    atoms.pop("Data")
+    fixed = _fixed_relations(parts, rates)
+    atoms["envg"] = tuple(d for (d,) in fixed.pop("envg"))
+    return parts, atoms, {name: tuple(tuples) for name, tuples in fixed.items()}
+
+
 def describe_instance_data(system: System, config: Configuration, focus: Iterable[str] | None = None,
                            index: SliceIndex | None = None,
                            keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> InstanceData:
     """The same configuration (or slice: see `render_instance`) as an instance of the
-    evaluation module (`render_evaluation_module`): the atoms and tuples that the instance
-    module writes as `one sig`s and `fun` constants, with guarantees as atoms."""
+    evaluation module (`render_evaluation_module`)."""
     scope = _scope(system, config, focus, index, keep)
-    parts = _collect(system, scope, {})
-    rates = _rate_atoms(parts)
-    guar_atoms = _guarantee_atoms(parts, ternary=False)
-    atoms = {f.parent: f.atoms for f in _families(parts, rates, guar_atoms)}
-    atoms["Nothing"] = ("Nothing",)
-    atoms.pop("Data")
+    parts, atoms, fields = _architecture_data(system, scope)
     comps, degraded, roles = _configuration_tuples(parts, scope)
-    fixed = _fixed_relations(parts, rates)
-    envg = tuple(d for (d,) in fixed.pop("envg"))
-    atoms.update(comps=tuple(comps), degraded=tuple(degraded), envg=envg)
-    fields = {name: tuple(tuples) for name, tuples in fixed.items() if name in EVALUATION_FIELDS}
+    atoms.update(comps=tuple(comps), degraded=tuple(degraded))
     fields["roles"] = tuple(roles)
     return InstanceData(system.name, atoms, fields, parts.names)
+
+
+def describe_plan_data(system: System, configs: Sequence[Configuration], serving: Sequence[tuple[str, str]] = (),
+                       stable: Sequence[str] = (), protocols: Sequence[tuple[str, str]] = (),
+                       handover: Sequence[tuple[str, str]] = ()) -> InstanceData:
+    """A plan's configurations (see `render_plan`) as an instance of the plan evaluation
+    module (`render_plan_evaluation_module`): states S0, S1, ..., their attachments through
+    Role atoms, and a Step atom per step with its action's arguments."""
+    scope = _whole(system, configs)
+    states = [f"S{i}" for i in range(len(scope.configs))]
+    parts, atoms, fields = _architecture_data(system, scope, {s: ("state", str(i)) for i, s in enumerate(states)})
+    roles: dict[tuple[str, str], str] = {}
+    comps, degraded, sroles = [], [], []
+    for state, config in zip(states, scope.configs):
+        comps += [(state, parts.comps[c]) for c in sorted(config.components) if c in parts.comps]
+        degraded += [(state, parts.funcs[f]) for f in sorted(config.degraded) if f in parts.funcs]
+        for k, c, p in sorted(config.roles):
+            if k in parts.conns and (c, p) in parts.ports:
+                sroles.append((state, roles.setdefault((parts.conns[k], parts.ports[c, p]), f"a_{len(roles)}")))
+    atoms.update(System=tuple(states), Role=tuple(roles.values()))
+    fields.update(comps=tuple(comps), degraded=tuple(degraded), sroles=tuple(sroles),
+                  role_conn=tuple((a, k) for (k, _), a in roles.items()),
+                  role_port=tuple((a, p) for (_, p), a in roles.items()))
+    _plan_step_data(scope.configs, states, parts, atoms, fields)
+    _serving_data(parts, list(serving), list(stable), list(protocols), list(handover), atoms, fields)
+    return InstanceData(system.name, atoms, fields, parts.names)
+
+
+def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Parts,
+                    atoms: dict[str, tuple[str, ...]], fields: dict[str, tuple[tuple[str, ...], ...]]) -> None:
+    """A Step atom per step: the states around it, and where the difference between them is
+    one action, that action's arguments (one field per kind) and its `<action>_steps`."""
+    by_meaning = {meaning: atom for atom, meaning in parts.names.items()}
+    steps = [f"t{i}" for i in range(len(configs) - 1)]
+    rel: dict[str, list[tuple[str, ...]]] = {"pre": [], "post": []}
+    kinds: dict[str, list[str]] = {k.name: [] for k in ACTION_KINDS}
+    for i, (before, after) in enumerate(zip(configs, configs[1:])):
+        rel["pre"].append((steps[i], states[i]))
+        rel["post"].append((steps[i], states[i + 1]))
+        found = step_action(before, after)
+        if found is None:
+            continue
+        kinds[found[0]].append(steps[i])
+        for meaning in found[1]:
+            rel.setdefault(f"a_{meaning[0]}", []).append((steps[i], by_meaning[meaning]))
+    atoms["Step"] = tuple(steps)
+    atoms.update({f"{kind}_steps": tuple(members) for kind, members in kinds.items()})
+    fields.update({name: tuple(tuples) for name, tuples in rel.items()})
+
+
+def _serving_data(parts: _Parts, serving: list[tuple[str, str]], stable: list[str], protocols: list[tuple[str, str]],
+                  handover: list[tuple[str, str]], atoms: dict[str, tuple[str, ...]],
+                  fields: dict[str, tuple[tuple[str, ...], ...]]) -> None:
+    """What the plan must keep serving and keep satisfied (see `render_plan`), as sets."""
+    missing = [k for k, c in serving + handover if k not in parts.conns or c not in parts.comps]
+    missing += [k for k in stable if k not in parts.conns]
+    if missing:
+        raise ValueError(f"the plan names what the architecture lacks: {missing}")
+    served = {c for _, c in serving}
+    atoms["proxies"] = tuple(fa for (c, _), fa in parts.funcs.items() if c in served)
+    atoms["client_conns"] = tuple(sorted({parts.conns[k] for k, _ in serving}))
+    atoms["handing"] = tuple(sorted({parts.comps[c] for _, c in handover}))
+    atoms["handed_conns"] = tuple(sorted({parts.conns[k] for k, _ in handover}))
+    atoms["stable_conns"] = tuple(sorted({parts.conns[k] for k in stable}))
+    if protocols or handover:   # the proxies' requests must reach one of these present protocols
+        atoms["proxy_comps"] = tuple(sorted({parts.comps[c] for c in served}))
+        fields["protocols"] = tuple(sorted({(parts.comps[x], parts.comps[p]) for x, p in protocols
+                                            if x in parts.comps and p in parts.comps}))
 
 
 def _plan_relations(configs: list[Configuration], states: list[str], parts: _Parts,
@@ -793,7 +868,14 @@ def describe_plan(system: System, configs: Sequence[Configuration], module_name:
 
 # -- Rendering a description --------------------------------------------------------------
 
-EVALUATION_FIELDS = frozenset(f for sig in EVALUATION_SIGS for f, _ in sig.fields)
+@functools.lru_cache(maxsize=1)
+def render_plan_evaluation_module() -> str:
+    """The plan evaluation module: the sigs of `plan_evaluation_sigs`, the shared semantics
+    and the six actions over them, and `plan_safe`. Every instance of it
+    (`describe_plan_data`) is a plan, or a window of its steps."""
+    kinds = tuple(k.name for k in ACTION_KINDS)
+    return environment().get_template("plan_evaluate.als.j2").render(
+        st=PLAN_BINARY_STATE, sigs=plan_evaluation_sigs(kinds), kinds=ACTION_KINDS)
 
 
 @functools.lru_cache(maxsize=1)

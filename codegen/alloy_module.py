@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-__all__ = ["EVALUATION_SIGS", "Architecture", "EvaluationSig", "Family", "Fun", "InstanceData", "InstanceModule",
+__all__ = ["EVALUATION_SIGS", "plan_evaluation_sigs", "Architecture", "EvaluationSig", "Family", "Fun", "InstanceData", "InstanceModule",
            "Meaning", "PlanModule", "PlannerModule", "Serving", "StateTerms", "Step"]
 
 # What an atom stands for: ("component", c), ("port", c, p), ("functionality", c, f),
@@ -82,26 +82,56 @@ class EvaluationSig:
     fields: tuple[tuple[str, str], ...] = ()
 
 
-# The evaluation module's sigs, in order: the one table from which the module's declarations
-# and every instance of it (codegen.alloy_xml) are written. The relations are those of an
-# instance module's `fun` constants, with guarantees as atoms (binary relations only).
-EVALUATION_SIGS = (
+# The sigs of an architecture, in order, as the evaluation modules declare them: the
+# relations of an instance module's `fun` constants, with guarantees as atoms (binary
+# relations only). `Connector` and `Component` are not here: each module adds its own fields.
+_ARCHITECTURE_SIGS = (
     EvaluationSig("MType"),
     EvaluationSig("Rate", fields=(("rate_next", "Rate"),)),
     EvaluationSig("Data", abstract=True),
     EvaluationSig("Nothing", "Data", one=True),
     EvaluationSig("Msg", "Data", fields=(("mtype", "MType"), ("rate", "Rate"))),
-    EvaluationSig("Component", fields=(("inputs", "Input"), ("outputs", "Output"), ("funcs", "Functionality"))),
     EvaluationSig("Port", abstract=True),
     EvaluationSig("Input", "Port", fields=(("iasm", "Data"),)),
     EvaluationSig("Output", "Port"),
     EvaluationSig("Functionality", fields=(("assoc_in", "Input"), ("assoc_out", "Output"), ("nasms", "Data"))),
     EvaluationSig("Guar", fields=(("gfunc", "Functionality"), ("gout", "Output"), ("gn", "Data"), ("gd", "Data"))),
+    EvaluationSig("envg", "Data", subset=True),
+)
+_COMPONENT_FIELDS = (("inputs", "Input"), ("outputs", "Output"), ("funcs", "Functionality"))
+
+# The evaluation module's sigs (codegen/templates/alloy/evaluate.als.j2): an architecture in
+# one configuration. The one table from which the module's declarations and every instance
+# of it (codegen.alloy_xml) are written.
+EVALUATION_SIGS = _ARCHITECTURE_SIGS + (
+    EvaluationSig("Component", fields=_COMPONENT_FIELDS),
     EvaluationSig("Connector", fields=(("cguar", "Data"), ("roles", "Port"))),
     EvaluationSig("comps", "Component", subset=True),
     EvaluationSig("degraded", "Functionality", subset=True),
-    EvaluationSig("envg", "Data", subset=True),
 )
+
+
+def plan_evaluation_sigs(action_kinds: tuple[str, ...]) -> tuple[EvaluationSig, ...]:
+    """The plan evaluation module's sigs (plan_evaluate.als.j2): an architecture in the
+    successive configurations of a plan (System atoms, their attachments through Role
+    atoms), its steps (each with the states around it, its arguments by kind, and the
+    subset `<action>_steps` of the action it is), and what the plan must keep serving."""
+    return _ARCHITECTURE_SIGS + (
+        EvaluationSig("Component", fields=_COMPONENT_FIELDS + (("protocols", "Component"),)),
+        EvaluationSig("Connector", fields=(("cguar", "Data"),)),
+        EvaluationSig("Role", fields=(("role_conn", "Connector"), ("role_port", "Port"))),
+        EvaluationSig("System", fields=(("comps", "Component"), ("degraded", "Functionality"), ("sroles", "Role"))),
+        EvaluationSig("Step", fields=(("pre", "System"), ("post", "System"), ("a_component", "Component"),
+                                      ("a_connector", "Connector"), ("a_port", "Port"),
+                                      ("a_functionality", "Functionality"))),
+        *(EvaluationSig(f"{kind}_steps", "Step", subset=True) for kind in action_kinds),
+        EvaluationSig("proxies", "Functionality", subset=True),
+        EvaluationSig("client_conns", "Connector", subset=True),
+        EvaluationSig("proxy_comps", "Component", subset=True),
+        EvaluationSig("handing", "Component", subset=True),
+        EvaluationSig("handed_conns", "Connector", subset=True),
+        EvaluationSig("stable_conns", "Connector", subset=True),
+    )
 
 
 @dataclass(frozen=True)

@@ -5,15 +5,16 @@ import time
 from dataclasses import dataclass
 from typing import Collection, Iterable, Mapping, Sequence
 
-from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
-from checker.alloy.errors import AlloyError
+from checker.alloy.bridge import AlloyBridge
 from checker.alloy.evaluate import evaluator
-from checker.alloy.spans import with_span
 from checker.model.actions import KINDS
 from checker.model.config import Configuration
-from codegen.alloy import alloy_view, describe_instance_data, render_plan, slice_index, step_action
-from codegen.alloy_module import Meaning
+from codegen.alloy import alloy_view, describe_instance_data, describe_plan_data, slice_index, step_action
+from codegen.alloy_module import Meaning, plan_evaluation_sigs
 from codegen.alloy_xml import instance_xml
+
+PLAN_MODULE = "plan_evaluate.als"
+PLAN_SIGS = plan_evaluation_sigs(tuple(k.name for k in KINDS))
 from reconf_dsl.ir import Predicate, System
 
 # Components judged per instance: a large architecture is judged as a partition of slices
@@ -131,18 +132,14 @@ ACTIONS = tuple(k.name for k in KINDS)
 
 
 def _planned_actions(system: System, configs: Sequence[Configuration]) -> list[tuple[str, ...]]:
-    """Per step, the action the module's `plan_safe` required of it (the one the difference
-    between the two configurations is): what a plan Alloy found safe performs."""
-
-    out: list[tuple[str, ...]] = []
+    """Per step, the action the difference between its two configurations is (empty where it
+    is not one action): what a plan Alloy found safe performs."""
     views = [alloy_view(system, c) for c in configs]
+    out: list[tuple[str, ...]] = []
     for before, after in zip(views, views[1:]):
         step = step_action(before, after)
         out.append((step[0],) if step is not None else ())
     return out
-
-
-PLAN_MAIN = "plan.als"
 
 
 @dataclass(frozen=True)
@@ -166,46 +163,35 @@ class AlloyPlanVerdict:
         return all(self.valid) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
-def alloy_plan_verdict(system: System, configs: Sequence[Configuration], solver: str = DEFAULT_SOLVER,
-                       bridge: AlloyBridge | None = None, serving: Iterable[tuple[str, str]] = (),
-                       stable: Iterable[str] = (), binary: bool = False,
+def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge: AlloyBridge | None = None,
+                       serving: Iterable[tuple[str, str]] = (), stable: Iterable[str] = (),
                        protocols: Iterable[tuple[str, str]] = (),
                        handover: Iterable[tuple[str, str]] = ()) -> AlloyPlanVerdict:
-    """Check a plan (its successive configurations, initial first) in Alloy: each
-    configuration valid, each step one of the six actions with its preconditions met, and,
-    with `serving` ((connector, proxy) pairs), each configuration lossless (with `protocols`,
-    each proxy's requests reaching one of them; with `handover` ((connector, proxy) pairs of
-    servers losing their FTM), each such proxy normal with its requests reaching a protocol
-    while it still publishes on the connector), and with `stable` (connector names), each
-    configuration satisfying them. With `binary`, the module's roles are binary relations
-    (for a universe too large for a ternary one: `codegen.alloy.render_plan`)."""
-
-    text, names = render_plan(system, configs, serving=serving, stable=stable, binary=binary, protocols=protocols,
-                              handover=handover)
-    bridge = bridge or AlloyBridge.get()
+    """Judge a plan (its successive configurations, initial first) in Alloy, by evaluating
+    the plan evaluation module's `plan_safe` in it as an instance (checker.alloy.evaluate):
+    each configuration valid, each step one of the six actions with its preconditions met,
+    and, with `serving` ((connector, proxy) pairs), each configuration lossless (with
+    `protocols`, each proxy's requests reaching one of them; with `handover` ((connector,
+    proxy) pairs of servers losing their FTM), each such proxy normal with its requests
+    reaching a protocol while it still publishes on the connector), and with `stable`
+    (connector names), each configuration satisfying them. `text` is the instance read."""
+    data = describe_plan_data(system, configs, list(serving), list(stable), list(protocols), list(handover))
+    text = instance_xml(data, PLAN_SIGS)
+    judge = evaluator(bridge or AlloyBridge.get(), PLAN_MODULE)
+    clock = time.perf_counter()
+    instance = judge.read(text)
     n = len(configs)
-    try:
-        # `check PlanSafe` first: over constants it folds while translating, so a safe plan
-        # costs no evaluation; only a counterexample is asked what fails where
-        (safe,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "PlanSafe", solver, constants=True)
-        if not safe.satisfiable:
-            every = tuple(True for _ in range(n))
-            return AlloyPlanVerdict(every, tuple(_planned_actions(system, configs)), safe.elapsed, text, every, every)
-        (outcome,) = bridge.run({PLAN_MAIN: text}, PLAN_MAIN, "Verdict", solver, constants=True)
-    except AlloyError as err:
-        raise with_span(err, text, names, system) from None
-    valid_states = {atom_name(s) for (s,) in outcome.eval("valid_states")}
-    did: dict[str, set[str]] = {}
-    for s, a in outcome.eval("ok_steps"):
-        did.setdefault(atom_name(s), set()).add(atom_name(a).lower())
-    valid = tuple(f"S{i}" in valid_states for i in range(n))
-    steps = [tuple(a for a in ACTIONS if a in did.get(f"S{i}", set())) for i in range(n - 1)]
-    lossless = tuple(True for _ in range(n))
-    if serving or handover:
-        serving_states = {atom_name(s) for (s,) in outcome.eval("lossless_states")}
-        lossless = tuple(f"S{i}" in serving_states for i in range(n))
-    kept = tuple(True for _ in range(n))
-    if stable:
-        holding = {atom_name(s) for (s,) in outcome.eval("stable_states")}
-        kept = tuple(f"S{i}" in holding for i in range(n))
-    return AlloyPlanVerdict(valid, tuple(steps), outcome.elapsed, text, lossless, kept)
+    if instance.holds("plan_safe"):
+        every = tuple(True for _ in range(n))
+        return AlloyPlanVerdict(every, tuple(_planned_actions(system, configs)), time.perf_counter() - clock,
+                                text, every, every)
+    states = [f"S{i}" for i in range(n)]
+
+    def per_state(expr: str) -> tuple[bool, ...]:
+        holding = {s for (s,) in instance.value(expr)}
+        return tuple(s in holding for s in states)
+
+    ok = {t for (t,) in instance.value("ok_steps")}
+    steps = tuple(action if f"t{i}" in ok else () for i, action in enumerate(_planned_actions(system, configs)))
+    return AlloyPlanVerdict(per_state("valid_states"), steps, time.perf_counter() - clock, text,
+                            per_state("lossless_states"), per_state("stable_states"))

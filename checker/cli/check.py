@@ -8,6 +8,7 @@ from typing import Optional
 
 import click
 
+from checker.alloy.evaluate import start_early
 from checker.cli.common import (
     EXIT_OK,
     EXIT_UNSAFE,
@@ -48,6 +49,8 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     refuse_bag_options_alone(bag)
     age = report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
+    if engine != "python":
+        start_early()              # the analyzer starts while the files are parsed
     system = load(expand(files, exclude) or nothing_left(files), sources)
     parsed = time.perf_counter() - started - age
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):

@@ -136,11 +136,12 @@ solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_se
                              default=DEFAULT_SOLVER, show_default=True,
                              help=f"SAT solver for Alloy; a native one whose library does not load here "
                                   f"falls back to {FALLBACK_SOLVER}")
-# `check` evaluates a configuration in Alloy, with nothing to solve: it takes --solver (as it
-# did when it solved) so that scripts passing it keep working, and does not show it
+# `check` and `gate` evaluate in Alloy (a configuration, a plan), with nothing to solve: they
+# take --solver (as they did when they solved) so that scripts passing it keep working, and
+# do not show it
 solver_option_unused = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
                                     default=DEFAULT_SOLVER, hidden=True,
-                                    help="no effect: a configuration is evaluated, not solved")
+                                    help="no effect: Alloy evaluates here, with nothing to solve")
 
 
 

@@ -23,7 +23,7 @@ from checker.cli.common import (
     format_option,
     guarded,
     plural,
-    solver_option,
+    solver_option_unused,
     write_atomically,
 )
 from checker.gate.change import judge_change
@@ -100,7 +100,7 @@ def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic
                    "to FILE; repeatable, so that one run writes every output CI needs")
 @format_option
 @engine_option
-@solver_option
+@solver_option_unused
 @guarded("gate")
 def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
              reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
@@ -118,9 +118,10 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     Exit codes: 0 pass, 1 fail, 2 bad input; with --detailed-exitcode,
     0 nothing to do, 3 a safe change with steps.
     """
+    del solver     # no effect on a gate (solver_option_unused)
     try:
         run_gate(base, head, policy_file, allow_unsafe_base, detailed_exitcode, reports, output_format, engine,
-                 solver, sources)
+                 sources)
     except ReportsNotWritten:
         raise                           # the reports that were written hold the verdict: keep them
     except (DiagnosticError, Failure) as e:
@@ -147,7 +148,7 @@ def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -
 
 
 def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str,
              sources: Sources) -> None:
     with revisions() as revs:
         try:
@@ -161,7 +162,7 @@ def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
             rename_sources(sources, revs)
             raise DiagnosticError([revs.diagnostic(d) for d in e.diagnostics]) from None
         rename_sources(sources, revs)
-        out = judge_change(old, new, policy, engine, solver, allow_unsafe_base)
+        out = judge_change(old, new, policy, engine, allow_unsafe_base)
         out.diagnostics = [revs.diagnostic(d) for d in out.diagnostics]
         out.cases = [replace(c, span=revs.span(c.span)) if c.span else c for c in out.cases]
     verdict = "pass" if out.passed else "fail"

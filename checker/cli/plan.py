@@ -203,7 +203,7 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
         out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "
                   f"{plural(al['transitions'], 'transition')} "
                   f"{agree(al['transitions'], 'is an instance of its action', 'are instances of their actions')} "
-                  f"({al['solver']}, {al['seconds']:.2f} s, {al['module_hash'][:19]})")
+                  f"(evaluated in {al['seconds']:.2f} s, {al['module_hash'][:19]})")
         if al.get("slice"):
             sl = al["slice"]
             once = sl["judged_once"]

@@ -100,12 +100,11 @@ def func_span(systems: list[System], component: str, functionality: str) -> Opti
     return None
 
 
-def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, solver: str, out: Outcome) -> None:
-
+def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, out: Outcome) -> None:
     with status(f"planning the migration {old.name} → {new.name}…"):
         try:
             verified = plan_verified(lambda fb: plan_change(old, new, policy.strategy, fb), use_alloy=use_alloy,
-                                     chain=True, judge=lambda p: verified_in_alloy(p, solver))
+                                     chain=True, judge=verified_in_alloy)
         except NoSafePlan as e:
             out.fail("gate.policy", "a verified migration plan exists", error(
                 "RC501", f"no safe migration plan from the base to {new.name} ({policy.strategy} strategy and "
@@ -150,11 +149,11 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, sol
                 notes=(f"plan: {p.summary()}",)))
 
 
-def verified_in_alloy(p: Any, solver: str) -> dict[str, Any]:
+def verified_in_alloy(p: Any) -> dict[str, Any]:
     """Alloy's evidence for plan `p` (`checker.planning.alloy_verify.alloy_evidence`), with Alloy
     missing or refusing the module reported as the gate's engine diagnostics (RC301, RC302)."""
     try:
-        return alloy_evidence(p, solver)
+        return alloy_evidence(p)
     except AlloyUnavailable as e:
         raise EngineUnavailable(error("RC301", str(e), Span.unknown("<alloy>"),
                                       notes=("or use --engine python",))) from None
@@ -196,7 +195,7 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
     out.ok("gate.policy", f"{new.name} is safe alone (the base is not; {allowed})", new.span)
 
 
-def judge_change(old: System, new: System, policy: Policy, engine: str, solver: str,
+def judge_change(old: System, new: System, policy: Policy, engine: str,
                  allow_unsafe_base: bool = False) -> Outcome:
     out = Outcome()
     ftm_findings(old, new, policy, out)
@@ -223,5 +222,5 @@ def judge_change(old: System, new: System, policy: Policy, engine: str, solver: 
                    f"allow-unsafe-base = true in {policy.where}" if policy.allow_unsafe_base else None)
         unsafe_base_findings(old, new, base_failing, allowed, out)
         return out
-    plan_findings(old, new, policy, engine != "python", solver, out)
+    plan_findings(old, new, policy, engine != "python", out)
     return out

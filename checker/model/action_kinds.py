@@ -87,13 +87,14 @@ class ActionKind(Generic[A]):
     failing preconditions in words, [] when it may run), `effect` (the configuration after
     it, preconditions not checked), `recognise` (the actions of this kind a `Change` is made
     of) and `args` (its arguments as the Alloy atoms' meanings, in the order of the Alloy
-    predicate's parameters after the two configurations)."""
+    predicate's parameters after the two configurations), whose kinds are `params`."""
 
     cls: type[A]
     precondition: Callable[["Snapshot", A], list[str]]
     effect: Callable[["_Catalogue", Configuration, A], Configuration]
     recognised: Callable[[Change], Iterable["Action"]]
     args: Callable[[A], tuple[Meaning, ...]]
+    params: tuple[str, ...]
 
     @property
     def name(self) -> str:

@@ -592,17 +592,17 @@ def _component(c: str) -> Meaning:
 
 KINDS: tuple[Kind, ...] = (
     ActionKind[Remove](Remove, _remove, _after_remove, lambda ch: [Remove(c) for c in ch.removed],
-               lambda a: (_component(a.component),)),
+               lambda a: (_component(a.component),), ("component",)),
     ActionKind[Create](Create, _create, _after_create, lambda ch: [Create(c) for c in ch.created],
-               lambda a: (_component(a.component),)),
+               lambda a: (_component(a.component),), ("component",)),
     ActionKind[Detach](Detach, _detach, _after_detach, lambda ch: [Detach(*r) for r in ch.detached],
-               lambda a: (("connector", a.connector), ("port", a.component, a.port))),
+               lambda a: (("connector", a.connector), ("port", a.component, a.port)), ("connector", "port")),
     ActionKind[Attach](Attach, _attach, _after_attach, lambda ch: [Attach(*r) for r in ch.attached],
-               lambda a: (("connector", a.connector), ("port", a.component, a.port))),
+               lambda a: (("connector", a.connector), ("port", a.component, a.port)), ("connector", "port")),
     ActionKind[Degrade](Degrade, _degrade, _after_degrade, lambda ch: [Degrade(*f) for f in ch.degraded],
-               lambda a: (("functionality", a.component, a.functionality),)),
+               lambda a: (("functionality", a.component, a.functionality),), ("functionality",)),
     ActionKind[Upgrade](Upgrade, _upgrade, _after_upgrade, lambda ch: [Upgrade(*f) for f in ch.upgraded],
-               lambda a: (("functionality", a.component, a.functionality),)),
+               lambda a: (("functionality", a.component, a.functionality),), ("functionality",)),
 )
 """Every action, in the order the Alloy modules declare them."""
 

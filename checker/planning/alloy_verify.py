@@ -8,13 +8,10 @@ from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
 from checker.alloy import alloy_plan_verdict, alloy_verdict
-from checker.alloy.bridge import AlloyBridge
 from checker.alloy.errors import AlloyError
-from checker.alloy.instance import PLAN_MAIN, AlloyPlanVerdict
-from checker.alloy.parallel import Job, judge_many
+from checker.alloy.instance import AlloyPlanVerdict
 from checker.planning import Plan
 from checker.planning.slicing import PlanSlicer
-from codegen.alloy import TERNARY_ATOMS, render_plan
 from reconf_dsl.ir import Predicate
 from reconf_dsl.words import plural
 
@@ -24,11 +21,14 @@ MODULE_BUDGET = 40_000
 # with states x slice, so narrower windows cost less in all, down to where the per-window work
 # (slicing, writing and parsing the module) takes over; measured on the DAG plan of bench_alloy
 WINDOW_BUDGET = 750
+# atoms of one window's instance past which it is split: every relation is binary, and the
+# analyzer indexes a binary relation's tuples by universe² < 2³¹ (about 46,000 atoms)
+WINDOW_ATOMS = 40_000
 
 
-def _not_run(plan: Plan, solver: str, seconds: float, reason: str) -> dict[str, Any]:
+def _not_run(plan: Plan, seconds: float, reason: str) -> dict[str, Any]:
     return {"engine": "alloy", "valid": False, "verdict": "not run", "reason": reason, "states": len(plan.states),
-            "transitions": len(plan.steps), "solver": solver, "seconds": round(seconds, 3)}
+            "transitions": len(plan.steps), "method": "evaluation", "seconds": round(seconds, 3)}
 
 
 class PlanVerdicts:
@@ -56,7 +56,7 @@ class PlanVerdicts:
         return f"Alloy refuted the plan: {found.get('reason', 'unknown')}"
 
 
-def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
+def alloy_evidence(plan: Plan, slice_: bool = True,
                    progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Evidence for the plan document; `valid` is False (with a `reason`) when Alloy refutes it.
 
@@ -67,13 +67,13 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
     `progress` is told how many windows there are, then which steps each window judged one at
     a time holds. Raises the bridge's AlloyUnavailable when Java or the jar is missing."""
     if not slice_ or not plan.steps:
-        return _whole(plan, solver)
+        return _whole(plan)
     tally, slicer = _Tally(), PlanSlicer(plan)
     try:
-        k, width = _at_once(plan, slicer, solver, tally, progress)
-        reason = _one_at_a_time(plan, slicer, solver, tally, k, width, progress)
+        k, width = _at_once(plan, slicer, tally, progress)
+        reason = _one_at_a_time(plan, slicer, tally, k, width, progress)
     except _NotRun as e:
-        return _not_run(plan, solver, tally.seconds, str(e))
+        return _not_run(plan, tally.seconds, str(e))
     outside = set(plan.states[0].components) - tally.judged
     if not reason and outside:
         first = alloy_verdict(plan.system, plan.states[0], only=outside)
@@ -81,7 +81,7 @@ def alloy_evidence(plan: Plan, solver: str = "glucose", slice_: bool = True,
         tally.texts += list(first.texts)
         if not first.valid:
             reason = "the initial configuration is not valid"
-    evidence = _evidence(plan, solver, reason, tally.seconds, tally.texts)
+    evidence = _evidence(plan, reason, tally.seconds, tally.texts)
     evidence["slice"] = {"components": tally.largest, "judged_once": len(outside), "windows": len(tally.widths),
                          "kind": "full" if "full" in tally.kinds else "lean"}
     return evidence
@@ -113,7 +113,7 @@ class _Tally:
         self.judged |= core
 
 
-def _at_once(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally,
+def _at_once(plan: Plan, slicer: PlanSlicer, tally: _Tally,
              progress: Callable[[str], None] | None) -> tuple[int, int]:
     """The windows judged at once (by two analyzers where that pays) as long as their lean
     slices are proved: the step and width to go on from one at a time, from the first that
@@ -123,7 +123,7 @@ def _at_once(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally,
         progress(f"verifying {plural(len(plan.steps), 'step')} in {plural(len(windows), 'window')} in the Alloy "
                  "Analyzer…")
     proved = 0
-    for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows, solver)):
+    for (_, width, lean, core), (ok, spent, text) in zip(windows, _judge_at_once(plan, windows)):
         if not ok:
             break
         tally.spent(spent, text)
@@ -136,7 +136,7 @@ def _at_once(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally,
     return len(plan.steps), len(plan.steps)
 
 
-def _one_at_a_time(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally, k: int, width: int,
+def _one_at_a_time(plan: Plan, slicer: PlanSlicer, tally: _Tally, k: int, width: int,
                    progress: Callable[[str], None] | None) -> str:
     """The windows from step `k` on, one at a time: a window is as long as keeps its module
     within `WINDOW_BUDGET` state-components (halved until it does, or until the analyzer can
@@ -155,7 +155,7 @@ def _one_at_a_time(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally, k
             progress(f"verifying steps {k + 1}–{k + width} of {len(plan.steps)} in the Alloy Analyzer "
                      f"({_size(lean)} components)…")
         try:
-            reason, spent, text = _judge(plan, lean, solver, k, binary=width == 1)
+            reason, spent, text = _judge(plan, lean, k)
             target, core = lean, lean_core
             if reason:
                 # refuted on the lean slice, maybe only for what it left out: the full slice
@@ -167,7 +167,7 @@ def _one_at_a_time(plan: Plan, slicer: PlanSlicer, solver: str, tally: _Tally, k
                     continue
                 if _cost(target) > MODULE_BUDGET:
                     raise _NotRun(_too_big(target))
-                reason, spent, text = _judge(plan, target, solver, k, binary=width == 1)
+                reason, spent, text = _judge(plan, target, k)
         except AlloyError as err:
             if not _capacity(err):
                 raise
@@ -203,47 +203,37 @@ def _windows(plan: Plan, slicer: "PlanSlicer") -> tuple[list[tuple[int, int, Pla
     return out, ""
 
 
-def _judge_at_once(plan: Plan, windows: list[tuple[int, int, Plan, set[str]]],
-                   solver: str) -> list[tuple[bool, float, str]]:
-    """`check PlanSafe` of each window's lean module, all in one batch of the analyzers
-    (`checker.alloy.parallel`), up to the first module that needs binary relations: per
-    window, whether it is proved, the solver's seconds and the module. Empty when the batch
-    fails (the windows are then judged one at a time, where each error is reported)."""
-
-
-    texts = []
+def _judge_at_once(plan: Plan, windows: list[tuple[int, int, Plan, set[str]]]) -> list[tuple[bool, float, str]]:
+    """`plan_safe` of each window's lean slice: per window, whether it is proved, the
+    analyzer's seconds and the instance it read. Stops at the first error (the windows are
+    then judged one at a time, where each error is reported)."""
+    out = []
     for _, _, lean, _ in windows:
-        if _oversized(lean):
+        try:
+            verdict = _verdict(lean)
+        except Exception:  # noqa: BLE001 - judged one at a time below, with the error where it is
             break
-        text, _ = render_plan(lean.system, lean.states, serving=lean.serving, stable=lean.stable, binary=False,
-                              protocols=lean.protocols, handover=lean.handover)
-        texts.append(text)
-    try:
-        judged, _, _ = judge_many([Job(PLAN_MAIN, text, "PlanSafe") for text in texts], solver)
-    except Exception:  # noqa: BLE001 - judged one at a time below, with the error where it is
-        return []
-    return [(not v.satisfiable, v.solve, text) for v, text in zip(judged, texts)]
+        out.append((verdict.ok, verdict.seconds, verdict.text))
+    return out
 
 
-def _whole(plan: Plan, solver: str) -> dict[str, Any]:
+def _whole(plan: Plan) -> dict[str, Any]:
     """The plan judged in one module on its whole architecture."""
     if _cost(plan) > MODULE_BUDGET:
-        return _not_run(plan, solver, 0.0, _too_big(plan))
+        return _not_run(plan, 0.0, _too_big(plan))
     try:
-        reason, seconds, text = _judge(plan, plan, solver)
+        reason, seconds, text = _judge(plan, plan)
     except AlloyError as err:
         if not _capacity(err):
             raise
-        return _not_run(plan, solver, 0.0, f"the plan module of {len(plan.states)} states of {_size(plan)} "
+        return _not_run(plan, 0.0, f"the plan module of {len(plan.states)} states of {_size(plan)} "
                         "components has more atoms than the Alloy Analyzer can index")
-    return _evidence(plan, solver, reason, seconds, [text])
+    return _evidence(plan, reason, seconds, [text])
 
 
-def _evidence(plan: Plan, solver: str, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
-
-    used = AlloyBridge.get().solver_used(solver)
+def _evidence(plan: Plan, reason: str, seconds: float, texts: list[str]) -> dict[str, Any]:
     evidence = {"engine": "alloy", "valid": not reason, "reason": reason, "states": len(plan.states),
-                "transitions": len(plan.steps), "solver": used, "seconds": round(seconds, 3),
+                "transitions": len(plan.steps), "method": "evaluation", "seconds": round(seconds, 3),
                 "module_hash": "sha256:" + hashlib.sha256("\n".join(texts).encode("utf-8")).hexdigest()}
     if plan.serving or plan.handover:
         evidence["lossless"] = [f"{proxy} serves {conn}" for conn, proxy in plan.serving] + \
@@ -260,8 +250,7 @@ def _window(plan: Plan, k: int, width: int) -> Plan:
 def _atoms(target: Plan) -> int:
     """About how many atoms the plan module of `target` has (an estimate, to choose window
     sizes; the analyzer's capacity error is the final word): states, components, ports,
-    functionalities, connectors, and per datum its message and rate (a module with ternary
-    relations has no guarantee atoms)."""
+    functionalities, connectors, and per datum its message and rate."""
     system = target.system
     count = len(target.states) + len(system.connectors) + 24
     data: set[Optional[Predicate]] = set()
@@ -283,7 +272,7 @@ def _cost(target: Plan) -> int:
 
 def _oversized(target: Plan) -> bool:
     """Whether a window's module is past `WINDOW_BUDGET` or too large for ternary relations."""
-    return _cost(target) > WINDOW_BUDGET or _atoms(target) > TERNARY_ATOMS
+    return _cost(target) > WINDOW_BUDGET or _atoms(target) > WINDOW_ATOMS
 
 
 def _narrower(width: int, target: Plan) -> int:
@@ -306,23 +295,15 @@ def _too_big(target: Plan) -> str:
             f"the Alloy Analyzer verifies in reasonable time ({MODULE_BUDGET:,} state-components)")
 
 
-def _judge(plan: Plan, target: Plan, solver: str, offset: int = 0, binary: bool = True) -> tuple[str, float, str]:
+def _verdict(target: Plan) -> "AlloyPlanVerdict":
+    return alloy_plan_verdict(target.system, target.states, serving=target.serving, stable=target.stable,
+                              protocols=target.protocols, handover=target.handover)
+
+
+def _judge(plan: Plan, target: Plan, offset: int = 0) -> tuple[str, float, str]:
     """Alloy's verdict on `target` (the plan, or a slice of its steps from `offset` on):
-    why it is refused ("" when it is not), the analyzer's time, and the module. With
-    `binary`, a module with too many atoms for ternary relations is written with binary
-    ones (about 3x slower to translate) rather than refused."""
-
-    def run(binary_roles: bool) -> "AlloyPlanVerdict":
-        return alloy_plan_verdict(target.system, target.states, solver=solver, serving=target.serving,
-                                  stable=target.stable, binary=binary_roles, protocols=target.protocols,
-                                  handover=target.handover)
-
-    try:
-        verdict = run(False)
-    except AlloyError as err:
-        if not _capacity(err) or not binary:
-            raise
-        verdict = run(True)  # too many atoms for the ternary roles: binary relations instead
+    why it is refused ("" when it is not), the analyzer's time, and the instance it read."""
+    verdict = _verdict(target)
 
     def after(i: int) -> str:
         """State i of the module, in the plan's words."""

@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from checker.alloy import AlloyBridge
+from checker.alloy.evaluate import forget
 from checker.alloy.instance import alloy_plan_verdict
 from checker.model.actions import (
     Action,
@@ -167,6 +168,11 @@ def test_a_paper_reading_planted_back_is_caught(monkeypatch: pytest.MonkeyPatch,
     loader = jinja2.ChoiceLoader([jinja2.DictLoader({"actions.j2": source.replace(right, planted)}), real.loader])
     env = real.overlay(loader=loader)
     monkeypatch.setattr(codegen.alloy, "environment", lambda: env)
-    # the Python engine allows the action, the planted reading refuses it
-    with pytest.raises(AssertionError, match=f"'{refused}', \\[\\]"):
-        test_engines_judge_alike_where_the_readings_part()
+    forget()     # the evaluation modules rendered from the planted templates
+    try:
+        # the Python engine allows the action, the planted reading refuses it
+        with pytest.raises(AssertionError, match=f"'{refused}', \\[\\]"):
+            test_engines_judge_alike_where_the_readings_part()
+    finally:
+        monkeypatch.undo()
+        forget()

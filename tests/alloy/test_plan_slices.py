@@ -97,16 +97,20 @@ def test_a_long_plan_is_verified_in_windows_with_the_whole_verdict(monkeypatch: 
     assert f"after step {index} " in broken["reason"] or f"step {index + 1} " in broken["reason"], broken["reason"]
 
 
-def test_binary_roles_give_the_ternary_verdict(bridge: AlloyBridge) -> None:
+def test_the_plan_evaluated_agrees_with_its_module_solved(bridge: AlloyBridge) -> None:
+    """A plan evaluated as an instance (alloy_plan_verdict) is judged as its plan module
+    (render_plan), roles ternary or binary, is by the SAT solver: `check PlanSafe`."""
     from checker.alloy import alloy_plan_verdict
+    from codegen.alloy import render_plan
 
     plan = hub_plan("chain", 12)
     for states, safe in ((plan.states, True), (break_state(plan, 3).states, False)):
-        ternary = alloy_plan_verdict(plan.system, states)
-        binary = alloy_plan_verdict(plan.system, states, binary=True)
-        assert "fun roles_of" in binary.text and "fun roles_of" not in ternary.text
-        assert (ternary.valid, ternary.steps) == (binary.valid, binary.steps)
-        assert all(ternary.valid) is safe
+        evaluated = alloy_plan_verdict(plan.system, states, bridge=bridge)
+        for binary in (False, True):
+            text, _ = render_plan(plan.system, states, binary=binary)
+            (outcome,) = bridge.run({"plan.als": text}, "plan.als", "PlanSafe", constants=True)
+            assert not outcome.satisfiable is evaluated.ok is safe, (binary, safe)
+        assert all(evaluated.valid) is safe
 
 
 def test_a_refuted_lean_window_is_decided_on_narrower_full_windows(monkeypatch: pytest.MonkeyPatch,
@@ -125,7 +129,7 @@ def test_a_refuted_lean_window_is_decided_on_narrower_full_windows(monkeypatch: 
         return real(plan, target, *args, **kw)  # type: ignore[arg-type]
 
     monkeypatch.setattr(ap, "_judge", lean_refuted)
-    monkeypatch.setattr(ap, "_judge_at_once", lambda plan, windows, solver: [(False, 0.0, "")] * len(windows))
+    monkeypatch.setattr(ap, "_judge_at_once", lambda plan, windows: [(False, 0.0, "")] * len(windows))
     monkeypatch.setattr(ap, "WINDOW_BUDGET", 600)
     ev = alloy_evidence(plan)
     assert ev["valid"], ev["reason"]
@@ -141,7 +145,7 @@ def test_a_step_beyond_the_analyzer_is_not_run_rather_than_retried_forever(monke
         raise AlloyError("Translation capacity exceeded.")
 
     monkeypatch.setattr(ap, "_judge", too_many_atoms)
-    monkeypatch.setattr(ap, "_judge_at_once", lambda plan, windows, solver: [])   # as when the batch fails
+    monkeypatch.setattr(ap, "_judge_at_once", lambda plan, windows: [])   # as when the batch fails
     ev = alloy_evidence(hub_plan("chain", 12))
     assert ev["verdict"] == "not run" and "step 1 " in ev["reason"], ev
 
