@@ -7,8 +7,9 @@
 Table (a): for each shape and size, `reconf check --engine alloy` on a generated
 architecture in a fresh process (wall time, JVM start included; the median of --repeat
 runs), and, in another fresh process, the same work split: JVM start (import and start
-of the bridge), alloy (render, parse and judge every slice: `alloy_verdict`), of which
-solve (the analyzer's commands), and the number of slices (modules) judged.
+of the bridge), alloy (write every slice as an instance, have the analyzer read it and
+evaluate in it: `alloy_verdict`), of which eval (the analyzer's evaluating), and the number
+of slices (instances) judged.
 Table (b): for each shape and size, the system of bench_plan (seed 0, its hub with a
 version), the hub replaced with `plan_replace`, then the plan verified as `reconf plan`
 does, with `checker.planning.alloy_verify.alloy_evidence`: the plan in windows of consecutive steps,
@@ -47,7 +48,7 @@ t1 = time.perf_counter()
 config = Configuration.initial(system)
 verdict = alloy_verdict(system, config, bridge=bridge)
 t2 = time.perf_counter()
-print(json.dumps({"start": t1 - t0, "alloy": t2 - t1, "solve": verdict.seconds,
+print(json.dumps({"start": t1 - t0, "alloy": t2 - t1, "eval": verdict.seconds,
                   "slices": len(slices(system, config) or [None]), "valid": verdict.valid}))
 """
 
@@ -68,7 +69,7 @@ t1 = time.perf_counter()
 ev = alloy_evidence(plan)
 t2 = time.perf_counter()
 sl = ev.get("slice", {})
-print(json.dumps({"plan": t1 - t0, "steps": len(plan.steps), "alloy": t2 - t1, "solve": ev["seconds"],
+print(json.dumps({"plan": t1 - t0, "steps": len(plan.steps), "alloy": t2 - t1, "eval": ev["seconds"],
                   "slice": sl.get("components"), "kind": sl.get("kind", "whole"), "once": sl.get("judged_once", 0),
                   "windows": sl.get("windows", 1),
                   "ok": ev["valid"], "reason": ev.get("reason", ""), "not_run": ev.get("verdict") == "not run"}))
@@ -128,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         print("(a) reconf check --engine alloy (seconds; wall = fresh process, median of "
               f"{args.repeat}; target: 200 components < 3 s)")
-        print(f"{'shape':<7}{'N':>6} {'wall':>10} {'JVM start':>10} {'alloy':>8} {'solve':>8} {'slices':>7}  verdict")
+        print(f"{'shape':<7}{'N':>6} {'wall':>10} {'JVM start':>10} {'alloy':>8} {'eval':>8} {'slices':>7}  verdict")
         for shape in (x for x in args.shapes.split(",") if x):
             for n in (int(x) for x in args.check_sizes.split(",") if x):
                 path = _write(shape, n, False, tmp)
@@ -138,13 +139,13 @@ def main(argv: list[str] | None = None) -> int:
                 row = _child(CHECK_CHILD, path, args.timeout)
                 verdict = row.get("error") or ("valid" if row["valid"] else "not valid")
                 print(f"{shape:<7}{n:>6} {wall:>10} {_s(row, 'start'):>10} {_s(row, 'alloy'):>8} "
-                      f"{_s(row, 'solve'):>8} {row.get('slices', '-'):>7}  {verdict}", flush=True)
+                      f"{_s(row, 'eval'):>8} {row.get('slices', '-'):>7}  {verdict}", flush=True)
         print()
         print("(b) Alloy verification of the plan replacing the hub (bench_plan's plans, seed 0; seconds;\n"
               "    target: 1,000 components verified < 10 s): plan = plan_replace, alloy = alloy_evidence\n"
               "    (the plan's windows of steps, each module on the slice it can affect, then every other\n"
-              "    component judged once), of which solve; slice = the largest window's components")
-        print(f"{'shape':<7}{'N':>6} {'steps':>6} {'plan':>7} {'alloy':>7} {'solve':>7} {'windows':>8} {'slice':>10} "
+              "    component judged once), of which eval; slice = the largest window's components")
+        print(f"{'shape':<7}{'N':>6} {'steps':>6} {'plan':>7} {'alloy':>7} {'eval':>7} {'windows':>8} {'slice':>10} "
               f"{'once':>6}  verdict")
         for shape in (x for x in args.shapes.split(",") if x):
             for n in (int(x) for x in args.plan_sizes.split(",") if x):
@@ -160,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
                     verdict = "verified" if row["ok"] else f"refused: {row['reason'][:60]}"
                 sl = f"{row.get('slice', '-')} {row.get('kind', '')}" if row.get("slice") else row.get("kind", "-")
                 print(f"{shape:<7}{n:>6} {str(row.get('steps', '-')):>6} {_s(row, 'plan'):>7} {_s(row, 'alloy'):>7} "
-                      f"{_s(row, 'solve'):>7} {str(row.get('windows', '-')):>8} {sl:>10} {str(row.get('once', '-')):>6}"
+                      f"{_s(row, 'eval'):>7} {str(row.get('windows', '-')):>8} {sl:>10} {str(row.get('once', '-')):>6}"
                       f"  {verdict}", flush=True)
     return 0
 
