@@ -11,6 +11,7 @@ import pytest
 from checker.cli.main import main
 from checker.ftm.library import LIBRARY
 from checker.gate.policy import parse_policy
+from checker.model.actions import KINDS
 from checker.planning.chain import CHAIN
 from checker.planning.strategies import REGISTRY, STRATEGIES
 from checker.reports.formats import RENDERERS
@@ -96,3 +97,30 @@ def test_the_strategy_registry_feeds_the_cli_the_policy_and_the_chain() -> None:
     with pytest.raises(DiagnosticError) as refused:
         parse_policy({"strategy": "alloy"}, "reconf.toml")
     assert [d.code for d in refused.value.diagnostics] == ["RC505"]
+
+
+def test_each_action_s_params_are_the_kinds_of_its_alloy_arguments() -> None:
+    """The plan evaluation module calls each action with its Step's arguments by kind
+    (`params`); an action's arguments (`args`) must be atoms of those kinds, in that order."""
+    from checker.model.action_kinds import Change
+
+    change = Change(removed=frozenset({"c"}), created=frozenset({"c"}), detached=frozenset({("/k", "c", "p")}),
+                    attached=frozenset({("/k", "c", "p")}), degraded=frozenset({("c", "f")}),
+                    upgraded=frozenset({("c", "f")}))
+    for kind in KINDS:
+        (action,) = kind.found(change)
+        assert tuple(m[0] for m in kind.alloy_args(action)) == kind.params, kind.name
+
+
+def test_the_evaluation_modules_declare_their_tables() -> None:
+    """Each evaluation module declares exactly the sigs and fields its table names (the XML
+    of its instances is written from the same table)."""
+    from codegen.alloy import render_evaluation_module, render_plan_evaluation_module
+    from codegen.alloy_module import EVALUATION_SIGS, plan_evaluation_sigs
+
+    kinds = tuple(k.name for k in KINDS)
+    for text, table in ((render_evaluation_module(), EVALUATION_SIGS),
+                        (render_plan_evaluation_module(), plan_evaluation_sigs(kinds))):
+        declared = re.findall(r"^(?:abstract |one )*sig (\w+) (?:(?:in|extends) \w+ )?\{([^}]*)\}$", text, re.M)
+        assert [(name, sorted(f.split(":")[0].strip() for f in body.split(",") if f.strip()))
+                for name, body in declared] == [(s.name, sorted(f for f, _ in s.fields)) for s in table]
