@@ -8,10 +8,9 @@ from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
 from checker.alloy.instance import AlloyPlanVerdict, AlloyVerdict, alloy_plan_verdict, alloy_verdict
 from checker.alloy.jvm import find_jar, find_jvm
 from checker.alloy.metamodel import metamodel_modules
-from checker.alloy.spans import dsl_span_for
 from checker.alloy.worker import run_with_timeout
 
 __all__ = [
-    "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend", "dsl_span_for",
+    "DEFAULT_SOLVER", "AlloyBridge", "AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict", "AlloyError", "AlloyTimeout", "AlloyUnavailable", "Backend",
     "CommandOutcome", "find_jar", "find_jvm", "get_backend", "metamodel_modules", "run_with_timeout",
 ]

@@ -23,8 +23,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from checker.alloy.spans import IDENTIFIER
-
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _ONE_SIG = re.compile(r"^one sig ([\w, ]+?) extends (\w+) \{\}$", re.M)
 # a top-level fun or pred without parameters, as the templates write them
 _BLOCK = re.compile(r"^(fun|pred) (\w+)(?:: ([^{\n]+?))? \{\n(.*?)\n\}$", re.M | re.S)
