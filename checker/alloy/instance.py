@@ -1,4 +1,5 @@
-"""The Alloy verdict on one configuration of a concrete architecture."""
+"""Alloy's verdict on a configuration of a concrete architecture, and on a plan: each
+evaluated as an instance (checker.alloy.evaluate)."""
 from __future__ import annotations
 
 import time
@@ -12,17 +13,16 @@ from checker.model.config import Configuration
 from codegen.alloy import alloy_view, describe_instance_data, describe_plan_data, slice_index, step_action
 from codegen.alloy_module import Meaning, plan_evaluation_sigs
 from codegen.alloy_xml import instance_xml
+from reconf_dsl.ir import Predicate, System
 
 PLAN_MODULE = "plan_evaluate.als"
 PLAN_SIGS = plan_evaluation_sigs(tuple(k.name for k in KINDS))
-from reconf_dsl.ir import Predicate, System
 
 # Components judged per instance: a large architecture is judged as a partition of slices
 # of about this many components each (describe_instance_data with `focus`); validity is
 # local, so the configuration is valid exactly when every slice is. Reading an instance and
 # evaluating in it grow faster than its atoms (the evaluator's matrices are indexed by the
-# universe), a slice's fixed cost is small: on the DAG of 1,000 components, slices of 32
-# to 128 take the same time, the whole architecture in one instance five times as long.
+# universe) while a slice's fixed cost is small (docs/soundness.md, "Slicing a large check").
 SLICE = 64
 
 
