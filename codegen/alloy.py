@@ -699,21 +699,21 @@ def describe_plan_data(system: System, configs: Sequence[Configuration], serving
 def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Parts,
                     atoms: dict[str, tuple[str, ...]], fields: dict[str, tuple[tuple[str, ...], ...]]) -> None:
     """A Step atom per step: the states around it, and where the difference between them is
-    one action, that action's arguments (one field per kind) and its `<action>_steps`."""
-    by_meaning = {meaning: atom for atom, meaning in parts.names.items()}
-    steps = [f"t{i}" for i in range(len(configs) - 1)]
+    one action, that action's arguments (one field per kind: its `params`) and its
+    `<action>_steps`."""
+    params = {k.name: k.params for k in ACTION_KINDS}
+    names = [f"t{i}" for i in range(len(configs) - 1)]
     rel: dict[str, list[tuple[str, ...]]] = {"pre": [], "post": []}
-    kinds: dict[str, list[str]] = {k.name: [] for k in ACTION_KINDS}
-    for i, (before, after) in enumerate(zip(configs, configs[1:])):
-        rel["pre"].append((steps[i], states[i]))
-        rel["post"].append((steps[i], states[i + 1]))
-        found = step_action(before, after)
-        if found is None:
+    kinds: dict[str, list[str]] = {kind: [] for kind in params}
+    for t, step in zip(names, _steps(configs, states, {meaning: atom for atom, meaning in parts.names.items()})):
+        if step is None:
             continue
-        kinds[found[0]].append(steps[i])
-        for meaning in found[1]:
-            rel.setdefault(f"a_{meaning[0]}", []).append((steps[i], by_meaning[meaning]))
-    atoms["Step"] = tuple(steps)
+        kinds[step.action].append(t)
+        for kind, arg in zip(params[step.action], step.args):
+            rel.setdefault(f"a_{kind}", []).append((t, arg))
+    rel["pre"] = [(t, s) for t, s in zip(names, states)]
+    rel["post"] = [(t, s) for t, s in zip(names, states[1:])]
+    atoms["Step"] = tuple(names)
     atoms.update({f"{kind}_steps": tuple(members) for kind, members in kinds.items()})
     fields.update({name: tuple(tuples) for name, tuples in rel.items()})
 
@@ -800,17 +800,23 @@ def _plan_configurations(rel: dict[str, list[str]], binary: bool) -> tuple[Fun, 
     return funs + (_fun("roles", "System -> Connector -> Port", rel["roles"]),)
 
 
-def _plan_steps(configs: list[Configuration], states: list[str], atoms: Mapping[Meaning, str]
-                ) -> tuple[tuple[Step | None, ...], str]:
-    """Per step, the action the difference between its two configurations is (None where
-    it is not one action); and `ok_steps`, each such step's state -> its action."""
+def _steps(configs: Sequence[Configuration], states: list[str], atoms: Mapping[Meaning, str]) -> tuple[Step | None, ...]:
+    """Per step, the action the difference between its two configurations is, with its
+    arguments' atoms (None where it is not one action)."""
     steps: list[Step | None] = []
     for i, (before, after) in enumerate(zip(configs, configs[1:])):
         found = step_action(before, after)
         steps.append(None if found is None else
                      Step(found[0], states[i], states[i + 1], tuple(atoms[m] for m in found[1])))
+    return tuple(steps)
+
+
+def _plan_steps(configs: list[Configuration], states: list[str], atoms: Mapping[Meaning, str]
+                ) -> tuple[tuple[Step | None, ...], str]:
+    """The steps (`_steps`), and `ok_steps`, each one-action step's state -> its action."""
+    steps = _steps(configs, states, atoms)
     terms = [f"({{s: {s.before} | {_call(s)}}} -> {s.sig})" for s in steps if s is not None]
-    return tuple(steps), union(terms, _empty("System", "Action"))
+    return steps, union(terms, _empty("System", "Action"))
 
 
 def _call(step: Step) -> str:
@@ -868,14 +874,17 @@ def describe_plan(system: System, configs: Sequence[Configuration], module_name:
 
 # -- Rendering a description --------------------------------------------------------------
 
+# the plan evaluation module's sigs, with a `<action>_steps` for each action of the registry
+PLAN_EVALUATION_SIGS = plan_evaluation_sigs(tuple(k.name for k in ACTION_KINDS))
+
+
 @functools.lru_cache(maxsize=1)
 def render_plan_evaluation_module() -> str:
-    """The plan evaluation module: the sigs of `plan_evaluation_sigs`, the shared semantics
+    """The plan evaluation module: the sigs of `PLAN_EVALUATION_SIGS`, the shared semantics
     and the six actions over them, and `plan_safe`. Every instance of it
     (`describe_plan_data`) is a plan, or a window of its steps."""
-    kinds = tuple(k.name for k in ACTION_KINDS)
     return environment().get_template("plan_evaluate.als.j2").render(
-        st=PLAN_BINARY_STATE, sigs=plan_evaluation_sigs(kinds), kinds=ACTION_KINDS)
+        st=PLAN_BINARY_STATE, sigs=PLAN_EVALUATION_SIGS, kinds=ACTION_KINDS)
 
 
 @functools.lru_cache(maxsize=1)
@@ -883,7 +892,7 @@ def render_evaluation_module() -> str:
     """The evaluation module: the sigs and fields of EVALUATION_SIGS, the satisfaction
     relation and the shared semantics over them, and `unsatisfied`. Every instance of it
     (`describe_instance_data`, codegen.alloy_xml) is one configuration; `valid` is evaluated
-    in it (docs/soundness.md, "Judging a configuration")."""
+    in it (docs/soundness.md, "Judging by evaluation")."""
     return environment().get_template("evaluate.als.j2").render(st=FIXED_STATE, sigs=EVALUATION_SIGS)
 
 

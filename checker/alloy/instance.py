@@ -10,13 +10,12 @@ from checker.alloy.bridge import AlloyBridge
 from checker.alloy.evaluate import evaluator
 from checker.model.actions import KINDS
 from checker.model.config import Configuration
-from codegen.alloy import alloy_view, describe_instance_data, describe_plan_data, slice_index, step_action
-from codegen.alloy_module import Meaning, plan_evaluation_sigs
+from codegen.alloy import PLAN_EVALUATION_SIGS, describe_instance_data, describe_plan_data, slice_index
+from codegen.alloy_module import InstanceData, Meaning
 from codegen.alloy_xml import instance_xml
 from reconf_dsl.ir import Predicate, System
 
 PLAN_MODULE = "plan_evaluate.als"
-PLAN_SIGS = plan_evaluation_sigs(tuple(k.name for k in KINDS))
 
 # Components judged per instance: a large architecture is judged as a partition of slices
 # of about this many components each (describe_instance_data with `focus`); validity is
@@ -128,18 +127,12 @@ def _datum_atom(pred: Predicate, atoms: Mapping[Meaning, str]) -> str:
     return atoms.get(("data", pred.message, "" if pred.hz is None else str(pred.hz)), "")
 
 
-ACTIONS = tuple(k.name for k in KINDS)
-
-
-def _planned_actions(system: System, configs: Sequence[Configuration]) -> list[tuple[str, ...]]:
-    """Per step, the action the difference between its two configurations is (empty where it
-    is not one action): what a plan Alloy found safe performs."""
-    views = [alloy_view(system, c) for c in configs]
-    out: list[tuple[str, ...]] = []
-    for before, after in zip(views, views[1:]):
-        step = step_action(before, after)
-        out.append((step[0],) if step is not None else ())
-    return out
+def _planned_actions(data: InstanceData) -> list[tuple[str, ...]]:
+    """Per step of a plan's instance, the action the difference between its two
+    configurations is (empty where it is not one action), as the instance says it
+    (`<action>_steps`): what a plan Alloy found safe performs."""
+    kind_of_step = {t: k.name for k in KINDS for t in data.atoms.get(f"{k.name}_steps", ())}
+    return [(kind_of_step[t],) if t in kind_of_step else () for t in data.atoms["Step"]]
 
 
 @dataclass(frozen=True)
@@ -176,14 +169,14 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
     reaching a protocol while it still publishes on the connector), and with `stable`
     (connector names), each configuration satisfying them. `text` is the instance read."""
     data = describe_plan_data(system, configs, list(serving), list(stable), list(protocols), list(handover))
-    text = instance_xml(data, PLAN_SIGS)
+    text = instance_xml(data, PLAN_EVALUATION_SIGS)
     judge = evaluator(bridge or AlloyBridge.get(), PLAN_MODULE)
     clock = time.perf_counter()
     instance = judge.read(text)
     n = len(configs)
     if instance.holds("plan_safe"):
         every = tuple(True for _ in range(n))
-        return AlloyPlanVerdict(every, tuple(_planned_actions(system, configs)), time.perf_counter() - clock,
+        return AlloyPlanVerdict(every, tuple(_planned_actions(data)), time.perf_counter() - clock,
                                 text, every, every)
     states = [f"S{i}" for i in range(n)]
 
@@ -192,6 +185,6 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
         return tuple(s in holding for s in states)
 
     ok = {t for (t,) in instance.value("ok_steps")}
-    steps = tuple(action if f"t{i}" in ok else () for i, action in enumerate(_planned_actions(system, configs)))
+    steps = tuple(action if f"t{i}" in ok else () for i, action in enumerate(_planned_actions(data)))
     return AlloyPlanVerdict(per_state("valid_states"), steps, time.perf_counter() - clock, text,
                             per_state("lossless_states"), per_state("stable_states"))

@@ -132,16 +132,17 @@ engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "py
                              show_default=True,
                              help="both: Alloy proves, Python explains, and they must agree")
 
-solver_option = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
-                             default=DEFAULT_SOLVER, show_default=True,
-                             help=f"SAT solver for Alloy; a native one whose library does not load here "
-                                  f"falls back to {FALLBACK_SOLVER}")
+def _solver_option(**shown: Any) -> Any:
+    return click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False), default=DEFAULT_SOLVER,
+                        **shown)
+
+
+solver_option = _solver_option(show_default=True, help=f"SAT solver for Alloy; a native one whose library does not "
+                                                      f"load here falls back to {FALLBACK_SOLVER}")
 # `check` and `gate` evaluate in Alloy (a configuration, a plan), with nothing to solve: they
 # take --solver (as they did when they solved) so that scripts passing it keep working, and
 # do not show it
-solver_option_unused = click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False),
-                                    default=DEFAULT_SOLVER, hidden=True,
-                                    help="no effect: Alloy evaluates here, with nothing to solve")
+solver_option_unused = _solver_option(hidden=True, help="no effect: Alloy evaluates here, with nothing to solve")
 
 
 
