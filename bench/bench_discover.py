@@ -37,7 +37,7 @@ RATE = re.compile(r"@\s*[0-9.]+\s*(?:kHz|Hz|ms|us|s)\b")
 # what is changed on the live system, by a client of the control interface; `plan` fills it
 INJECT = """
 import json, sys
-from reconf_ros.executor import Runtime
+from reconf_ros.executor.runtime import Runtime
 plan = json.loads(sys.argv[1])
 rt = Runtime("bench_inject", "", 10.0)
 rt.wait(lambda: all(f in rt.nodes() for f in plan["need"]), 30)

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from reconf_ros.executor import PlanStates
+from reconf_ros.executor.plan_states import PlanStates
 from reconf_ros.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent

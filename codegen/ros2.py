@@ -12,8 +12,9 @@ of them). Version 1 held every state in full (`states`): those are still read, b
 2 is written.
 
 `render_plan_script` embeds it as a JSON literal in `templates/plan_ros2.py.j2`, together with
-the text of the plan executor, `reconf_ros/executor.py` (read as package data: the executor
-imports only the standard library until it applies a plan, so the script is self-contained).
+the text of the plan executor, the modules of `reconf_ros/executor/` joined into one
+(`executor_source`; read as package data: the executor imports only the standard library until it
+applies a plan, so the script is self-contained).
 The script replays the plan offline (`--dry-run`, no ROS needed) with the executor's copy of
 the satisfaction rules of DESIGN.md §3 (held to the checker's by tests), or drives the running
 system through lifecycle services, the parameter-based control interface of
@@ -24,6 +25,7 @@ written as strings ("10", "1/2").
 """
 from __future__ import annotations
 
+import ast
 import json
 from importlib import resources
 from typing import Any, Optional
@@ -43,7 +45,8 @@ from reconf_dsl.ir import (
     Rate,
     System,
 )
-from reconf_ros.executor import PlanStates
+from reconf_ros.executor import EMBEDDED
+from reconf_ros.executor.plan_states import PlanStates
 
 __all__ = ["FORMAT_VERSION", "model_data", "render_plan_script", "system_at", "system_from_model_data",
            "state_at"]
@@ -112,11 +115,39 @@ def _dump(value: Any, depth: int = 0, expand: int = 3) -> str:
     return "[\n" + ",\n".join(items) + "\n" + pad + "]"
 
 
+def _top_imports(tree: ast.Module) -> list[ast.stmt]:
+    """A module's leading docstring and import statements, the part a joined text replaces."""
+    head: list[ast.stmt] = []
+    for stmt in tree.body:
+        docstring = isinstance(stmt, ast.Expr) and isinstance(stmt.value, ast.Constant) and not head
+        if not (docstring or isinstance(stmt, (ast.Import, ast.ImportFrom))):
+            break
+        head.append(stmt)
+    return head
+
+
 def executor_source() -> str:
-    """reconf_ros/executor.py without its module docstring (the script's own comes first)."""
-    text = resources.files("reconf_ros").joinpath("executor.py").read_text(encoding="utf-8")
-    start = text.index('"""', 3) + 3 if text.startswith('"""') else 0
-    return text[start:].lstrip("\n").rstrip("\n")
+    """The plan executor's modules (`reconf_ros.executor`, in the order of its `EMBEDDED`) joined
+    into one text: their standard-library imports merged at the top, the imports among them and
+    their docstrings dropped, then each module's body as it is. The modules define every name
+    once across the package (tests/test_ros_script.py holds the joined text to them)."""
+    names: dict[str, set[str]] = {}
+    plain: set[str] = set()
+    bodies = []
+    for module in EMBEDDED:
+        text = resources.files("reconf_ros.executor").joinpath(f"{module}.py").read_text(encoding="utf-8")
+        head = _top_imports(ast.parse(text))
+        for stmt in head:
+            if isinstance(stmt, ast.Import):
+                plain.update(a.name for a in stmt.names)
+            elif isinstance(stmt, ast.ImportFrom) and not stmt.level and stmt.module != "__future__":
+                names.setdefault(str(stmt.module), set()).update(a.name for a in stmt.names)
+        start = (head[-1].end_lineno or 0) if head else 0
+        body = "".join(text.splitlines(keepends=True)[start:]).strip("\n")
+        bodies.append(f"# --- reconf_ros/executor/{module}.py ---\n\n{body}")
+    imports = ["from __future__ import annotations", ""] + [f"import {m}" for m in sorted(plain)] + \
+        [f"from {m} import {', '.join(sorted(n))}" for m, n in sorted(names.items())]
+    return "\n".join(imports) + "\n\n\n" + "\n\n\n".join(bodies)
 
 
 def render_plan_script(plan_doc: dict[str, Any]) -> str:
@@ -139,7 +170,7 @@ def render_plan_script(plan_doc: dict[str, Any]) -> str:
 
 def state_at(plan: dict[str, Any], index: int = -1) -> dict[str, list[Any]]:
     """State `index` of a document's `plan` (negative counts from the end), each part sorted; read
-    by the executor's own reader (`reconf_ros.executor.PlanStates`, standard library only)."""
+    by the executor's own reader (`reconf_ros.executor.plan_states.PlanStates`, standard library only)."""
     return PlanStates(plan)[index].to_doc()
 
 

@@ -25,8 +25,9 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .executor import CREATED_ENV, STATUS_PREFIX, join_list
-from .graph import MODEL_PARAM
+from .executor.snapshot import MODEL_PARAM
+from .executor.status import CREATED_ENV, STATUS_PREFIX
+from .executor.steps import join_list
 from .model import Component, Functionality, ModelError, Output, components_to_arch
 from .monitor import GAP_FACTOR, Monitor
 

@@ -51,7 +51,9 @@ def _warm(argv: list[str], cwd: str) -> None:
     """Parse the architectures `argv` names, so a forked child finds them parsed (one with
     errors is left for the child, which reports them in its log)."""
     import click
+
     from reconf_dsl.diagnostics import DiagnosticError
+
     from .runner import load_cached, plan_target
     for path in _arch_paths(argv):
         try:
@@ -112,10 +114,12 @@ def serve(fd: int) -> int:
     import rclpy  # noqa: F401  (imported, never initialised: see the module's docstring)
     import rclpy.executors  # noqa: F401
     import rclpy.lifecycle  # noqa: F401
-    from . import component, generic, runner  # noqa: F401
+
     from checker.reports.report import render_text  # noqa: F401
     from codegen.ros2 import system_at  # noqa: F401
     from reconf_dsl.loader import load  # noqa: F401
+
+    from . import component, generic, runner  # noqa: F401
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}
 

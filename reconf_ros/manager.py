@@ -1,7 +1,7 @@
 """The configuration manager of paper 001 §5.2: a long-lived node that applies plans.
 
 A plan script started on its own is a new DDS participant: before it may trust the graph it
-waits for discovery (`executor.DISCOVERY_ROUND`), and every service it calls is new to it. The
+waits for discovery (`reconf_ros.executor.runtime.DISCOVERY_ROUND`), and every service it calls is new to it. The
 manager runs beside the system, keeps one `Runtime` (graph, statuses, service clients) alive,
 and applies the plans its clients send (`plan.py --manager`) with that runtime, so a plan
 starts from a graph already discovered; it forks new `reconf-node`s from a launcher
@@ -20,7 +20,11 @@ import sys
 import time
 from typing import Any, Optional
 
-from .executor import EXIT_FAILED, EXIT_USAGE, Executor, Runtime, manager_socket, parse, tool_node
+from .executor.run import Executor
+from .executor.runtime import Runtime
+from .executor.script import manager_socket, parse
+from .executor.status import tool_node
+from .executor.steps import EXIT_FAILED, EXIT_USAGE
 from .launcher import Launcher
 
 __all__ = ["main", "serve"]

@@ -24,7 +24,7 @@ from typing import Any, Callable, Optional
 
 from checker.reality.bag import STARTED, STOPPED
 
-from .executor import tool_node
+from .executor.status import tool_node
 
 __all__ = ["main", "EXIT_OK", "EXIT_FAILED", "EXIT_INTERRUPTED"]
 

@@ -16,9 +16,7 @@ import importlib
 import os
 import shlex
 import sys
-from typing import Any, Optional
-
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Optional
 
 import click
 
@@ -98,6 +96,7 @@ def plan_target(path: str) -> tuple["System", dict[str, Any]]:
     """The architecture a plan document reaches, and the document (a plan's documents are named
     by their content: read once)."""
     import json
+
     from codegen.ros2 import system_at
     key = os.path.realpath(path)
     if key not in _PLANS:
@@ -115,7 +114,7 @@ def _from_plan(path: str, name: str) -> Component:
     longer has, as the last state with it has it."""
     from codegen.ros2 import system_at
 
-    from .executor import PlanStates
+    from .executor.plan_states import PlanStates
     system, doc = plan_target(path)
     renames: dict[str, str] = doc["plan"].get("renames", {})
     if system.component(renames.get(name, name)) is None:

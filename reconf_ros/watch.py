@@ -16,7 +16,7 @@ from typing import Any, Optional
 
 import click
 
-from .executor import STATUS_PREFIX, parse_status, tool_node
+from .executor.status import STATUS_PREFIX, parse_status, tool_node
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

@@ -77,7 +77,7 @@ def test_duplex_on_too_few_hosts(tmp_path: Path) -> None:
 def _replay(states: int) -> str:
     from checker.planning import plan_migrate, plan_replace
     from checker.reports.plan_document import plan_document
-    from reconf_ros.executor import replay
+    from reconf_ros.executor.replay import replay
     system = load([CHATTER])
     plan = plan_replace(system, "talker", "talker_v2") if states > 1 else plan_migrate(system, system)
     assert len(plan.states) == states
@@ -92,7 +92,7 @@ def test_dry_run_with_one_state_and_with_many() -> None:
 
 
 def test_executor_plural() -> None:
-    from reconf_ros.executor import plural as executor_plural
+    from reconf_ros.executor.steps import plural as executor_plural
     assert [executor_plural(n, "subscriber") for n in (1, 2)] == ["1 subscriber", "2 subscribers"]
 
 

@@ -1,4 +1,4 @@
-"""The plan executor's own copy of the semantics (`reconf_ros.executor.Model`: standard library
+"""The plan executor's own copy of the semantics (`reconf_ros.executor.semantics.Model`: standard library
 only, as plan scripts embed it) held to the checker's, on every example of the shared table and
 on the configurations one and two actions away: the same failing assumptions, the same effect of
 every action, and every action the checker's preconditions allow runs in the executor into a
@@ -15,7 +15,9 @@ from checker.model.semantics import evaluate
 from codegen.ros2 import model_data
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load
-from reconf_ros.executor import Model, State
+from reconf_ros.executor.plan_states import State
+from reconf_ros.executor.semantics import Model
+from reconf_ros.executor.steps import Step
 from tests.examples_table import EXAMPLES
 
 STATES_PER_EXAMPLE = 40
@@ -70,7 +72,7 @@ def test_the_executor_judges_as_the_checker(example) -> None:  # type: ignore[no
         st = _state(c)
         assert sorted({f.split(" assumes ")[0] for f in model.failures(st)}) == sorted(set(_failing(system, c)))
         for a in _candidates(system, c):
-            step = a.to_dict()
+            step = Step.from_doc(a.to_dict())
             after = effect(system, c, a)
             assert model.effect(st, step).key() == _state(after).key(), a.describe()
             if not preconditions(system, c, a):

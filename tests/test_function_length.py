@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Iterator, Union
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("reconf_dsl", "checker", "codegen")
+PACKAGES = ("reconf_dsl", "checker", "codegen", "reconf_ros")
 LIMIT = 60
 
 # qualified name → why it is still longer than LIMIT

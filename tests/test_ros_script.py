@@ -242,3 +242,57 @@ def regenerate() -> None:
 
 if __name__ == "__main__":
     regenerate()
+
+
+def _top_level_names(tree: Any) -> list[str]:
+    import ast
+    out: list[str] = []
+    for stmt in tree.body:
+        if isinstance(stmt, (ast.FunctionDef, ast.ClassDef)):
+            out.append(stmt.name)
+        elif isinstance(stmt, ast.Assign):
+            out += [t.id for t in stmt.targets if isinstance(t, ast.Name)]
+            out += [e.id for t in stmt.targets if isinstance(t, ast.Tuple) for e in t.elts if isinstance(e, ast.Name)]
+        elif isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name):
+            out.append(stmt.target.id)
+    return out
+
+
+def test_the_embedded_executor_is_its_modules_joined() -> None:
+    """A plan script embeds `reconf_ros/executor/`'s modules as one text (`executor_source`): every
+    embedded module's body is in it as written, in the package's order; no import among them is
+    left; every name is defined once; and the joined text, run, replays a plan as the package does."""
+    import ast
+    import io
+    import types
+
+    from codegen.ros2 import executor_source
+    from reconf_ros.executor import EMBEDDED
+    from reconf_ros.executor.replay import replay
+    text = executor_source()
+    package = ROOT / "reconf_ros" / "executor"
+    at = -1
+    names: list[str] = []
+    for module in EMBEDDED:
+        source = (package / f"{module}.py").read_text(encoding="utf-8")
+        tree = ast.parse(source)
+        body = [s for s in tree.body if not isinstance(s, (ast.Import, ast.ImportFrom))][1:]   # docstring
+        first = ast.get_source_segment(source, body[0])
+        assert first is not None
+        where = text.find(first)
+        assert where > at, f"{module}'s body is not in the joined text after the modules before it"
+        at = where
+        names += _top_level_names(tree)
+    assert sorted(n for n in set(names) if names.count(n) > 1) == [], "a name defined in two embedded modules"
+    joined = ast.parse(text)
+    assert not [s for s in ast.walk(joined) if isinstance(s, ast.ImportFrom) and s.level], "a relative import is left"
+    embedded = types.ModuleType("embedded_executor")      # dataclasses look their module up
+    sys.modules[embedded.__name__] = embedded
+    try:
+        exec(compile(text, "<embedded executor>", "exec"), embedded.__dict__)
+    finally:
+        del sys.modules[embedded.__name__]
+    doc = case_doc("chatter_default")[1]
+    ours, theirs = io.StringIO(), io.StringIO()
+    assert replay(doc, ours) is True and embedded.replay(doc, theirs) is True
+    assert ours.getvalue() == theirs.getvalue()

@@ -123,3 +123,13 @@ def test_the_evaluation_modules_declare_their_tables() -> None:
         declared = re.findall(r"^(?:abstract |one )*sig (\w+) (?:(?:in|extends) \w+ )?\{([^}]*)\}$", text, re.M)
         assert [(name, sorted(f.split(":")[0].strip() for f in body.split(",") if f.strip()))
                 for name, body in declared] == [(s.name, sorted(f for f, _ in s.fields)) for s in table]
+
+
+def test_the_executor_knows_each_action_by_the_registry_s_name_and_symbol() -> None:
+    """The plan executor is standard library only, so its table of actions is a copy: held here
+    to the registry (`checker.model.actions.KINDS`), its handlers and its symbols."""
+    from reconf_ros.executor.handlers import HANDLERS
+    from reconf_ros.executor.steps import SYMBOLS
+    registry = {k.name: k.cls.symbol for k in KINDS}
+    assert SYMBOLS == registry
+    assert set(HANDLERS) == set(registry)

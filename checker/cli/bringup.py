@@ -1,7 +1,7 @@
 """`reconf up PATHS` and `reconf down PATHS`: start a system from nothing, or stop it, by a
 verified plan carried out by the plan scripts' executor (docs/executor.md#bring-up-and-tear-down).
 
-The executor's options are the plan script's own, read from `reconf_ros.executor.arguments`, so
+The executor's options are the plan script's own, read from `reconf_ros.executor.script.arguments`, so
 `reconf up` and `python plan.py` accept the same ones, checked before anything is planned. With
 `-o` the script is written instead, and nothing is applied.
 """
@@ -20,7 +20,7 @@ from checker.cli.plan import run
 from checker.cli.plan_options import with_plan_options
 from checker.planning.bringup import plan_down, plan_up
 from reconf_dsl.loader import Sources, load
-from reconf_ros import executor
+from reconf_ros.executor import script
 
 __all__ = ["up_cmd", "down_cmd"]
 
@@ -31,7 +31,7 @@ _TYPES: dict[Any, click.ParamType] = {float: click.FloatRange(min=0, min_open=Tr
 
 def _script_actions() -> list[argparse.Action]:
     # argparse keeps a parser's options in `_actions`; the parser is the executor's, built here only to be read
-    parser = executor.arguments({"system": "", "fingerprint": ""})
+    parser = script.arguments({"system": "", "fingerprint": ""})
     return [a for a in parser._actions if a.dest not in _HIDDEN]
 
 
@@ -70,12 +70,12 @@ def applier(argv: list[str]) -> Callable[[dict[str, Any]], int]:
     """Carry out a plan document with the executor, its output on stderr (stdout is for the
     machine format). The step range is checked against the plan first, as a usage error."""
     def apply(doc: dict[str, Any]) -> int:
-        parser = executor.arguments(doc)
+        parser = script.arguments(doc)
         parser.prog = "reconf up/down"
         setattr(parser, "error", _usage)
-        executor.parse(doc, argv, parser)
+        script.parse(doc, argv, parser)
         with contextlib.redirect_stdout(sys.stderr):
-            return executor.main(doc, argv)
+            return script.main(doc, argv)
     return apply
 
 

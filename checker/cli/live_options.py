@@ -8,10 +8,11 @@ from typing import Any, Callable, Optional
 import click
 
 from checker.cli.common import Failure, console, write_atomically
+from checker.reality.node_text import model_names
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.span import Span
 from reconf_dsl.words import plural
-from reconf_ros.graph import RosUnavailable, Snapshot, read_snapshot
+from reconf_ros.executor.snapshot import RosUnavailable, Snapshot, read_snapshot
 
 F = Callable[..., Any]
 
@@ -64,7 +65,7 @@ def snapshot(namespace: str, settle: float, timeout: float, snapshot_in: Optiona
     else:
         say = console()
         try:
-            snap = read_snapshot(namespace, settle, timeout, progress=lambda m: say.print(m), expect=expect)
+            snap = read_snapshot(model_names, namespace, settle, timeout, progress=lambda m: say.print(m), expect=expect)
         except RosUnavailable as e:
             raise fail(f"cannot read the live system: {e}", "<ros>", setup) from None
         note = "" if snap.settled else f", discovery not settled within --settle {settle:g} s"

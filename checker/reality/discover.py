@@ -1,4 +1,4 @@
-"""An architecture from a snapshot of the live system (`reconf_ros.graph.Snapshot`), as `.arch`
+"""An architecture from a snapshot of the live system (`reconf_ros.executor.snapshot.Snapshot`), as `.arch`
 text in the formatter's canonical layout (docs/runtime.md#discover). Pure Python: no ROS here.
 
 A reconf node's component is its own model (`reconf.model`), exact; its attachments are its
@@ -21,12 +21,13 @@ from fractions import Fraction
 from typing import Any, Optional
 
 from checker.reality.naming import unique
+from checker.reality.node_text import parse_model
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
 from reconf_dsl.formatter import format_document, pred
 from reconf_dsl.ir import Component, Document, MessageType, Mode, Predicate
 from reconf_dsl.parser import parse_text
 from reconf_dsl.span import Span
-from reconf_ros.graph import NodeInfo, Snapshot, parse_model
+from reconf_ros.executor.snapshot import NodeInfo, Snapshot
 
 __all__ = ["architecture", "placeholders", "PLACEHOLDER"]
 

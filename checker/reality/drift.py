@@ -1,5 +1,5 @@
 """Drift: the model's deployed configuration against a snapshot of the running system
-(`reconf_ros.graph.Snapshot`), each difference a diagnostic at the model's span. Pure Python:
+(`reconf_ros.executor.snapshot.Snapshot`), each difference a diagnostic at the model's span. Pure Python:
 no ROS here (docs/runtime.md#drift).
 
 The deployed configuration is what `reconf up` brings the system to (`up_state`): every
@@ -13,11 +13,12 @@ from typing import Callable, Optional
 from checker.model.actions import failing_assumptions
 from checker.model.config import Configuration
 from checker.planning.bringup import up_state
+from checker.reality.node_text import parse_model
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Component, MessageType, Mode, Predicate, System, format_number
 from reconf_dsl.span import Span
-from reconf_ros.executor import find_node
-from reconf_ros.graph import NodeInfo, Snapshot, parse_model
+from reconf_ros.executor.snapshot import NodeInfo, Snapshot
+from reconf_ros.executor.status import find_node
 
 __all__ = ["drift", "deployed", "locate", "KINDS"]
 

@@ -16,7 +16,7 @@ from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning.states import States
 from codegen.ros2 import state_at
 from reconf_dsl.loader import load_text
-from reconf_ros.executor import PlanStates
+from reconf_ros.executor.plan_states import PlanStates
 
 
 @pytest.fixture()

@@ -20,7 +20,7 @@ from .conftest import example
 CHATTER = example("chatter.arch")
 # the operator's changes, made through the control interface with the executor's own client
 CHANGE = """
-from reconf_ros.executor import Runtime
+from reconf_ros.executor.runtime import Runtime
 rt = Runtime("drift_test", "", 5.0)
 rt.wait(lambda: "/listener" in rt.nodes(), 15)
 rt.set("/listener", "reconf.mode.listen", "degraded")

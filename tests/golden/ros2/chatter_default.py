@@ -15,8 +15,8 @@ every state safe); 1 a state is unsafe, the live system does not match the plan,
 or the monitors saw a violated assumption; 2 bad usage or ROS 2 not available.
 
 Each component runs one lifecycle node named after it that implements the reconf control
-interface (docs/control-interface.md). The executor below is reconf_ros/executor.py, embedded
-as it is (docs/executor.md); the plan is the JSON document at the end.
+interface (docs/control-interface.md). The executor below is the modules of reconf_ros/executor/,
+joined as they are (docs/executor.md); the plan is the JSON document at the end.
 
 Generated from the plan below; edit the plan, not this file.
 """
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import functools
 import hashlib
 import json
 import os
@@ -34,28 +33,129 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Callable, Iterable, Iterator, Optional
+from typing import Any, Callable, Iterable, Iterator, Optional, Protocol, TypedDict
 
+
+# --- reconf_ros/executor/steps.py ---
+
+# The symbol of each action, as `reconf plan` prints it (held to the checker's action registry
+# by tests/test_tables.py).
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
-STATUS_PREFIX = "reconf:"
-CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
-# Fast DDS announces each participant every 3 s. A participant that starts seconds after
-# another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
-# (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
-# the start of discovery, and once it has been quiet.
-DISCOVERY_ROUND = 3.5
-GRAPH_QUIET = 1.0
-STATUS_FRESH = 2.5    # s a status counts as a sign of life (nodes repeat theirs every second)
-ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
-TOOL_PREFIX = "_reconf_"    # reconf's own nodes: hidden (a leading underscore), never a component
-RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class PredicateDoc(TypedDict):
+    """`T @ r` as data: `message` None for `nothing`, `hz` an exact fraction as text or None."""
+    message: Optional[str]
+    hz: Optional[str]
+    text: str
+
+
+class PortDoc(TypedDict):
+    name: str
+    kind: str                          # "input" or "output"
+    message: str
+    assumption: Optional[PredicateDoc]
+
+
+class GuaranteeDoc(TypedDict):
+    port: str
+    predicate: PredicateDoc
+
+
+class ModeDoc(TypedDict):
+    assumptions: list[PredicateDoc]
+    guarantees: list[GuaranteeDoc]
+
+
+class FunctionalityDoc(TypedDict):
+    name: str
+    ports: list[str]
+    criticality: int
+    normal: ModeDoc
+    degraded: ModeDoc
+
+
+class ComponentDoc(TypedDict, total=False):
+    name: str
+    deployed: bool
+    replaces: Optional[str]
+    run: Optional[str]
+    host: Optional[str]
+    ports: list[PortDoc]
+    functionalities: list[FunctionalityDoc]
+
+
+class ConnectorDoc(TypedDict, total=False):
+    name: str
+    kind: str                          # "topic" or "service"
+    guarantee: PredicateDoc
+    single: bool
+
+
+class EnvironmentDoc(TypedDict):
+    name: str
+    guarantee: PredicateDoc
+
+
+class ModelDoc(TypedDict, total=False):
+    """The architecture as plain data (`codegen.ros2.model_data`)."""
+    name: str
+    components: list[ComponentDoc]
+    connectors: list[ConnectorDoc]
+    environment: list[EnvironmentDoc]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One action of a plan: `component` always; `port` and `connector` for attach and detach,
+    `functionality` for degrade and upgrade."""
+    action: str
+    component: str
+    port: str = ""
+    connector: str = ""
+    functionality: str = ""
+
+    @staticmethod
+    def from_doc(d: dict[str, Any]) -> "Step":
+        return Step(str(d["action"]), str(d["component"]), str(d.get("port", "")), str(d.get("connector", "")),
+                    str(d.get("functionality", "")))
+
+    @property
+    def role(self) -> tuple[str, str, str]:
+        """The attachment an attach or a detach is about: (connector, component, port)."""
+        return (self.connector, self.component, self.port)
+
+    def describe(self) -> str:
+        if self.action == "create":
+            return f"create {self.component} (all functionalities degraded)"
+        if self.action == "remove":
+            return f"remove {self.component}"
+        if self.action == "attach":
+            return f"attach {self.component}.{self.port} to {self.connector}"
+        if self.action == "detach":
+            return f"detach {self.component}.{self.port} from {self.connector}"
+        return f"{self.action} {self.component}.{self.functionality}"
+
+    def label(self, i: int) -> str:
+        """The step as a numbered line of a plan: `  3. → attach talker_v2.out to /chatter`."""
+        return f"{i:>3}. {SYMBOLS.get(self.action, '?')} {self.describe()}"
+
+
+def plan_steps(doc: dict[str, Any]) -> list[Step]:
+    """The steps of a plan document, typed."""
+    return [Step.from_doc(s) for s in doc["plan"]["steps"]]
 
 
 def join_list(items: Iterable[str]) -> str:
     return ",".join(sorted(items))
+
+
+def split_list(text: str) -> list[str]:
+    return [x for x in text.split(",") if x]
 
 
 def plural(n: int, word: str, many: str = "") -> str:
@@ -63,16 +163,11 @@ def plural(n: int, word: str, many: str = "") -> str:
     return f"{n} {word if n == 1 else (many or word + 's')}"
 
 
-def split_list(text: str) -> list[str]:
-    return [x for x in text.split(",") if x]
+# --- reconf_ros/executor/plan_states.py ---
 
+Degraded = tuple[str, str]           # (component, functionality)
+Role = tuple[str, str, str]          # (connector, component, port)
 
-def parse_status(values: Iterable[Any]) -> dict[str, str]:
-    """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
-    return {kv.key: kv.value for kv in values}
-
-
-# --- the model: satisfaction exactly as DESIGN.md section 3 states it ----------------------
 
 class State:
     """A configuration: present components, degraded (component, functionality), roles
@@ -80,9 +175,11 @@ class State:
 
     def __init__(self, components: Iterable[str], degraded: Iterable[Any], roles: Iterable[Any]) -> None:
         # frozensets are taken as they are (a state derived from another shares its unchanged parts)
-        self.components = components if isinstance(components, frozenset) else frozenset(components)
-        self.degraded = degraded if isinstance(degraded, frozenset) else frozenset((d[0], d[1]) for d in degraded)
-        self.roles = roles if isinstance(roles, frozenset) else frozenset((r[0], r[1], r[2]) for r in roles)
+        self.components: frozenset[str] = components if isinstance(components, frozenset) else frozenset(components)
+        self.degraded: frozenset[Degraded] = degraded if isinstance(degraded, frozenset) \
+            else frozenset((d[0], d[1]) for d in degraded)
+        self.roles: frozenset[Role] = roles if isinstance(roles, frozenset) \
+            else frozenset((r[0], r[1], r[2]) for r in roles)
 
     @staticmethod
     def from_doc(d: dict[str, Any]) -> "State":
@@ -101,7 +198,7 @@ class State:
         return {"components": sorted(self.components), "degraded": [list(d) for d in sorted(self.degraded)],
                 "roles": [list(r) for r in sorted(self.roles)]}
 
-    def key(self) -> tuple[frozenset[str], frozenset[tuple[str, str]], frozenset[tuple[str, str, str]]]:
+    def key(self) -> tuple[frozenset[str], frozenset[Degraded], frozenset[Role]]:
         return (self.components, self.degraded, self.roles)
 
     def only(self, comps: Iterable[str]) -> "State":
@@ -171,11 +268,13 @@ class PlanStates:
             yield state
 
 
-def rate(p: Optional[dict[str, Any]]) -> Optional[Fraction]:
-    return None if p is None or p.get("hz") is None else Fraction(p["hz"])
+# --- reconf_ros/executor/semantics.py ---
+
+def rate(p: Optional[PredicateDoc]) -> Optional[Fraction]:
+    return None if p is None or p.get("hz") is None else Fraction(str(p["hz"]))
 
 
-def satisfies(p: Optional[dict[str, Any]], q: Optional[dict[str, Any]]) -> bool:
+def satisfies(p: Optional[PredicateDoc], q: Optional[PredicateDoc]) -> bool:
     """p satisfies q iff both are data of the same type and (q has no rate, or p has a rate >= q's)."""
     if p is None or q is None or p["message"] is None or q["message"] is None or p["message"] != q["message"]:
         return False
@@ -189,22 +288,27 @@ def satisfies(p: Optional[dict[str, Any]], q: Optional[dict[str, Any]]) -> bool:
 class Model:
     """A plan document's model: components, connectors, environment."""
 
-    def __init__(self, model: dict[str, Any]) -> None:
-        self.comps = {c["name"]: c for c in model["components"]}
-        self.conns = {c["name"]: c for c in model["connectors"]}
-        self.env = [e["guarantee"] for e in model["environment"]]
+    def __init__(self, model: ModelDoc) -> None:
+        self.comps: dict[str, ComponentDoc] = {c["name"]: c for c in model["components"]}
+        self.conns: dict[str, ConnectorDoc] = {c["name"]: c for c in model["connectors"]}
+        self.env: list[PredicateDoc] = [e["guarantee"] for e in model["environment"]]
 
-    def port(self, comp: str, name: str) -> Optional[dict[str, Any]]:
+    def port(self, comp: str, name: str) -> Optional[PortDoc]:
         for p in self.comps[comp]["ports"]:
             if p["name"] == name:
                 return p
         return None
 
-    def mode(self, comp: str, f: dict[str, Any], state: State) -> dict[str, Any]:
+    def port_kind(self, comp: str, name: str) -> str:
+        """"input", "output", or "" for a port the model does not declare."""
+        p = self.port(comp, name) if comp in self.comps else None
+        return "" if p is None else p["kind"]
+
+    def mode(self, comp: str, f: FunctionalityDoc, state: State) -> ModeDoc:
         return f["degraded"] if (comp, f["name"]) in state.degraded else f["normal"]
 
     @staticmethod
-    def guarantee(mode: dict[str, Any], port: str) -> Optional[dict[str, Any]]:
+    def guarantee(mode: ModeDoc, port: str) -> Optional[PredicateDoc]:
         for g in mode["guarantees"]:
             if g["port"] == port:
                 return g["predicate"]
@@ -217,8 +321,7 @@ class Model:
         for n, comp, pname in sorted(state.roles):
             if n != conn or comp not in state.components or comp not in self.comps:
                 continue
-            p = self.port(comp, pname)
-            if p is None or p["kind"] != "output":
+            if self.port_kind(comp, pname) != "output":
                 continue
             if any(pname in f["ports"] and satisfies(self.guarantee(self.mode(comp, f, state), pname), want)
                    for f in self.comps[comp]["functionalities"]):
@@ -230,16 +333,15 @@ class Model:
         present = [c for c in sorted(state.components) if c in self.comps]
         feeds: dict[tuple[str, str], list[str]] = {}
         for conn, comp, pname in sorted(state.roles):
-            p = self.port(comp, pname) if comp in self.comps else None
-            if comp in present and conn in self.conns and p is not None and p["kind"] == "input":
+            if comp in present and conn in self.conns and self.port_kind(comp, pname) == "input":
                 feeds.setdefault((comp, pname), []).append(conn)
         conn_sat = {name: bool(self.satisfying(state, name)) for name in self.conns}
 
-        def input_sat(comp: str, p: dict[str, Any]) -> bool:
+        def input_sat(comp: str, p: PortDoc) -> bool:
             return any(conn_sat[cn] and satisfies(self.conns[cn]["guarantee"], p["assumption"])
                        for cn in feeds.get((comp, p["name"]), []))
 
-        def holds(comp: str, f: dict[str, Any], a: dict[str, Any]) -> bool:
+        def holds(comp: str, f: FunctionalityDoc, a: PredicateDoc) -> bool:
             for pname in f["ports"]:
                 p = self.port(comp, pname)
                 if p is not None and p["kind"] == "input" and input_sat(comp, p) and satisfies(p["assumption"], a):
@@ -267,50 +369,52 @@ class Model:
                         out.add(pname)
         return sorted(out)
 
-    def refusal(self, state: State, step: dict[str, Any]) -> Optional[str]:
+    def refusal(self, state: State, step: Step) -> Optional[str]:
         """Why `step` cannot run in `state` at all (the structural part of its preconditions)."""
-        kind, comp = step["action"], step["component"]
-        if kind == "create":
+        comp = step.component
+        if step.action == "create":
             if comp not in self.comps:
                 return f"no component {comp} is declared"
             return f"{comp} is already in the system" if comp in state.components else None
         if comp not in state.components:
             return f"{comp} is not in the system"
-        if kind == "remove":
+        if step.action == "remove":
             attached = [f"{comp}.{p} is attached to {n}" for n, c, p in sorted(state.roles) if c == comp]
             return f"{comp} is not isolated: " + "; ".join(attached) if attached else None
-        if kind in ("attach", "detach"):
-            if step["connector"] not in self.conns or self.port(comp, step["port"]) is None:
-                return f"{comp}.{step['port']} or {step['connector']} is not declared"
-            role = (step["connector"], comp, step["port"])
-            if kind == "attach" and role in state.roles:
-                return f"{comp}.{step['port']} is already attached to {step['connector']}"
-            if kind == "detach" and role not in state.roles:
-                return f"{comp}.{step['port']} is not attached to {step['connector']}"
-            return None
+        if step.action in ("attach", "detach"):
+            return self._port_refusal(state, step)
         names = [f["name"] for f in self.comps[comp]["functionalities"]]
-        fid = (comp, step["functionality"])
-        if step["functionality"] not in names:
-            return f"{comp} has no functionality {step['functionality']}"
-        if kind == "degrade" and fid in state.degraded:
-            return f"{comp}.{step['functionality']} is already degraded"
-        if kind == "upgrade" and fid not in state.degraded:
-            return f"{comp}.{step['functionality']} is not degraded"
+        fid = (comp, step.functionality)
+        if step.functionality not in names:
+            return f"{comp} has no functionality {step.functionality}"
+        if step.action == "degrade" and fid in state.degraded:
+            return f"{comp}.{step.functionality} is already degraded"
+        if step.action == "upgrade" and fid not in state.degraded:
+            return f"{comp}.{step.functionality} is not degraded"
         return None
 
-    def effect(self, state: State, step: dict[str, Any]) -> State:
-        kind, comp = step["action"], step["component"]
-        if kind == "remove":
+    def _port_refusal(self, state: State, step: Step) -> Optional[str]:
+        where = f"{step.component}.{step.port}"
+        if step.connector not in self.conns or self.port(step.component, step.port) is None:
+            return f"{where} or {step.connector} is not declared"
+        if step.action == "attach" and step.role in state.roles:
+            return f"{where} is already attached to {step.connector}"
+        if step.action == "detach" and step.role not in state.roles:
+            return f"{where} is not attached to {step.connector}"
+        return None
+
+    def effect(self, state: State, step: Step) -> State:
+        comp = step.component
+        if step.action == "remove":
             return State(state.components - {comp}, [d for d in state.degraded if d[0] != comp], state.roles)
-        if kind == "create":
+        if step.action == "create":
             funcs = [(comp, f["name"]) for f in self.comps[comp]["functionalities"]]
             return State(state.components | {comp}, state.degraded | set(funcs), state.roles)
-        if kind in ("attach", "detach"):
-            role = (step["connector"], comp, step["port"])
-            roles = state.roles | {role} if kind == "attach" else state.roles - {role}
+        if step.action in ("attach", "detach"):
+            roles = state.roles | {step.role} if step.action == "attach" else state.roles - {step.role}
             return State(state.components, state.degraded, roles)
-        fid = (comp, step["functionality"])
-        degraded = state.degraded | {fid} if kind == "degrade" else state.degraded - {fid}
+        fid = (comp, step.functionality)
+        degraded = state.degraded | {fid} if step.action == "degrade" else state.degraded - {fid}
         return State(state.components, degraded, state.roles)
 
     def differences(self, expected: State, observed: State, comps: Iterable[str]) -> list[str]:
@@ -336,77 +440,19 @@ class Model:
         return out
 
 
-def describe(step: dict[str, Any]) -> str:
-    kind, comp = step["action"], step["component"]
-    if kind == "create":
-        return f"create {comp} (all functionalities degraded)"
-    if kind == "remove":
-        return f"remove {comp}"
-    if kind == "attach":
-        return f"attach {comp}.{step['port']} to {step['connector']}"
-    if kind == "detach":
-        return f"detach {comp}.{step['port']} from {step['connector']}"
-    return f"{kind} {comp}.{step['functionality']}"
+# --- reconf_ros/executor/status.py ---
+
+STATUS_PREFIX = "reconf:"          # a status's name: "reconf:<node fqn>"
+CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
+STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
+TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
+
+Status = dict[str, str]            # a node's last status: key -> value
 
 
-def label(i: int, step: dict[str, Any]) -> str:
-    return f"{i:>3}. {SYMBOLS.get(step['action'], '?')} {describe(step)}"
-
-
-def replay(doc: dict[str, Any], out: Any) -> bool:
-    """Replay the plan from its first state; print every state; True when all are safe."""
-    model, plan = Model(doc["model"]), doc["plan"]
-    steps, recorded = plan["steps"], PlanStates(plan)
-    state = recorded[0] if recorded else State([], [], [])
-    ok, refused = True, None
-    rows = [("  0.   initial state", state)]
-    for i, step in enumerate(steps, 1):
-        why = model.refusal(state, step)
-        if why:
-            refused = (i, step, why)
-            break
-        state = model.effect(state, step)
-        if i < len(recorded) and recorded[i].key() != state.key():
-            print(f"dry run: after step {i} the embedded plan records a different state than the steps give",
-                  file=out)
-            ok = False
-        rows.append((label(i, step), state))
-    unsafe = []
-    for i, (text, st) in enumerate(rows):
-        bad = model.failures(st)
-        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
-        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
-        for reason in bad:
-            print(f"       {reason}", file=out)
-        if bad:
-            unsafe.append(i)
-    if refused is not None:
-        i, step, why = refused
-        print(f"{label(i, step):<60} [REFUSED]  {why}", file=out)
-        print(f"dry run: step {i} ({describe(step)}) cannot run: {why}", file=out)
-        ok = False
-    if unsafe:
-        where = ", ".join(f"step {i} ({describe(steps[i - 1])})" if i else "the initial state" for i in unsafe)
-        print(f"dry run: UNSAFE after {where}", file=out)
-        ok = False
-    if ok:
-        print("dry run: " + (f"all {len(rows)} states are safe" if len(rows) != 1 else "the 1 state is safe"),
-              file=out)
-    return ok
-
-
-# --- the running system ----------------------------------------------------------------------
-
-class StepFailed(Exception):
-    pass
-
-
-def one(answers: dict[str, Any], key: str) -> Any:
-    """The answer for `key` of a call to many; its StepFailed raised."""
-    answer = answers[key]
-    if isinstance(answer, StepFailed):
-        raise answer
-    return answer
+def parse_status(values: Iterable[Any]) -> Status:
+    """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
+    return {kv.key: kv.value for kv in values}
 
 
 def tool_node(tool: str) -> str:
@@ -417,7 +463,7 @@ def tool_node(tool: str) -> str:
     return f"{TOOL_PREFIX}{safe}_{os.getpid()}"
 
 
-def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, dict[str, str]],
+def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],
               claimed: Iterable[str] = ()) -> Optional[str]:
     """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
     is not `claimed` and declares no other component; else the one node of own's namespace whose
@@ -429,6 +475,30 @@ def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, dict
     found = [f for f, st in statuses.items() if st.get("component") == declared and f in graph
              and f.rsplit("/", 1)[0] == ns and f not in claimed]
     return found[0] if len(found) == 1 else None
+
+
+# --- reconf_ros/executor/runtime.py ---
+
+# Fast DDS announces each participant every 3 s. A participant that starts seconds after
+# another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
+# (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
+# the start of discovery, and once it has been quiet.
+DISCOVERY_ROUND = 3.5
+GRAPH_QUIET = 1.0
+ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
+RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
+
+
+class StepFailed(Exception):
+    """A step (or a read of the live system) could not be carried out; the message says why."""
+
+
+def one(answers: dict[str, Any], key: str) -> Any:
+    """The answer for `key` of a call to many; its StepFailed raised."""
+    answer = answers[key]
+    if isinstance(answer, StepFailed):
+        raise answer
+    return answer
 
 
 class Runtime:
@@ -452,7 +522,7 @@ class Runtime:
         self.namespace = f"/{ns}" if ns else ""
         self.deadline = float("inf")
         self.clients: dict[str, Any] = {}
-        self.statuses: dict[str, dict[str, str]] = {}   # node fqn -> its last status
+        self.statuses: dict[str, Status] = {}             # node fqn -> its last status
         self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
         rclpy.init()
         self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
@@ -478,7 +548,7 @@ class Runtime:
                 self.statuses[fqn] = parse_status(st.values)
                 self.heard[fqn] = time.monotonic()
 
-    def status(self, fqn: str) -> Optional[dict[str, str]]:
+    def status(self, fqn: str) -> Optional[Status]:
         return self.statuses.get(fqn)
 
     def spin(self, seconds: float) -> None:
@@ -657,55 +727,41 @@ class Runtime:
             raise StepFailed(f"{fqn} refused {name}={value!r}: {reason}")
 
 
-class Observed:
-    """What the executor saw of one component's node."""
+# --- reconf_ros/executor/naming.py ---
 
-    def __init__(self, comp: str, lifecycle: str, modes: dict[str, str], ports: dict[str, list[str]]) -> None:
-        self.comp, self.lifecycle, self.modes, self.ports = comp, lifecycle, modes, ports
+class Names:
+    """The node of each component of one plan: its own name, or where `locate` found it or a
+    create put it (`placed`)."""
 
-    @property
-    def present(self) -> bool:
-        return self.lifecycle == "active"
+    def __init__(self, rt: Any, renames: dict[str, str], components: Iterable[str], fingerprint: str) -> None:
+        self.rt, self.renames, self.fingerprint = rt, renames, fingerprint
+        self.components = set(components)
+        self.placed: dict[str, str] = {}        # component -> its node's name, where not its own
 
-
-class Executor:
-    """Applies a plan document's steps to the running system (docs/executor.md)."""
-
-    def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Any = sys.stdout,
-                 err: Any = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
-        self.doc, self.args, self.out, self.err = doc, args, out, err
-        self.launcher = launcher                # a manager's fork server (docs/executor.md#launcher)
-        self.own_runtime = runtime is None      # a manager lends its long-lived one
-        self.plan, self.model = doc["plan"], Model(doc["model"])
-        self.steps = self.plan["steps"]
-        self.states = PlanStates(self.plan)
-        self.renames: dict[str, str] = self.plan.get("renames", {})
-        self.placed: dict[str, str] = {}        # component -> its node's name, where not its own (see `locate`)
-        self.runs = {c["name"]: c.get("run") for c in doc["model"]["components"]}
-        self.started: dict[str, dict[str, Any]] = {}
-        self.touched: set[str] = set()
-        self.timings: list[dict[str, Any]] = []
-        self.rt: Any = runtime
-        self.log_dir = args.log_dir or os.path.join(
-            "reconf-logs", f"{doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
-
-    # --- names ---
     def declared(self, comp: str) -> str:
         """The component's name in its architecture, which its node declares in its status."""
         return self.renames.get(comp, comp)
 
     def is_version(self, comp: str) -> bool:
         """A new version `X@new` of a component X of the same plan (docs/executor.md#names)."""
-        return comp in self.renames and self.renames[comp] in self.model.comps
+        return comp in self.renames and self.renames[comp] in self.components
 
     def node_name(self, comp: str) -> str:
-        """The component's node's name: its own, or where `locate` found it or `do_create` put it;
+        """The component's node's name: its own, or where `locate` found it or a create put it;
         a new version not yet found, or a component whose name a new version's node has, has
         none ("X@new" and "X@elsewhere" are never a node's name)."""
         return self.placed.get(comp) or (comp if self.is_version(comp) else self.declared(comp))
 
+    def fqn(self, comp: str) -> str:
+        return f"{self.rt.namespace}/{self.node_name(comp)}"
+
+    def connector(self, conn: str) -> str:
+        """A connector's name on the wire (a new version's is its name in the new architecture)."""
+        return self.renames.get(conn, conn)
+
     def created_mark(self, comp: str) -> str:
-        return f"{self.doc['fingerprint']} {comp}"
+        """What a process a plan's create started shows as `created` in its status."""
+        return f"{self.fingerprint} {comp}"
 
     def locate(self, comps: Iterable[str], graph: Optional[set[str]] = None) -> None:
         """Find the nodes not under their components' names, by their statuses: a new version by
@@ -715,7 +771,7 @@ class Executor:
         graph, ns = (set(self.rt.nodes()) if graph is None else graph), self.rt.namespace
         mine = {st.get("created", ""): fqn for fqn, st in self.rt.statuses.items() if fqn in graph}
         claimed = {f"{ns}/{n}" for n in self.placed.values()} | \
-            {mine[self.created_mark(c)] for c in self.model.comps if self.is_version(c) and self.created_mark(c) in mine}
+            {mine[self.created_mark(c)] for c in self.components if self.is_version(c) and self.created_mark(c) in mine}
         for c in sorted(comps, key=lambda c: not self.is_version(c)):     # versions first: they claim
             if c in self.placed:
                 continue
@@ -731,7 +787,7 @@ class Executor:
                 self.placed[c] = found.rsplit("/", 1)[1]
                 claimed.add(found)
 
-    def fresh_name(self, comp: str) -> str:
+    def fresh(self, comp: str) -> str:
         """A node name for a new version: its component's name if no node has it, else the first
         free `<name>_<k>`."""
         base, ns = self.declared(comp), self.rt.namespace
@@ -741,572 +797,680 @@ class Executor:
             name, k = f"{base}_{k}", k + 1
         return name
 
-    def fqn(self, comp: str) -> str:
-        return f"{self.rt.namespace}/{self.node_name(comp)}"
 
-    def conn_name(self, conn: str) -> str:
-        return self.renames.get(conn, conn)
+# --- reconf_ros/executor/context.py ---
+
+class Writer(Protocol):
+    """Where a run's words go: a text stream, or a manager's stream to its client."""
+
+    def write(self, text: str, /) -> int: ...
+
+    def flush(self) -> None: ...
+
+
+@dataclass
+class Started:
+    """A process this run started for a component's create."""
+    pid: int
+    log: str
+    command: str
+    node: str
+    proc: Any                        # its subprocess.Popen, or the launcher's handle
+    ended: Optional[int] = None      # its exit status, once a remove has waited for it
+
+    def to_doc(self) -> dict[str, Any]:
+        doc = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
+        return doc if self.ended is None else {**doc, "ended": self.ended}
+
+
+@dataclass
+class StepTiming:
+    """When a step began (wall clock, for the report) and how long it took."""
+    step: int
+    at: float
+    seconds: float
+    ok: bool
+    action: str = ""
+
+    def to_doc(self) -> dict[str, Any]:
+        doc: dict[str, Any] = {"step": self.step, "at": self.at, "seconds": self.seconds, "ok": self.ok}
+        return {**doc, "action": self.action} if self.ok else doc
+
+
+@dataclass
+class Context:
+    """One run of a plan document on the live system."""
+    doc: dict[str, Any]
+    args: argparse.Namespace
+    out: Writer
+    err: Writer
+    rt: Any = None                   # the Runtime, once the run has one
+    launcher: Any = None             # a manager's fork server (docs/executor.md#launcher)
+    started: dict[str, Started] = field(default_factory=dict)
+    touched: set[str] = field(default_factory=set)
+    timings: list[StepTiming] = field(default_factory=list)
+    failure: str = ""                # why the last step failed
+
+    def __post_init__(self) -> None:
+        self.model = Model(self.doc["model"])
+        self.steps: list[Step] = plan_steps(self.doc)
+        self.states = PlanStates(self.doc["plan"])
+        self.runs: dict[str, Optional[str]] = {c["name"]: c.get("run") for c in self.doc["model"]["components"]}
+        self.log_dir: str = self.args.log_dir or os.path.join(
+            "reconf-logs", f"{self.doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
+        self._names: Optional[Names] = None
+
+    @property
+    def names(self) -> Names:
+        """The components' nodes (made with the runtime, which knows the namespace and the graph)."""
+        if self._names is None:
+            self._names = Names(self.rt, self.doc["plan"].get("renames", {}), self.model.comps,
+                                self.doc["fingerprint"])
+        return self._names
 
     def say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
 
-    # --- observation ---
-    def observe(self, comps: Iterable[str]) -> dict[str, Observed]:
-        """Read each component's node: lifecycle state, modes, attachments (absent: not in the graph,
-        or finalized)."""
-        comps = sorted(comps)
-        graph = set(self.rt.nodes())
-        self.locate(comps, graph)
-        seen: dict[str, Observed] = {}
-        for c in comps:
-            if self.fqn(c) not in graph:
-                seen[c] = Observed(c, "absent", {}, {})
-        # every node at once: lifecycle states, then the active ones' modes and attachments
-        states = self.rt.lifecycles(self.fqn(c) for c in comps if c not in seen)
-        wanted: dict[str, list[str]] = {}
-        for c in comps:
-            lc = states.get(self.fqn(c))
-            if c in seen or lc is None:
-                continue
-            if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-                seen[c] = Observed(c, "unresponsive", {}, {})
-            elif lc != "active":
-                seen[c] = Observed(c, "absent" if lc == "finalized" else lc, {}, {})
-            else:
-                info = self.model.comps[c]
-                wanted[self.fqn(c)] = [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
-                    [f"reconf.port.{p['name']}" for p in info["ports"]]
-        params = self.rt.get_many(wanted)
-        for c in comps:
-            values = params.get(self.fqn(c))
-            if values is None:
-                continue
-            if isinstance(values, StepFailed):
-                raise values
-            modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
-            ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
-            seen[c] = Observed(c, "active", modes, ports)
-        return dict(sorted(seen.items()))
+    def warn(self, text: str) -> None:
+        print(text, file=self.err, flush=True)
 
-    def as_state(self, seen: dict[str, Observed]) -> State:
-        back = {v: k for k, v in self.renames.items()}
-        comps = [c for c, o in seen.items() if o.present]
-        degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
-        roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
-        return State(comps, degraded, roles)
 
-    def neighbourhood(self) -> set[str]:
-        """The components the plan touches, and those attached to a connector it touches."""
-        comps = {s["component"] for s in self.steps}
-        conns = {s["connector"] for s in self.steps if "connector" in s}
-        for st in self.states:
-            conns |= {n for n, c, p in st.roles if c in comps}
-        for st in self.states:
-            comps |= {c for n, c, p in st.roles if n in conns}
-        return comps & set(self.model.comps)
+# --- reconf_ros/executor/replay.py ---
 
-    def settle(self, expected: Iterable[str], seconds: float) -> None:
-        """Let discovery catch up before reading the graph (bounded by `seconds`): every node the
-        plan expects running seen, one announcement period passed, and the graph unchanged for a
-        while. A node the plan expects absent but that runs must not be missed (a re-run would
-        start a second one)."""
-        expected = set(expected)
+def _walk(model: Model, steps: list[Step], recorded: PlanStates,
+          out: Writer) -> tuple[list[tuple[str, State]], Optional[tuple[int, Step, str]], bool]:
+    """Every state the steps reach, labelled; the first step refused, if one is; whether each
+    state is the one the document records."""
+    state = recorded[0] if recorded else State([], [], [])
+    rows, agree = [("  0.   initial state", state)], True
+    for i, step in enumerate(steps, 1):
+        why = model.refusal(state, step)
+        if why:
+            return rows, (i, step, why), agree
+        state = model.effect(state, step)
+        if i < len(recorded) and recorded[i].key() != state.key():
+            print(f"dry run: after step {i} the embedded plan records a different state than the steps give",
+                  file=out)
+            agree = False
+        rows.append((step.label(i), state))
+    return rows, None, agree
 
-        def want(nodes: set[str]) -> set[str]:
-            self.locate(expected, nodes)
-            return {self.fqn(c) for c in expected}
-        self.rt.wait(lambda: self.rt.settled(want), seconds)
 
-    # --- the wire ---
-    def wait_status(self, comp: str, cond: Callable[[dict[str, str]], bool], seconds: float) -> bool:
-        return self.rt.wait(lambda: (st := self.rt.status(self.fqn(comp))) is not None and cond(st), seconds)
+def replay(doc: dict[str, Any], out: Writer) -> bool:
+    """Replay the plan from its first state; print every state; True when all are safe."""
+    model, steps = Model(doc["model"]), plan_steps(doc)
+    rows, refused, ok = _walk(model, steps, PlanStates(doc["plan"]), out)
+    unsafe = []
+    for i, (text, st) in enumerate(rows):
+        bad = model.failures(st)
+        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
+        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
+        for reason in bad:
+            print(f"       {reason}", file=out)
+        if bad:
+            unsafe.append(i)
+    if refused is not None:
+        i, step, why = refused
+        print(f"{step.label(i):<60} [REFUSED]  {why}", file=out)
+        print(f"dry run: step {i} ({step.describe()}) cannot run: {why}", file=out)
+        ok = False
+    if unsafe:
+        where = ", ".join(f"step {i} ({steps[i - 1].describe()})" if i else "the initial state" for i in unsafe)
+        print(f"dry run: UNSAFE after {where}", file=out)
+        ok = False
+    if ok:
+        print("dry run: " + (f"all {len(rows)} states are safe" if len(rows) != 1 else "the 1 state is safe"),
+              file=out)
+    return ok
 
-    @staticmethod
-    def meets(func: str) -> Callable[[dict[str, str]], bool]:
-        """Whether a status shows `func`'s normal assumptions met on the wire (or not observed)."""
-        return lambda st: st.get(f"wire.{func}", "").split(":")[0] in ("met", "unobserved")
 
-    def wire_before(self, step: dict[str, Any], before: State, after: State) -> None:
-        """What the wire must show before the step: an upgraded functionality's assumptions met;
-        a connector that loses a publisher still delivering from the ones that remain."""
-        kind, comp = step["action"], step["component"]
-        wait = self.args.wire_timeout
-        if kind == "upgrade":
-            f = step["functionality"]
-            if not self.wait_status(comp, self.meets(f), wait):
-                st = self.rt.status(self.fqn(comp)) or {}
-                raise StepFailed(f"{comp}.{f}: its assumptions are not met on the wire "
-                                 f"({st.get(f'wire.{f}', 'no status from the node')})")
-        for conn in self.model.conns:
-            kept = self.model.satisfying(after, conn)
-            if not kept or set(kept) >= set(self.model.satisfying(before, conn)):
-                continue
-            names = {self.node_name(c) for c in kept}
-            k = self.conn_name(conn)
-            matched = len([c for n, c, p in before.roles if n == conn and c in before.components
-                           and (self.model.port(c, p) or {}).get("kind") == "output"])
-            for n, reader, port in sorted(after.roles):
-                if n != conn or reader not in after.components or port not in self.model.relying_inputs(reader, after):
-                    continue
-                if self.on_demand(reader, port):
-                    # data on demand (an FTM's requests): none may flow now; the reader must be
-                    # matched with every publisher it has, the ones that stay among them
-                    if not self.wait_status(reader, lambda st: int(st.get(f"in.{port}@{k}.publishers", "0")) >= matched,
-                                            wait):
-                        st = self.rt.status(self.fqn(reader)) or {}
-                        raise StepFailed(f"{reader}.{port} is matched with {st.get(f'in.{port}@{k}.publishers', 'no')} "
-                                         f"of the {plural(matched, 'publisher')} of {k}; taking {comp}'s away "
-                                         "could leave it without one")
-                    continue
-                if not self.wait_status(reader, lambda st: bool(names & set(split_list(st.get(f"in.{port}.fresh", "")))),
-                                        wait):
-                    st = self.rt.status(self.fqn(reader)) or {}
-                    raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on "
-                                     f"{self.conn_name(conn)} (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); "
-                                     f"taking {comp}'s away would leave it without data")
+# --- reconf_ros/executor/observe.py ---
 
-    def wire_after(self, step: dict[str, Any], after: State) -> None:
-        """An attached port is matched with the other side of its connector as the plan has it."""
-        if step["action"] != "attach":
-            return
-        comp, port, conn = step["component"], step["port"], step["connector"]
-        k = self.conn_name(conn)
-        pubs = [c for n, c, p in after.roles if n == conn and c in after.components
-                and (self.model.port(c, p) or {}).get("kind") == "output"]
-        subs = [(c, p) for n, c, p in after.roles if n == conn and c in after.components
-                and (self.model.port(c, p) or {}).get("kind") == "input"]
-        kind = (self.model.port(comp, port) or {}).get("kind")
-        wait = self.args.wire_timeout
-        if kind == "output" and subs:
-            if not self.wait_status(comp, lambda st: int(st.get(f"out.{port}@{k}.subscribers", "0")) >= len(subs),
-                                    wait):
-                raise StepFailed(f"{comp}.{port} is not matched with the {plural(len(subs), 'subscriber')} of {k} "
-                                 f"within {wait} s")
-        readers = subs if kind == "output" else [(comp, port)]
-        for c, p in readers:
-            if pubs and not self.wait_status(c, lambda st: int(st.get(f"in.{p}@{k}.publishers", "0")) >= len(pubs),
-                                             wait):
-                raise StepFailed(f"{c}.{p} is not matched with the {plural(len(pubs), 'publisher')} of {k} "
-                                 f"within {wait} s")
-        if kind == "output" and self.publishes(comp, port, after):
-            # Matched counts can be stale (a publisher just gone still counted): the data decides.
-            me = f"in.{{}}.from.{self.node_name(comp)}"
-            for c, p in subs:
-                if self.on_demand(c, p):
-                    continue            # nothing flows until asked for; matched above
-                if not self.wait_status(c, lambda st: me.format(p) in st, wait):
-                    raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+@dataclass
+class Observed:
+    """What the executor saw of one component's node: `lifecycle` is its state's label,
+    `absent` (not in the graph, or finalized) or `unresponsive` (in the graph, not answering)."""
+    comp: str
+    lifecycle: str
+    modes: dict[str, str] = field(default_factory=dict)
+    ports: dict[str, list[str]] = field(default_factory=dict)
 
-    def on_demand(self, comp: str, port: str) -> bool:
-        """Whether data reaches `comp.port` only when asked for (an FTM's requests and results,
-        its status says; or its assumption has no rate): no data may flow while a step runs."""
-        st = self.rt.status(self.fqn(comp)) or {}
-        return st.get(f"in.{port}.on_demand") == "1" or \
-            rate((self.model.port(comp, port) or {}).get("assumption")) is None
+    @property
+    def present(self) -> bool:
+        return self.lifecycle == "active"
 
-    def publishes(self, comp: str, port: str, state: State) -> bool:
-        """Whether `comp.port`'s functionality guarantees data at a rate there in `state`'s mode
-        (data without a rate comes on demand: an FTM's requests, say; matching is all there is
-        to wait for)."""
-        for f in self.model.comps[comp]["functionalities"]:
-            if port in f["ports"]:
-                g = self.model.guarantee(self.model.mode(comp, f, state), port)
-                if g is not None and g.get("message") is not None and g.get("hz") is not None:
-                    return True
-        return False
 
-    # --- the six actions ---
-    def perform(self, step: dict[str, Any], before: State, after: State) -> None:
-        self.rt.deadline = time.monotonic() + self.args.step_timeout
-        self.wire_before(step, before, after)
-        getattr(self, "do_" + step["action"])(step)
-        self.wire_after(step, after)
+def _control_parameters(ctx: Context, comp: str) -> list[str]:
+    info = ctx.model.comps[comp]
+    return [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
+        [f"reconf.port.{p['name']}" for p in info["ports"]]
 
-    def expect_active(self, comp: str, when: str) -> None:
-        lc = self.rt.lifecycle(self.fqn(comp))
-        if lc != "active":
-            raise StepFailed(f"{when}, {comp} is in lifecycle state {lc!r}")
 
-    def command(self, comp: str) -> list[str]:
-        """The component's run line, or, when it has none, a model-driven node of the architecture
-        the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
-        run = self.runs.get(comp)
-        argv = shlex.split(run) if run else ["reconf-node", "--plan", self.plan_path, comp]
-        exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
-        if exe is None:
-            raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
-        argv[0] = exe
-        named = comp in self.placed and os.path.basename(exe) == "reconf-node"
-        if named:       # the component it is, under the node's own name (rcl's remap rules refuse "__")
-            argv[1:1] = ["--as", self.declared(comp), "--node", self.placed[comp]]
-        remaps = ([f"__ns:={self.rt.namespace}"] if self.rt.namespace else []) + \
-            ([f"__node:={self.placed[comp]}"] if comp in self.placed and not named else [])
-        if remaps:
-            argv += ["--ros-args"] if "--ros-args" not in argv else []
-            for r in remaps:
-                argv += ["-r", r]
-        return argv
-
-    @functools.cached_property
-    def plan_path(self) -> str:
-        """The plan document in the log directory, for the nodes that read it; named by its
-        content, so a log directory shared by several plans gives each node its own plan."""
-        text = json.dumps(self.doc, sort_keys=True)
-        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-        path = os.path.abspath(os.path.join(self.log_dir, f"plan-{digest}.json"))
-        if not os.path.exists(path):
-            os.makedirs(self.log_dir, exist_ok=True)
-            tmp = f"{path}.tmp{os.getpid()}"
-            with open(tmp, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, path)
-        return path
-
-    def start(self, argv: list[str], log: str, env: dict[str, str]) -> tuple[Any, str]:
-        """Start a node's process, in a session of its own with its own log and `env` added:
-        forked by the launcher when there is one and it can, else the ordinary way."""
-        if self.launcher is not None and self.launcher.can_start(argv):
-            try:
-                return self.launcher.start(argv, log, env=env), " (forked by the launcher)"
-            except OSError as e:
-                self.say(f"      the launcher could not start it ({e}); starting it the ordinary way")
-        with open(log, "ab") as fh:
-            proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
-                                    start_new_session=True, env={**os.environ, **env})
-        return proc, ""
-
-    def warm(self, first: int, last: int) -> None:
-        """Let the launcher parse what the steps' new nodes will read, while the live system is
-        checked."""
-        for step in self.steps[first - 1:last]:
-            if step["action"] == "create" and self.launcher is not None:
-                try:
-                    argv = self.command(step["component"])
-                except StepFailed:
-                    continue                    # the step itself will say so
-                if self.launcher.can_start(argv):
-                    try:
-                        self.launcher.warm(argv)
-                    except OSError:
-                        return                  # the launcher is gone: creates start the ordinary way
-
-    def do_create(self, step: dict[str, Any]) -> None:
-        comp = step["component"]
-        fqn = self.fqn(comp)
-        if self.is_version(comp):        # X@new: a node name no other node has (X's may still run)
-            self.locate([comp])
-            if comp in self.placed:
-                raise StepFailed(f"before the step, {comp} runs already (node {self.fqn(comp)})")
-            self.placed[comp] = self.fresh_name(comp)
-            fqn = self.fqn(comp)
-        if fqn in self.rt.nodes() or self.rt.node.count_services(f"{fqn}/get_state"):
-            raise StepFailed(f"before the step, a node {fqn} is already running")
-        argv = self.command(comp)
-        os.makedirs(self.log_dir, exist_ok=True)
-        log = os.path.join(self.log_dir, f"{self.node_name(comp)}.log")
-        proc, how = self.start(argv, log, {CREATED_ENV: self.created_mark(comp)})
-        self.started[comp] = {"pid": proc.pid, "log": log, "command": shlex.join(argv), "proc": proc, "node": fqn}
-        self.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
-        self.rt.forget(fqn)
-        t0 = time.monotonic()
-        cli = self.rt.client(self.rt.GetState, f"{fqn}/get_state")
-        while not cli.service_is_ready():
-            if proc.poll() is not None:
-                raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
-                                 f"(see {log})")
-            self.rt.wait(cli.service_is_ready, min(0.2, self.rt.left()))
-        t_up = time.monotonic()
-        if self.rt.nodes().count(fqn) > 1:
-            raise StepFailed(f"two nodes named {fqn} are running")
-        lc = self.rt.lifecycle(fqn)
-        t_state = time.monotonic()
-        if lc == "unconfigured":
-            self.rt.transition(fqn, self.rt.Transition.TRANSITION_CONFIGURE, "configure")
-        elif lc != "inactive":
-            raise StepFailed(f"after start, {comp} is in lifecycle state {lc!r}")
-        self.rt.transition(fqn, self.rt.Transition.TRANSITION_ACTIVATE, "activate")
-        self.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
-                 f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
-
-    def do_remove(self, step: dict[str, Any]) -> None:
-        comp = step["component"]
-        fqn = self.fqn(comp)
-        lc = self.rt.lifecycle(fqn)
-        if lc not in ("active", "inactive"):
-            raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
-        ports = [p["name"] for p in self.model.comps[comp]["ports"]]
-        attached = {n: v for n, v in self.rt.get(fqn, [f"reconf.port.{p}" for p in ports]).items() if v}
-        if attached:
-            raise StepFailed(f"before the step, {comp} is not isolated: "
-                             + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
-        if lc == "active":
-            self.rt.transition(fqn, self.rt.Transition.TRANSITION_DEACTIVATE, "deactivate")
-        self.rt.transition(fqn, self.rt.Transition.TRANSITION_CLEANUP, "cleanup")
-        self.rt.transition(fqn, self.rt.Transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
-        # finalized: the node may exit at once, which counts as removed
-        try:
-            lc = self.rt.lifecycle(fqn)
-        except StepFailed:
-            lc = "finalized"
-        if lc != "finalized":
-            raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
-        info = self.started.get(comp)
-        if info is not None:
-            proc = info["proc"]
-            try:
-                proc.wait(timeout=max(0.1, min(self.args.timeout, self.rt.deadline - time.monotonic())))
-            except subprocess.TimeoutExpired:
-                proc.terminate()
-                try:
-                    proc.wait(timeout=2)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
-            info["ended"] = proc.returncode
-        self.rt.forget(fqn)
-
-    def do_attach(self, step: dict[str, Any]) -> None:
-        self.port_step(step, attach=True)
-
-    def do_detach(self, step: dict[str, Any]) -> None:
-        self.port_step(step, attach=False)
-
-    def port_step(self, step: dict[str, Any], attach: bool) -> None:
-        comp, port, conn = step["component"], step["port"], self.conn_name(step["connector"])
-        fqn, name = self.fqn(comp), f"reconf.port.{step['port']}"
-        self.expect_active(comp, "before the step")
-        now = self.rt.get(fqn, [name])[name]
-        if (conn in now) == attach:
-            raise StepFailed(f"before the step, {comp}.{port} is {'already' if attach else 'not'} attached to "
-                             f"{conn} ({name}={now!r})")
-        self.rt.set(fqn, name, sorted(set(now) | {conn}) if attach else [c for c in now if c != conn])
-
-    def do_degrade(self, step: dict[str, Any]) -> None:
-        self.mode_step(step, "normal", "degraded")
-
-    def do_upgrade(self, step: dict[str, Any]) -> None:
-        self.mode_step(step, "degraded", "normal")
-
-    def mode_step(self, step: dict[str, Any], before: str, after: str) -> None:
-        comp, func = step["component"], step["functionality"]
-        fqn, name = self.fqn(comp), f"reconf.mode.{func}"
-        self.expect_active(comp, "before the step")
-        now = self.rt.get(fqn, [name])[name]
-        if now != before:
-            raise StepFailed(f"before the step, {comp}.{func} is {now!r}, not {before!r}")
-        self.rt.set(fqn, name, after)
-
-    # --- the run ---
-    def check_touched(self, expected: State, when: str) -> None:
-        # a node that answered its services may not be in this node's graph yet, nor heard on
-        # /diagnostics: under load, discovery lags behind the services by seconds
-        want = {self.fqn(c) for c in self.touched & expected.components}
-        self.rt.wait(lambda: want <= set(self.rt.nodes()), self.args.discovery_timeout)
-        seen = self.observe(self.touched)
-        diffs = self.model.differences(expected, self.as_state(seen), self.touched)
-        if diffs:
-            raise StepFailed(f"{when}: " + "; ".join(diffs))
-
-    def violations(self, comps: Iterable[str]) -> dict[str, int]:
-        out = {}
-        for c in comps:
-            st = self.rt.status(self.fqn(c))
-            if st is not None:
-                out[c] = int(st.get("violations", "0"))
-        return out
-
-    def apply(self, first: int) -> int:
-        if not confirmed(self.doc, self.args, self.out):
-            return EXIT_FAILED
-        t0 = time.monotonic()
-        if self.own_runtime:
-            self.rt = Runtime(self.doc["system"], self.args.namespace, self.args.timeout)
-        try:
-            return self._apply(first, t0)
-        finally:
-            if self.own_runtime:
-                self.rt.close()
-
-    def _apply(self, first: int, t0: float) -> int:
-        start = self.states[first - 1]
-        self.warm(first, self.args.to_step)
-        hood = self.neighbourhood()
-        self.rt.deadline = time.monotonic() + self.args.step_timeout
-        self.settle(start.components & hood, self.args.discovery_timeout)
-        seen = self.observe(hood)
-        busy = sorted(c for c, o in seen.items() if o.lifecycle == "unresponsive")
-        if busy:    # a node of a saturated host can take longer than one call's timeout to answer
-            self.say(f"not answering within {self.args.timeout} s: {', '.join(busy)}; reading them again")
-            seen.update(self.observe(busy))
-        observed = self.as_state(seen)
-        diffs = self.model.differences(start, observed, hood)
-        if diffs:
-            self.unusual(seen)
-            return self.stale(first, observed, diffs, hood)
-        watched = hood & start.components
-        self.wait_status_all(watched)
-        # every monitor heard from, not only the neighbourhood's: a step can reach further on the
-        # wire than in the model (a suspended protocol keeps its clients waiting)
-        before_violations = self.violations(start.components)
-        last = self.args.to_step
-        self.touched = {s["component"] for s in self.steps[first - 1:last]} & hood
-        check_at = time.monotonic()
-        self.say(f"the live system matches the plan's state before step {first} "
-                 f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
-        for i in range(first, last + 1):
-            step, before, after = self.steps[i - 1], self.states[i - 1], self.states[i]
-            self.say(f"{label(i, step)} ...")
-            s0, at = time.monotonic(), round(time.time(), 3)
-            try:
-                self.perform(step, before, after)
-                self.rt.deadline = time.monotonic() + self.args.step_timeout
-                self.check_touched(after, f"after step {i}")
-            except (StepFailed, OSError, KeyboardInterrupt) as e:
-                why = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
-                self.timings.append({"step": i, "at": at, "seconds": time.monotonic() - s0, "ok": False})
-                return self.failed(i, step, why, t0)
-            self.timings.append({"step": i, "action": step["action"], "at": at, "seconds": time.monotonic() - s0,
-                                 "ok": True})
-            self.say(f"      done in {time.monotonic() - s0:.3f} s")
-        end = self.states[last]
-        normal = [(c, f["name"]) for c in sorted(self.touched & end.components)
-                  for f in self.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
-        self.rt.deadline = time.monotonic() + self.args.step_timeout
-        unmet = [f"{c}.{f}" for c, f in normal if not self.wait_status(c, self.meets(f), self.args.wire_timeout)]
-        final = self.as_state(self.observe(hood))
-        wrong = self.model.differences(end, final, hood)
-        if wrong:
-            return self.failed(last, self.steps[last - 1], "after the last step: " + "; ".join(wrong), t0)
-        after_violations = self.violations(before_violations)
-        seen_bad = {c: after_violations[c] - n for c, n in before_violations.items()
-                    if after_violations.get(c, n) > n}
-        total = time.monotonic() - t0
-        upto = "" if last == len(self.steps) else f"; stopped after step {last} as asked (--to-step)"
-        done = last - first + 1
-        self.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {total:.2f} s "
-                 f"(checking the live system {check_at - t0:.2f} s, steps "
-                 f"{sum(t['seconds'] for t in self.timings):.2f} s){upto}")
-        if unmet or seen_bad:
-            if unmet:
-                print(f"but on the wire, the assumptions of {', '.join(unmet)} are not met", file=self.err)
-            for c, n in sorted(seen_bad.items()):
-                print(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
-                      "during the run",
-                      file=self.err)
-            self.report("violated", first, observed=final)
-            return EXIT_FAILED
-        heard = len(before_violations)
-        self.say("on the wire: every functionality the plan touched meets its assumptions, and "
-                 + (f"none of the {heard} monitors heard from saw" if heard != 1 else
-                    "the 1 monitor heard from did not see")
-                 + " a normal mode's assumption violated during the run")
-        self.report("done", first, observed=final)
-        return EXIT_OK
-
-    def wait_status_all(self, comps: Iterable[str]) -> None:
-        """Wait (bounded) for a status from each running component, so violations can be counted."""
-        want = list(comps)
-        self.rt.wait(lambda: all(self.rt.status(self.fqn(c)) is not None for c in want), 3.0)
-
-    def unusual(self, seen: dict[str, Observed]) -> None:
-        """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
-        for c, o in sorted(seen.items()):
-            if o.lifecycle not in ("absent", "active"):
-                print(f"    ({c} is {o.lifecycle}: not counted as present)", file=self.err)
-
-    def stale(self, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
-        print(f"refusing to apply: the live system does not match the plan's state before step {first}:",
-              file=self.err)
-        for d in diffs:
-            print(f"  - {d}", file=self.err)
-        matches = [i for i, s in enumerate(self.states) if not self.model.differences(s, observed, hood)]
-        if matches:
-            i = matches[-1]
-            print(f"It matches the state after step {i}" + (" (the plan's last: it was applied already)"
-                                                           if i == len(self.steps) else "")
-                  + (f"; resume with --from-step {i + 1}" if i < len(self.steps) else "") + ".", file=self.err)
+def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
+    """Read each component's node: lifecycle state, modes, attachments; every node at once."""
+    comps, names = sorted(comps), ctx.names
+    graph = set(ctx.rt.nodes())
+    names.locate(comps, graph)
+    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph}
+    states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
+    wanted: dict[str, list[str]] = {}
+    for c in comps:
+        lc = states.get(names.fqn(c))
+        if c in seen or lc is None:
+            continue
+        if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
+            seen[c] = Observed(c, "unresponsive")
+        elif lc != "active":
+            seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
-            print("Plan again from the running system (the plan is stale).", file=self.err)
-        self.report("stale", first, observed=observed)
-        return EXIT_FAILED
+            wanted[names.fqn(c)] = _control_parameters(ctx, c)
+    params = ctx.rt.get_many(wanted)
+    for c in comps:
+        values = params.get(names.fqn(c))
+        if values is None:
+            continue
+        if isinstance(values, StepFailed):
+            raise values
+        modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
+        ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
+        seen[c] = Observed(c, "active", modes, ports)
+    return dict(sorted(seen.items()))
 
-    def failed(self, i: int, step: dict[str, Any], why: str, t0: float) -> int:
-        print(f"step {i} ({describe(step)}) FAILED: {why}", file=self.err)
-        self.rt.deadline = time.monotonic() + self.args.step_timeout
-        try:
-            seen = self.observe(self.model.comps)
-            observed: Optional[State] = self.as_state(seen)
-        except StepFailed as e:
-            print(f"could not observe the system after the failure: {e}", file=self.err)
-            observed, seen = None, {}
-        if observed is not None:
-            print("Observed configuration (read from the running nodes):\n    " + observed.describe(), file=self.err)
-            self.unusual(seen)
-            bad = self.model.failures(observed)
-            if bad:
-                print("It is NOT valid:", file=self.err)
-                for b in bad:
-                    print(f"  - {b}", file=self.err)
-            else:
-                print("It is valid: every assumption of every present functionality holds in the model.",
-                      file=self.err)
-            for k, name in ((i - 1, "before"), (i, "after")):
-                if not self.model.differences(self.states[k], observed, self.model.comps):
-                    print(f"It is the plan's state {name} step {i}.", file=self.err)
-        if self.started:
-            print("Processes this run started:", file=self.err)
-            for c, info in sorted(self.started.items()):
-                proc = info["proc"]
-                alive = proc.poll() is None
-                if alive and self.args.stop_started:
-                    proc.terminate()
-                    try:
-                        proc.wait(timeout=3)
-                    except subprocess.TimeoutExpired:
-                        proc.kill()
-                    print(f"  {c}: pid {info['pid']} stopped (--stop-started), log {info['log']}", file=self.err)
-                else:
-                    state = "running" if alive else f"exited with status {proc.returncode}"
-                    print(f"  {c}: pid {info['pid']} {state}, log {info['log']}", file=self.err)
-            if self.args.stop_started:
-                seen = self.observe(self.model.comps)
-                observed = self.as_state(seen)
-        path = self.report("failed", i, observed=observed, failed_step=i, why=why)
-        print(f"To recover, plan from the observed configuration:\n"
-              f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
-              f"    reconf recover {path} --back -o recover.py    (back to the plan's start)", file=self.err)
-        return EXIT_FAILED
 
-    def report(self, outcome: str, first: int, observed: Optional[State], failed_step: Optional[int] = None,
-               why: Optional[str] = None) -> str:
-        """Write the run's report (JSON); return its path."""
-        path = self.args.report or (f"reconf-{self.doc['system']}-{outcome}.json" if outcome != "done" else "")
-        if not path:
-            return ""
-        body = {"format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
-                "system": self.doc["system"], "fingerprint": self.doc["fingerprint"], "from_step": first,
-                "failed_step": failed_step, "reason": why,
-                "observed": None if observed is None else observed.to_doc(),
-                "observed_valid": None if observed is None else not self.model.failures(observed),
-                "timings": self.timings,
-                "started": {c: {k: v for k, v in info.items() if k != "proc"} for c, info in self.started.items()},
-                "plan_document": self.doc}
+def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
+    """The configuration the nodes showed: the active ones present, their modes and attachments."""
+    back = {v: k for k, v in ctx.names.renames.items()}
+    comps = [c for c, o in seen.items() if o.present]
+    degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
+    roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
+    return State(comps, degraded, roles)
+
+
+def neighbourhood(ctx: Context) -> set[str]:
+    """The components the plan touches, and those attached to a connector it touches."""
+    comps = {s.component for s in ctx.steps}
+    conns = {s.connector for s in ctx.steps if s.connector}
+    for st in ctx.states:
+        conns |= {n for n, c, p in st.roles if c in comps}
+    for st in ctx.states:
+        comps |= {c for n, c, p in st.roles if n in conns}
+    return comps & set(ctx.model.comps)
+
+
+def settle(ctx: Context, expected: Iterable[str], seconds: float) -> None:
+    """Let discovery catch up before reading the graph (bounded by `seconds`): every node the
+    plan expects running seen, one announcement period passed, and the graph unchanged for a
+    while. A node the plan expects absent but that runs must not be missed (a re-run would
+    start a second one)."""
+    expected = set(expected)
+
+    def want(nodes: set[str]) -> set[str]:
+        ctx.names.locate(expected, nodes)
+        return {ctx.names.fqn(c) for c in expected}
+    ctx.rt.wait(lambda: ctx.rt.settled(want), seconds)
+
+
+def wait_status(ctx: Context, comp: str, cond: Callable[[Status], bool], seconds: float) -> bool:
+    """Wait (bounded) until the component's node shows a status that meets `cond`."""
+    return ctx.rt.wait(lambda: (st := ctx.rt.status(ctx.names.fqn(comp))) is not None and cond(st), seconds)
+
+
+def wait_statuses(ctx: Context, comps: Iterable[str]) -> None:
+    """Wait (bounded) for a status from each running component, so violations can be counted."""
+    want = list(comps)
+    ctx.rt.wait(lambda: all(ctx.rt.status(ctx.names.fqn(c)) is not None for c in want), 3.0)
+
+
+def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
+    """Each heard-from component's monitor's count of normal-mode assumptions violated."""
+    out = {}
+    for c in comps:
+        st = ctx.rt.status(ctx.names.fqn(c))
+        if st is not None:
+            out[c] = int(st.get("violations", "0"))
+    return out
+
+
+def check_touched(ctx: Context, expected: State, when: str) -> None:
+    """Every component the plan has touched reads back as `expected` has it."""
+    # a node that answered its services may not be in this node's graph yet, nor heard on
+    # /diagnostics: under load, discovery lags behind the services by seconds
+    want = {ctx.names.fqn(c) for c in ctx.touched & expected.components}
+    ctx.rt.wait(lambda: want <= set(ctx.rt.nodes()), ctx.args.discovery_timeout)
+    seen = observe(ctx, ctx.touched)
+    diffs = ctx.model.differences(expected, as_state(ctx, seen), ctx.touched)
+    if diffs:
+        raise StepFailed(f"{when}: " + "; ".join(diffs))
+
+
+def unusual(ctx: Context, seen: dict[str, Observed]) -> None:
+    """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
+    for c, o in sorted(seen.items()):
+        if o.lifecycle not in ("absent", "active"):
+            ctx.warn(f"    ({c} is {o.lifecycle}: not counted as present)")
+
+
+# --- reconf_ros/executor/conditions.py ---
+
+def meets(func: str) -> Callable[[Status], bool]:
+    """Whether a status shows `func`'s normal assumptions met on the wire (or not observed)."""
+    return lambda st: st.get(f"wire.{func}", "").split(":")[0] in ("met", "unobserved")
+
+
+def on_demand(ctx: Context, comp: str, port: str) -> bool:
+    """Whether data reaches `comp.port` only when asked for (an FTM's requests and results,
+    its status says; or its assumption has no rate): no data may flow while a step runs."""
+    st = ctx.rt.status(ctx.names.fqn(comp)) or {}
+    declared = ctx.model.port(comp, port)
+    return st.get(f"in.{port}.on_demand") == "1" or rate(declared["assumption"] if declared else None) is None
+
+
+def publishes(ctx: Context, comp: str, port: str, state: State) -> bool:
+    """Whether `comp.port`'s functionality guarantees data at a rate there in `state`'s mode
+    (data without a rate comes on demand: an FTM's requests, say; matching is all there is
+    to wait for)."""
+    for f in ctx.model.comps[comp]["functionalities"]:
+        if port in f["ports"]:
+            g = ctx.model.guarantee(ctx.model.mode(comp, f, state), port)
+            if g is not None and g.get("message") is not None and g.get("hz") is not None:
+                return True
+    return False
+
+
+def _ends(ctx: Context, conn: str, state: State, kind: str) -> list[tuple[str, str]]:
+    """The present (component, port) pairs of `kind` ("input", "output") attached to `conn`."""
+    return [(c, p) for n, c, p in sorted(state.roles)
+            if n == conn and c in state.components and ctx.model.port_kind(c, p) == kind]
+
+
+def wire_before(ctx: Context, step: Step, was: State, will: State) -> None:
+    """What the wire must show before the step: an upgraded functionality's assumptions met;
+    a connector that loses a publisher still delivering from the ones that remain."""
+    if step.action == "upgrade":
+        f = step.functionality
+        if not wait_status(ctx, step.component, meets(f), ctx.args.wire_timeout):
+            st = ctx.rt.status(ctx.names.fqn(step.component)) or {}
+            raise StepFailed(f"{step.component}.{f}: its assumptions are not met on the wire "
+                             f"({st.get(f'wire.{f}', 'no status from the node')})")
+    for conn in ctx.model.conns:
+        kept = ctx.model.satisfying(will, conn)
+        if kept and not set(kept) >= set(ctx.model.satisfying(was, conn)):
+            _readers_keep_data(ctx, step, conn, kept, was, will)
+
+
+def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was: State, will: State) -> None:
+    """Every reader relying on `conn` receives from a publisher that stays (`kept`); a reader of
+    data on demand is matched with every publisher it had, the ones that stay among them."""
+    names = {ctx.names.node_name(c) for c in kept}
+    k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
+    matched = len(_ends(ctx, conn, was, "output"))
+    for reader, port in _ends(ctx, conn, will, "input"):
+        if port not in ctx.model.relying_inputs(reader, will):
+            continue
+        key = f"in.{port}@{k}.publishers"
+        if on_demand(ctx, reader, port):
+            # data on demand (an FTM's requests): none may flow now
+            if not wait_status(ctx, reader, lambda st: int(st.get(key, "0")) >= matched, wait):
+                st = ctx.rt.status(ctx.names.fqn(reader)) or {}
+                raise StepFailed(f"{reader}.{port} is matched with {st.get(key, 'no')} of the "
+                                 f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
+                                 "could leave it without one")
+            continue
+        fresh = f"in.{port}.fresh"
+        if not wait_status(ctx, reader, lambda st: bool(names & set(split_list(st.get(fresh, "")))), wait):
+            st = ctx.rt.status(ctx.names.fqn(reader)) or {}
+            raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on {k} "
+                             f"(fresh sources: {st.get(fresh) or 'none'}); taking {step.component}'s away "
+                             "would leave it without data")
+
+
+def wire_after(ctx: Context, step: Step, will: State) -> None:
+    """An attached port is matched with the other side of its connector as the plan has it; an
+    attached output that publishes is heard by every subscriber."""
+    if step.action != "attach":
+        return
+    comp, port, conn = step.component, step.port, step.connector
+    k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
+    pubs, subs = _ends(ctx, conn, will, "output"), _ends(ctx, conn, will, "input")
+    kind = ctx.model.port_kind(comp, port)
+    if kind == "output" and subs:
+        key = f"out.{port}@{k}.subscribers"
+        if not wait_status(ctx, comp, lambda st: int(st.get(key, "0")) >= len(subs), wait):
+            raise StepFailed(f"{comp}.{port} is not matched with the {plural(len(subs), 'subscriber')} of {k} "
+                             f"within {wait} s")
+    for c, p in (subs if kind == "output" else [(comp, port)]):
+        key = f"in.{p}@{k}.publishers"
+        if pubs and not wait_status(ctx, c, lambda st: int(st.get(key, "0")) >= len(pubs), wait):
+            raise StepFailed(f"{c}.{p} is not matched with the {plural(len(pubs), 'publisher')} of {k} "
+                             f"within {wait} s")
+    if kind == "output" and publishes(ctx, comp, port, will):
+        # Matched counts can be stale (a publisher just gone still counted): the data decides.
+        me = f"in.{{}}.from.{ctx.names.node_name(comp)}"
+        for c, p in subs:
+            if on_demand(ctx, c, p):
+                continue            # nothing flows until asked for; matched above
+            if not wait_status(ctx, c, lambda st: me.format(p) in st, wait):
+                raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+
+# --- reconf_ros/executor/processes.py ---
+
+def command(ctx: Context, comp: str) -> list[str]:
+    """The component's run line, or, when it has none, a model-driven node of the architecture
+    the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
+    run, names = ctx.runs.get(comp), ctx.names
+    argv = shlex.split(run) if run else ["reconf-node", "--plan", plan_path(ctx), comp]
+    exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
+    if exe is None:
+        raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
+    argv[0] = exe
+    named = comp in names.placed and os.path.basename(exe) == "reconf-node"
+    if named:       # the component it is, under the node's own name (rcl's remap rules refuse "__")
+        argv[1:1] = ["--as", names.declared(comp), "--node", names.placed[comp]]
+    remaps = ([f"__ns:={ctx.rt.namespace}"] if ctx.rt.namespace else []) + \
+        ([f"__node:={names.placed[comp]}"] if comp in names.placed and not named else [])
+    if remaps:
+        argv += ["--ros-args"] if "--ros-args" not in argv else []
+        for r in remaps:
+            argv += ["-r", r]
+    return argv
+
+
+def plan_path(ctx: Context) -> str:
+    """The plan document in the log directory, for the nodes that read it; named by its
+    content, so a log directory shared by several plans gives each node its own plan."""
+    text = json.dumps(ctx.doc, sort_keys=True)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = os.path.abspath(os.path.join(ctx.log_dir, f"plan-{digest}.json"))
+    if not os.path.exists(path):
+        os.makedirs(ctx.log_dir, exist_ok=True)
         tmp = f"{path}.tmp{os.getpid()}"
         with open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(body, fh, indent=1, sort_keys=True)
+            fh.write(text)
         os.replace(tmp, path)
-        print(f"report: {path}", file=self.err if outcome != "done" else self.out)
-        return path
+    return path
 
 
-def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Any) -> bool:
+def start(ctx: Context, argv: list[str], log: str, env: dict[str, str]) -> tuple[Any, str]:
+    """Start a node's process, in a session of its own with its own log and `env` added:
+    forked by the launcher when there is one and it can, else the ordinary way. Returns the
+    process and how it was started, for the step's line."""
+    if ctx.launcher is not None and ctx.launcher.can_start(argv):
+        try:
+            return ctx.launcher.start(argv, log, env=env), " (forked by the launcher)"
+        except OSError as e:
+            ctx.say(f"      the launcher could not start it ({e}); starting it the ordinary way")
+    with open(log, "ab") as fh:
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=fh, stderr=subprocess.STDOUT,
+                                start_new_session=True, env={**os.environ, **env})
+    return proc, ""
+
+
+def warm(ctx: Context, first: int, last: int) -> None:
+    """Let the launcher parse what the steps' new nodes will read, while the live system is
+    checked."""
+    if ctx.launcher is None:
+        return
+    for step in ctx.steps[first - 1:last]:
+        if step.action != "create":
+            continue
+        try:
+            argv = command(ctx, step.component)
+        except StepFailed:
+            continue                    # the step itself will say so
+        if ctx.launcher.can_start(argv):
+            try:
+                ctx.launcher.warm(argv)
+            except OSError:
+                return                  # the launcher is gone: creates start the ordinary way
+
+
+def wait_exit(proc: Any, seconds: float) -> int:
+    """Wait for a process to exit: `seconds`, then SIGTERM and 2 s, then SIGKILL. Its status."""
+    try:
+        proc.wait(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        proc.terminate()
+        try:
+            proc.wait(timeout=2)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    return int(proc.returncode)
+
+
+def list_started(ctx: Context, stop: bool) -> None:
+    """Name every process this run started (pid, state, log); with `stop`, end the ones still
+    running (SIGTERM, then SIGKILL after 3 s)."""
+    if not ctx.started:
+        return
+    ctx.warn("Processes this run started:")
+    for c, info in sorted(ctx.started.items()):
+        alive = info.proc.poll() is None
+        if alive and stop:
+            info.proc.terminate()
+            try:
+                info.proc.wait(timeout=3)
+            except subprocess.TimeoutExpired:
+                info.proc.kill()
+            ctx.warn(f"  {c}: pid {info.pid} stopped (--stop-started), log {info.log}")
+        else:
+            state = "running" if alive else f"exited with status {info.proc.returncode}"
+            ctx.warn(f"  {c}: pid {info.pid} {state}, log {info.log}")
+
+
+# --- reconf_ros/executor/handlers.py ---
+
+def create(ctx: Context, step: Step) -> None:
+    """Start the component's process, wait for its lifecycle services, configure and activate it."""
+    comp, names = step.component, ctx.names
+    if names.is_version(comp):        # X@new: a node name no other node has (X's may still run)
+        names.locate([comp])
+        if comp in names.placed:
+            raise StepFailed(f"before the step, {comp} runs already (node {names.fqn(comp)})")
+        names.placed[comp] = names.fresh(comp)
+    fqn = names.fqn(comp)
+    if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
+        raise StepFailed(f"before the step, a node {fqn} is already running")
+    argv = command(ctx, comp)
+    os.makedirs(ctx.log_dir, exist_ok=True)
+    log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
+    proc, how = start(ctx, argv, log, {CREATED_ENV: names.created_mark(comp)})
+    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc)
+    ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
+    ctx.rt.forget(fqn)
+    t0 = time.monotonic()
+    cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
+    while not cli.service_is_ready():
+        if proc.poll() is not None:
+            raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
+                             f"(see {log})")
+        ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
+    t_up = time.monotonic()
+    if ctx.rt.nodes().count(fqn) > 1:
+        raise StepFailed(f"two nodes named {fqn} are running")
+    lc = ctx.rt.lifecycle(fqn)
+    t_state = time.monotonic()
+    if lc == "unconfigured":
+        ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_CONFIGURE, "configure")
+    elif lc != "inactive":
+        raise StepFailed(f"after start, {comp} is in lifecycle state {lc!r}")
+    ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
+    ctx.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
+            f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
+
+
+def remove(ctx: Context, step: Step) -> None:
+    """Take an isolated node down its lifecycle to finalized; wait for a process this run started."""
+    comp = step.component
+    fqn, transition = ctx.names.fqn(comp), ctx.rt.Transition
+    lc = ctx.rt.lifecycle(fqn)
+    if lc not in ("active", "inactive"):
+        raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
+    ports = [p["name"] for p in ctx.model.comps[comp]["ports"]]
+    attached = {n: v for n, v in ctx.rt.get(fqn, [f"reconf.port.{p}" for p in ports]).items() if v}
+    if attached:
+        raise StepFailed(f"before the step, {comp} is not isolated: "
+                         + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
+    if lc == "active":
+        ctx.rt.transition(fqn, transition.TRANSITION_DEACTIVATE, "deactivate")
+    ctx.rt.transition(fqn, transition.TRANSITION_CLEANUP, "cleanup")
+    ctx.rt.transition(fqn, transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
+    # finalized: the node may exit at once, which counts as removed
+    try:
+        lc = ctx.rt.lifecycle(fqn)
+    except StepFailed:
+        lc = "finalized"
+    if lc != "finalized":
+        raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
+    info = ctx.started.get(comp)
+    if info is not None:
+        info.ended = wait_exit(info.proc, max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    ctx.rt.forget(fqn)
+
+
+def _port(ctx: Context, step: Step, attach: bool) -> None:
+    """Set `reconf.port.<p>` to its current list with the connector added (or taken away)."""
+    comp, port, conn = step.component, step.port, ctx.names.connector(step.connector)
+    fqn, name = ctx.names.fqn(comp), f"reconf.port.{port}"
+    _expect_active(ctx, comp)
+    now = ctx.rt.get(fqn, [name])[name]
+    if (conn in now) == attach:
+        raise StepFailed(f"before the step, {comp}.{port} is {'already' if attach else 'not'} attached to "
+                         f"{conn} ({name}={now!r})")
+    ctx.rt.set(fqn, name, sorted(set(now) | {conn}) if attach else [c for c in now if c != conn])
+
+
+def _mode(ctx: Context, step: Step, was: str, will: str) -> None:
+    """Set `reconf.mode.<f>` from `was` to `will`."""
+    comp, func = step.component, step.functionality
+    fqn, name = ctx.names.fqn(comp), f"reconf.mode.{func}"
+    _expect_active(ctx, comp)
+    now = ctx.rt.get(fqn, [name])[name]
+    if now != was:
+        raise StepFailed(f"before the step, {comp}.{func} is {now!r}, not {was!r}")
+    ctx.rt.set(fqn, name, will)
+
+
+def _expect_active(ctx: Context, comp: str) -> None:
+    lc = ctx.rt.lifecycle(ctx.names.fqn(comp))
+    if lc != "active":
+        raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
+
+
+HANDLERS: dict[str, Callable[[Context, Step], None]] = {
+    "create": create,
+    "remove": remove,
+    "attach": lambda ctx, step: _port(ctx, step, attach=True),
+    "detach": lambda ctx, step: _port(ctx, step, attach=False),
+    "degrade": lambda ctx, step: _mode(ctx, step, "normal", "degraded"),
+    "upgrade": lambda ctx, step: _mode(ctx, step, "degraded", "normal"),
+}
+
+
+def perform(ctx: Context, step: Step, was: State, will: State) -> None:
+    """One step: its wire condition before, its handler, its wire condition after."""
+    ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    wire_before(ctx, step, was, will)
+    HANDLERS[step.action](ctx, step)
+    wire_after(ctx, step, will)
+
+
+# --- reconf_ros/executor/run_report.py ---
+
+def write_report(ctx: Context, outcome: str, first: int, observed: Optional[State],
+                 failed_step: Optional[int] = None, why: Optional[str] = None) -> str:
+    """Write the run's report (JSON, atomically); return its path ("" when none is asked for)."""
+    path = ctx.args.report or (f"reconf-{ctx.doc['system']}-{outcome}.json" if outcome != "done" else "")
+    if not path:
+        return ""
+    body: dict[str, Any] = {
+        "format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
+        "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
+        "failed_step": failed_step, "reason": why,
+        "observed": None if observed is None else observed.to_doc(),
+        "observed_valid": None if observed is None else not ctx.model.failures(observed),
+        "timings": [t.to_doc() for t in ctx.timings],
+        "started": {c: info.to_doc() for c, info in ctx.started.items()},
+        "plan_document": ctx.doc}
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(body, fh, indent=1, sort_keys=True)
+    os.replace(tmp, path)
+    print(f"report: {path}", file=ctx.err if outcome != "done" else ctx.out)
+    return path
+
+
+def stale(ctx: Context, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
+    """Refuse a plan whose state before step `first` is not what the live system shows; say
+    which state of the plan it is, if any."""
+    ctx.warn(f"refusing to apply: the live system does not match the plan's state before step {first}:")
+    for d in diffs:
+        ctx.warn(f"  - {d}")
+    matches = [i for i, s in enumerate(ctx.states) if not ctx.model.differences(s, observed, hood)]
+    if matches:
+        i = matches[-1]
+        ctx.warn(f"It matches the state after step {i}" + (" (the plan's last: it was applied already)"
+                                                          if i == len(ctx.steps) else "")
+                 + (f"; resume with --from-step {i + 1}" if i < len(ctx.steps) else "") + ".")
+    else:
+        ctx.warn("Plan again from the running system (the plan is stale).")
+    write_report(ctx, "stale", first, observed=observed)
+    return EXIT_FAILED
+
+
+def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> None:
+    """Print the observed configuration, whether it is valid, and which plan state it is."""
+    ctx.warn("Observed configuration (read from the running nodes):\n    " + observed.describe())
+    unusual(ctx, seen)
+    bad = ctx.model.failures(observed)
+    if bad:
+        ctx.warn("It is NOT valid:")
+        for b in bad:
+            ctx.warn(f"  - {b}")
+    else:
+        ctx.warn("It is valid: every assumption of every present functionality holds in the model.")
+    for k, name in ((i - 1, "before"), (i, "after")):
+        if not ctx.model.differences(ctx.states[k], observed, ctx.model.comps):
+            ctx.warn(f"It is the plan's state {name} step {i}.")
+
+
+def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
+    try:
+        seen = observe(ctx, ctx.model.comps)
+        return as_state(ctx, seen), seen
+    except StepFailed as e:
+        ctx.warn(f"could not observe the system after the failure: {e}")
+        return None, {}
+
+
+def failed(ctx: Context, i: int, step: Step, why: str) -> int:
+    """Step `i` failed: read every component, say what the system is now and how to recover."""
+    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}")
+    ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    observed, seen = _observe_all(ctx)
+    if observed is not None:
+        _judge(ctx, i, observed, seen)
+    list_started(ctx, ctx.args.stop_started)
+    if ctx.started and ctx.args.stop_started:
+        observed = as_state(ctx, observe(ctx, ctx.model.comps))
+    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    ctx.warn(f"To recover, plan from the observed configuration:\n"
+             f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
+             f"    reconf recover {path} --back -o recover.py    (back to the plan's start)")
+    return EXIT_FAILED
+
+
+# --- reconf_ros/executor/run.py ---
+
+def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> bool:
     """List the steps to apply; unless --yes, ask."""
     first, last = args.from_step, args.to_step
     if args.quiet_list and args.yes:      # a manager: its client has listed them
         return True
     print(f"applying steps {first}..{last} of the plan for {doc['system']} ({doc['fingerprint']})", file=out)
-    for i in range(first, last + 1):
-        print(label(i, doc["plan"]["steps"][i - 1]), file=out)
+    for i, step in enumerate(plan_steps(doc)[first - 1:last], first):
+        print(step.label(i), file=out)
     if args.yes:
         return True
     try:
@@ -1318,6 +1482,124 @@ def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Any) -> bool:
     print("nothing done", file=out)
     return False
 
+
+class Executor:
+    """Applies a plan document's steps to the running system (docs/executor.md). A manager lends
+    its long-lived `runtime` and its `launcher`; a plan script makes its own runtime."""
+
+    def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Writer = sys.stdout,
+                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
+        self.ctx = Context(doc, args, out, err, rt=runtime, launcher=launcher)
+        self.own_runtime = runtime is None
+
+    def apply(self, first: int) -> int:
+        ctx = self.ctx
+        if not confirmed(ctx.doc, ctx.args, ctx.out):
+            return EXIT_FAILED
+        t0 = time.monotonic()
+        if self.own_runtime:
+            ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
+        try:
+            return self._apply(first, t0)
+        finally:
+            if self.own_runtime:
+                ctx.rt.close()
+
+    def _apply(self, first: int, t0: float) -> int:
+        ctx, last = self.ctx, self.ctx.args.to_step
+        warm(ctx, first, last)
+        hood = neighbourhood(ctx)
+        refused = self._check_start(first, hood)
+        if refused is not None:
+            return refused
+        wait_statuses(ctx, hood & ctx.states[first - 1].components)
+        # every monitor heard from, not only the neighbourhood's: a step can reach further on the
+        # wire than in the model (a suspended protocol keeps its clients waiting)
+        counted = violations(ctx, ctx.states[first - 1].components)
+        ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
+        check_at = time.monotonic()
+        ctx.say(f"the live system matches the plan's state before step {first} "
+                f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
+        for i in range(first, last + 1):
+            if not self._step(i):
+                return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
+        return self._finish(first, hood, counted, t0, check_at)
+
+    def _check_start(self, first: int, hood: set[str]) -> Optional[int]:
+        """Refuse (the exit status) unless the live system is the plan's state before `first`."""
+        ctx = self.ctx
+        start = ctx.states[first - 1]
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        settle(ctx, start.components & hood, ctx.args.discovery_timeout)
+        seen = observe(ctx, hood)
+        busy = sorted(c for c, o in seen.items() if o.lifecycle == "unresponsive")
+        if busy:    # a node of a saturated host can take longer than one call's timeout to answer
+            ctx.say(f"not answering within {ctx.args.timeout} s: {', '.join(busy)}; reading them again")
+            seen.update(observe(ctx, busy))
+        observed = as_state(ctx, seen)
+        diffs = ctx.model.differences(start, observed, hood)
+        if not diffs:
+            return None
+        unusual(ctx, seen)
+        return stale(ctx, first, observed, diffs, hood)
+
+    def _step(self, i: int) -> bool:
+        """Perform step `i` and read back what the plan has touched; False (the reason in
+        `ctx.failure`) when it failed or was interrupted."""
+        ctx = self.ctx
+        step = ctx.steps[i - 1]
+        ctx.say(f"{step.label(i)} ...")
+        s0, at = time.monotonic(), round(time.time(), 3)
+        try:
+            perform(ctx, step, ctx.states[i - 1], ctx.states[i])
+            ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+            check_touched(ctx, ctx.states[i], f"after step {i}")
+        except (StepFailed, OSError, KeyboardInterrupt) as e:
+            ctx.failure = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            return False
+        ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
+        ctx.say(f"      done in {time.monotonic() - s0:.3f} s")
+        return True
+
+    def _finish(self, first: int, hood: set[str], counted: dict[str, int], t0: float, check_at: float) -> int:
+        """After the last step: the neighbourhood reads back as the plan's last state, the
+        touched functionalities meet their assumptions on the wire, and no monitor's count moved."""
+        ctx, last = self.ctx, self.ctx.args.to_step
+        end = ctx.states[last]
+        normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
+                  for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
+        final = as_state(ctx, observe(ctx, hood))
+        wrong = ctx.model.differences(end, final, hood)
+        if wrong:
+            return failed(ctx, last, ctx.steps[last - 1], "after the last step: " + "; ".join(wrong))
+        now = violations(ctx, counted)
+        seen_bad = {c: now[c] - n for c, n in counted.items() if now.get(c, n) > n}
+        upto = "" if last == len(ctx.steps) else f"; stopped after step {last} as asked (--to-step)"
+        done = last - first + 1
+        ctx.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {time.monotonic() - t0:.2f} s "
+                f"(checking the live system {check_at - t0:.2f} s, steps "
+                f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
+        if unmet or seen_bad:
+            if unmet:
+                ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
+            for c, n in sorted(seen_bad.items()):
+                ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
+                         "during the run")
+            write_report(ctx, "violated", first, observed=final)
+            return EXIT_FAILED
+        heard = len(counted)
+        ctx.say("on the wire: every functionality the plan touched meets its assumptions, and "
+                + (f"none of the {heard} monitors heard from saw" if heard != 1 else
+                   "the 1 monitor heard from did not see")
+                + " a normal mode's assumption violated during the run")
+        write_report(ctx, "done", first, observed=final)
+        return EXIT_OK
+
+
+# --- reconf_ros/executor/script.py ---
 
 def manager_socket(namespace: str = "") -> str:
     """Where the manager of this ROS domain (and namespace) listens by default."""

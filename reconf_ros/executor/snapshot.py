@@ -4,6 +4,9 @@ for reconf nodes their model (`reconf.model`), modes and attachments.
 
 ROS is imported only inside `read_snapshot`, through the executor's `Runtime` (its retries, its
 status reader); `Snapshot` itself is plain data that `checker.reality.drift` compares without ROS.
+Which modes and attachments a reconf node has is read from its model text by the caller's
+`ModelNames` (the checker parses it; this module, like the rest of the executor, is standard
+library only).
 """
 from __future__ import annotations
 
@@ -12,7 +15,10 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable, Optional
 
-__all__ = ["MODEL_PARAM", "NodeInfo", "Snapshot", "read_snapshot", "RosUnavailable", "parse_model"]
+from .runtime import Runtime, StepFailed
+from .status import STATUS_FRESH, find_node, tool_node
+
+__all__ = ["MODEL_PARAM", "ModelNames", "NodeInfo", "RosUnavailable", "Snapshot", "read_snapshot"]
 
 MODEL_PARAM = "reconf.model"     # a reconf node's component as .arch text (read-only string)
 # the middleware's and reconf's own topics, not the application's
@@ -26,6 +32,7 @@ STANDARD_SERVICES = frozenset({"describe_parameters", "get_parameter_types", "ge
                      "get_type_description"})
 
 Progress = Callable[[str], None]
+ModelNames = Callable[[str], tuple[list[str], list[str]]]   # model text -> (functionalities, ports)
 
 
 class RosUnavailable(Exception):
@@ -103,15 +110,12 @@ def _application(services: dict[str, list[str]]) -> dict[str, list[str]]:
     return {s: t for s, t in services.items() if s.rsplit("/", 1)[1] not in STANDARD_SERVICES}
 
 
-def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.0,
+def read_snapshot(model_names: ModelNames, namespace: str = "", settle: float = 10.0, timeout: float = 5.0,
                   progress: Progress = lambda _: None, expect: frozenset[str] = frozenset()) -> Snapshot:
     """Wait for the graph to settle (bounded by `settle` s; the nodes of the components `expect`ed
-    seen too, as the executor waits for a plan's), then read every node of `namespace`.
+    seen too, as the executor waits for a plan's), then read every node of `namespace`; a reconf
+    node's modes and attachments are the ones `model_names` finds in its model text.
     Raises RosUnavailable when rclpy is not installed or does not start."""
-    try:
-        from .executor import Runtime, tool_node
-    except ImportError as e:     # pragma: no cover - the executor is standard library only
-        raise RosUnavailable(str(e)) from None
     import importlib.util
     if importlib.util.find_spec("rclpy") is None:
         raise RosUnavailable("rclpy is not installed: pip install 'reconf[ros]'")
@@ -124,7 +128,7 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
         progress(f"waiting for discovery to settle (at most {settle:g} s)…")
         settled = _settle(rt, settle, expect)
         t1 = time.monotonic()
-        snap = _read(rt, progress)
+        snap = _read(rt, progress, model_names)
         snap.settled, snap.seconds, snap.settle_seconds = settled, time.monotonic() - t0, t1 - t0
         return snap
     finally:
@@ -134,7 +138,6 @@ def read_snapshot(namespace: str = "", settle: float = 10.0, timeout: float = 5.
 def _settle(rt: Any, seconds: float, expect: frozenset[str]) -> bool:
     """The executor's rule (`Runtime.settled`, docs/executor.md#discovery), endpoints included, each
     expected component's node found as the executor finds it (`find_node`); or `seconds`."""
-    from .executor import find_node
 
     def want(nodes: set[str]) -> set[str]:
         own = {c: f"{rt.namespace}/{c}" for c in expect}
@@ -146,7 +149,7 @@ def _endpoints(pairs: Any) -> dict[str, list[str]]:
     return {name: sorted(types) for name, types in pairs if not hidden_topic(name)}
 
 
-def _read(rt: Any, progress: Progress) -> Snapshot:
+def _read(rt: Any, progress: Progress, model_names: ModelNames) -> Snapshot:
     node, ns = rt.node, rt.namespace or ""
     own = node.get_fully_qualified_name()
     snap = Snapshot(namespace=ns)
@@ -169,17 +172,16 @@ def _read(rt: Any, progress: Progress) -> Snapshot:
         snap.nodes[fqn] = info
         info.model = "" if f"{fqn}/get_parameters" in servers else None    # asked below
     progress(f"reading {len(snap.nodes)} node{'' if len(snap.nodes) == 1 else 's'}…")
-    _read_reconf(rt, snap)
+    _read_reconf(rt, snap, model_names)
     return snap
 
 
-def _read_reconf(rt: Any, snap: Snapshot) -> None:
+def _read_reconf(rt: Runtime, snap: Snapshot, model_names: ModelNames) -> None:
     """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once.
     A node's lifecycle state is the one its own status last said, when that status is fresh (it
     publishes one on every change and each second: docs/control-interface.md#status), and is
     asked by get_state otherwise: at 100 nodes a round of get_state calls took 1.5-3 s. A node
     that does not answer is marked so."""
-    from .executor import STATUS_FRESH, StepFailed
     now = time.monotonic()
     said = {f: st["lifecycle"] for f, st in rt.statuses.items()
             if f in snap.nodes and "lifecycle" in st and now - rt.heard.get(f, 0.0) <= STATUS_FRESH}
@@ -210,26 +212,3 @@ def _read_reconf(rt: Any, snap: Snapshot) -> None:
             continue
         info.modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
         info.ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
-
-
-def parse_model(text: str, where: str = "<reconf.model>") -> Optional[tuple[Any, Any]]:
-    """A reconf.model text as (its document, its first component); None if it does not parse or
-    declares no component."""
-    from reconf_dsl.diagnostics import DiagnosticError
-    from reconf_dsl.ir import Component
-    from reconf_dsl.parser import parse_text
-    try:
-        doc = parse_text(text, where)
-    except DiagnosticError:
-        return None
-    comp = next((it for it in doc.items if isinstance(it, Component)), None)
-    return None if comp is None else (doc, comp)
-
-
-def model_names(text: str) -> tuple[list[str], list[str]]:
-    """The functionalities and ports of the (first) component in a reconf.model text."""
-    parsed = parse_model(text)
-    if parsed is None:
-        return [], []
-    comp = parsed[1]
-    return [f.name for f in comp.functionalities], [p.name for p in comp.ports]

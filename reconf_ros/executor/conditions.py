@@ -1,0 +1,117 @@
+"""The conditions a step waits for on the wire, read from the nodes' statuses
+(docs/control-interface.md#the-six-actions): before a step, an upgraded functionality's
+assumptions met and every reader of a connector that loses a publisher receiving from one that
+stays; after it, an attached port matched with the other side of its connector and, for a
+publishing output, its data received."""
+from __future__ import annotations
+
+from typing import Callable
+
+from .context import Context
+from .observe import wait_status
+from .plan_states import State
+from .runtime import StepFailed
+from .semantics import rate
+from .status import Status
+from .steps import Step, plural, split_list
+
+
+def meets(func: str) -> Callable[[Status], bool]:
+    """Whether a status shows `func`'s normal assumptions met on the wire (or not observed)."""
+    return lambda st: st.get(f"wire.{func}", "").split(":")[0] in ("met", "unobserved")
+
+
+def on_demand(ctx: Context, comp: str, port: str) -> bool:
+    """Whether data reaches `comp.port` only when asked for (an FTM's requests and results,
+    its status says; or its assumption has no rate): no data may flow while a step runs."""
+    st = ctx.rt.status(ctx.names.fqn(comp)) or {}
+    declared = ctx.model.port(comp, port)
+    return st.get(f"in.{port}.on_demand") == "1" or rate(declared["assumption"] if declared else None) is None
+
+
+def publishes(ctx: Context, comp: str, port: str, state: State) -> bool:
+    """Whether `comp.port`'s functionality guarantees data at a rate there in `state`'s mode
+    (data without a rate comes on demand: an FTM's requests, say; matching is all there is
+    to wait for)."""
+    for f in ctx.model.comps[comp]["functionalities"]:
+        if port in f["ports"]:
+            g = ctx.model.guarantee(ctx.model.mode(comp, f, state), port)
+            if g is not None and g.get("message") is not None and g.get("hz") is not None:
+                return True
+    return False
+
+
+def _ends(ctx: Context, conn: str, state: State, kind: str) -> list[tuple[str, str]]:
+    """The present (component, port) pairs of `kind` ("input", "output") attached to `conn`."""
+    return [(c, p) for n, c, p in sorted(state.roles)
+            if n == conn and c in state.components and ctx.model.port_kind(c, p) == kind]
+
+
+def wire_before(ctx: Context, step: Step, was: State, will: State) -> None:
+    """What the wire must show before the step: an upgraded functionality's assumptions met;
+    a connector that loses a publisher still delivering from the ones that remain."""
+    if step.action == "upgrade":
+        f = step.functionality
+        if not wait_status(ctx, step.component, meets(f), ctx.args.wire_timeout):
+            st = ctx.rt.status(ctx.names.fqn(step.component)) or {}
+            raise StepFailed(f"{step.component}.{f}: its assumptions are not met on the wire "
+                             f"({st.get(f'wire.{f}', 'no status from the node')})")
+    for conn in ctx.model.conns:
+        kept = ctx.model.satisfying(will, conn)
+        if kept and not set(kept) >= set(ctx.model.satisfying(was, conn)):
+            _readers_keep_data(ctx, step, conn, kept, was, will)
+
+
+def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was: State, will: State) -> None:
+    """Every reader relying on `conn` receives from a publisher that stays (`kept`); a reader of
+    data on demand is matched with every publisher it had, the ones that stay among them."""
+    names = {ctx.names.node_name(c) for c in kept}
+    k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
+    matched = len(_ends(ctx, conn, was, "output"))
+    for reader, port in _ends(ctx, conn, will, "input"):
+        if port not in ctx.model.relying_inputs(reader, will):
+            continue
+        key = f"in.{port}@{k}.publishers"
+        if on_demand(ctx, reader, port):
+            # data on demand (an FTM's requests): none may flow now
+            if not wait_status(ctx, reader, lambda st: int(st.get(key, "0")) >= matched, wait):
+                st = ctx.rt.status(ctx.names.fqn(reader)) or {}
+                raise StepFailed(f"{reader}.{port} is matched with {st.get(key, 'no')} of the "
+                                 f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
+                                 "could leave it without one")
+            continue
+        fresh = f"in.{port}.fresh"
+        if not wait_status(ctx, reader, lambda st: bool(names & set(split_list(st.get(fresh, "")))), wait):
+            st = ctx.rt.status(ctx.names.fqn(reader)) or {}
+            raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on {k} "
+                             f"(fresh sources: {st.get(fresh) or 'none'}); taking {step.component}'s away "
+                             "would leave it without data")
+
+
+def wire_after(ctx: Context, step: Step, will: State) -> None:
+    """An attached port is matched with the other side of its connector as the plan has it; an
+    attached output that publishes is heard by every subscriber."""
+    if step.action != "attach":
+        return
+    comp, port, conn = step.component, step.port, step.connector
+    k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
+    pubs, subs = _ends(ctx, conn, will, "output"), _ends(ctx, conn, will, "input")
+    kind = ctx.model.port_kind(comp, port)
+    if kind == "output" and subs:
+        key = f"out.{port}@{k}.subscribers"
+        if not wait_status(ctx, comp, lambda st: int(st.get(key, "0")) >= len(subs), wait):
+            raise StepFailed(f"{comp}.{port} is not matched with the {plural(len(subs), 'subscriber')} of {k} "
+                             f"within {wait} s")
+    for c, p in (subs if kind == "output" else [(comp, port)]):
+        key = f"in.{p}@{k}.publishers"
+        if pubs and not wait_status(ctx, c, lambda st: int(st.get(key, "0")) >= len(pubs), wait):
+            raise StepFailed(f"{c}.{p} is not matched with the {plural(len(pubs), 'publisher')} of {k} "
+                             f"within {wait} s")
+    if kind == "output" and publishes(ctx, comp, port, will):
+        # Matched counts can be stale (a publisher just gone still counted): the data decides.
+        me = f"in.{{}}.from.{ctx.names.node_name(comp)}"
+        for c, p in subs:
+            if on_demand(ctx, c, p):
+                continue            # nothing flows until asked for; matched above
+            if not wait_status(ctx, c, lambda st: me.format(p) in st, wait):
+                raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")

@@ -1,0 +1,138 @@
+"""The six actions on the live system, one handler each (`HANDLERS`), as
+docs/control-interface.md#the-six-actions states them: each checks on the node what the plan
+relies on before acting, acts through the standard services, and leaves the effect to be read
+back by the run (`observe.check_touched`).
+
+A handler's contract: it is called with the step's deadline set (`Runtime.deadline`), the wire
+condition before the step met (`wire_before`); it raises `StepFailed` with the reason
+when the node is not as the plan expects or refuses; it returns once the node has answered
+that the change is made."""
+from __future__ import annotations
+
+import os
+import shlex
+import time
+from typing import Callable
+
+from .conditions import wire_after, wire_before
+from .context import Context, Started
+from .plan_states import State
+from .processes import command, start, wait_exit
+from .runtime import StepFailed
+from .status import CREATED_ENV
+from .steps import Step
+
+
+def create(ctx: Context, step: Step) -> None:
+    """Start the component's process, wait for its lifecycle services, configure and activate it."""
+    comp, names = step.component, ctx.names
+    if names.is_version(comp):        # X@new: a node name no other node has (X's may still run)
+        names.locate([comp])
+        if comp in names.placed:
+            raise StepFailed(f"before the step, {comp} runs already (node {names.fqn(comp)})")
+        names.placed[comp] = names.fresh(comp)
+    fqn = names.fqn(comp)
+    if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
+        raise StepFailed(f"before the step, a node {fqn} is already running")
+    argv = command(ctx, comp)
+    os.makedirs(ctx.log_dir, exist_ok=True)
+    log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
+    proc, how = start(ctx, argv, log, {CREATED_ENV: names.created_mark(comp)})
+    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc)
+    ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
+    ctx.rt.forget(fqn)
+    t0 = time.monotonic()
+    cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
+    while not cli.service_is_ready():
+        if proc.poll() is not None:
+            raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
+                             f"(see {log})")
+        ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
+    t_up = time.monotonic()
+    if ctx.rt.nodes().count(fqn) > 1:
+        raise StepFailed(f"two nodes named {fqn} are running")
+    lc = ctx.rt.lifecycle(fqn)
+    t_state = time.monotonic()
+    if lc == "unconfigured":
+        ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_CONFIGURE, "configure")
+    elif lc != "inactive":
+        raise StepFailed(f"after start, {comp} is in lifecycle state {lc!r}")
+    ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
+    ctx.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
+            f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
+
+
+def remove(ctx: Context, step: Step) -> None:
+    """Take an isolated node down its lifecycle to finalized; wait for a process this run started."""
+    comp = step.component
+    fqn, transition = ctx.names.fqn(comp), ctx.rt.Transition
+    lc = ctx.rt.lifecycle(fqn)
+    if lc not in ("active", "inactive"):
+        raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
+    ports = [p["name"] for p in ctx.model.comps[comp]["ports"]]
+    attached = {n: v for n, v in ctx.rt.get(fqn, [f"reconf.port.{p}" for p in ports]).items() if v}
+    if attached:
+        raise StepFailed(f"before the step, {comp} is not isolated: "
+                         + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
+    if lc == "active":
+        ctx.rt.transition(fqn, transition.TRANSITION_DEACTIVATE, "deactivate")
+    ctx.rt.transition(fqn, transition.TRANSITION_CLEANUP, "cleanup")
+    ctx.rt.transition(fqn, transition.TRANSITION_UNCONFIGURED_SHUTDOWN, "shutdown")
+    # finalized: the node may exit at once, which counts as removed
+    try:
+        lc = ctx.rt.lifecycle(fqn)
+    except StepFailed:
+        lc = "finalized"
+    if lc != "finalized":
+        raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
+    info = ctx.started.get(comp)
+    if info is not None:
+        info.ended = wait_exit(info.proc, max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    ctx.rt.forget(fqn)
+
+
+def _port(ctx: Context, step: Step, attach: bool) -> None:
+    """Set `reconf.port.<p>` to its current list with the connector added (or taken away)."""
+    comp, port, conn = step.component, step.port, ctx.names.connector(step.connector)
+    fqn, name = ctx.names.fqn(comp), f"reconf.port.{port}"
+    _expect_active(ctx, comp)
+    now = ctx.rt.get(fqn, [name])[name]
+    if (conn in now) == attach:
+        raise StepFailed(f"before the step, {comp}.{port} is {'already' if attach else 'not'} attached to "
+                         f"{conn} ({name}={now!r})")
+    ctx.rt.set(fqn, name, sorted(set(now) | {conn}) if attach else [c for c in now if c != conn])
+
+
+def _mode(ctx: Context, step: Step, was: str, will: str) -> None:
+    """Set `reconf.mode.<f>` from `was` to `will`."""
+    comp, func = step.component, step.functionality
+    fqn, name = ctx.names.fqn(comp), f"reconf.mode.{func}"
+    _expect_active(ctx, comp)
+    now = ctx.rt.get(fqn, [name])[name]
+    if now != was:
+        raise StepFailed(f"before the step, {comp}.{func} is {now!r}, not {was!r}")
+    ctx.rt.set(fqn, name, will)
+
+
+def _expect_active(ctx: Context, comp: str) -> None:
+    lc = ctx.rt.lifecycle(ctx.names.fqn(comp))
+    if lc != "active":
+        raise StepFailed(f"before the step, {comp} is in lifecycle state {lc!r}")
+
+
+HANDLERS: dict[str, Callable[[Context, Step], None]] = {
+    "create": create,
+    "remove": remove,
+    "attach": lambda ctx, step: _port(ctx, step, attach=True),
+    "detach": lambda ctx, step: _port(ctx, step, attach=False),
+    "degrade": lambda ctx, step: _mode(ctx, step, "normal", "degraded"),
+    "upgrade": lambda ctx, step: _mode(ctx, step, "degraded", "normal"),
+}
+
+
+def perform(ctx: Context, step: Step, was: State, will: State) -> None:
+    """One step: its wire condition before, its handler, its wire condition after."""
+    ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    wire_before(ctx, step, was, will)
+    HANDLERS[step.action](ctx, step)
+    wire_after(ctx, step, will)

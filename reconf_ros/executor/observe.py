@@ -1,0 +1,135 @@
+"""Reading the live system: each component's node (lifecycle state, modes, attachments) as a
+configuration the semantics can judge, after discovery has settled; the monitors' counters."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Iterable
+
+from .context import Context
+from .plan_states import State
+from .runtime import StepFailed
+from .status import Status
+
+
+@dataclass
+class Observed:
+    """What the executor saw of one component's node: `lifecycle` is its state's label,
+    `absent` (not in the graph, or finalized) or `unresponsive` (in the graph, not answering)."""
+    comp: str
+    lifecycle: str
+    modes: dict[str, str] = field(default_factory=dict)
+    ports: dict[str, list[str]] = field(default_factory=dict)
+
+    @property
+    def present(self) -> bool:
+        return self.lifecycle == "active"
+
+
+def _control_parameters(ctx: Context, comp: str) -> list[str]:
+    info = ctx.model.comps[comp]
+    return [f"reconf.mode.{f['name']}" for f in info["functionalities"]] + \
+        [f"reconf.port.{p['name']}" for p in info["ports"]]
+
+
+def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
+    """Read each component's node: lifecycle state, modes, attachments; every node at once."""
+    comps, names = sorted(comps), ctx.names
+    graph = set(ctx.rt.nodes())
+    names.locate(comps, graph)
+    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph}
+    states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
+    wanted: dict[str, list[str]] = {}
+    for c in comps:
+        lc = states.get(names.fqn(c))
+        if c in seen or lc is None:
+            continue
+        if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
+            seen[c] = Observed(c, "unresponsive")
+        elif lc != "active":
+            seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
+        else:
+            wanted[names.fqn(c)] = _control_parameters(ctx, c)
+    params = ctx.rt.get_many(wanted)
+    for c in comps:
+        values = params.get(names.fqn(c))
+        if values is None:
+            continue
+        if isinstance(values, StepFailed):
+            raise values
+        modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
+        ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
+        seen[c] = Observed(c, "active", modes, ports)
+    return dict(sorted(seen.items()))
+
+
+def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
+    """The configuration the nodes showed: the active ones present, their modes and attachments."""
+    back = {v: k for k, v in ctx.names.renames.items()}
+    comps = [c for c, o in seen.items() if o.present]
+    degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
+    roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
+    return State(comps, degraded, roles)
+
+
+def neighbourhood(ctx: Context) -> set[str]:
+    """The components the plan touches, and those attached to a connector it touches."""
+    comps = {s.component for s in ctx.steps}
+    conns = {s.connector for s in ctx.steps if s.connector}
+    for st in ctx.states:
+        conns |= {n for n, c, p in st.roles if c in comps}
+    for st in ctx.states:
+        comps |= {c for n, c, p in st.roles if n in conns}
+    return comps & set(ctx.model.comps)
+
+
+def settle(ctx: Context, expected: Iterable[str], seconds: float) -> None:
+    """Let discovery catch up before reading the graph (bounded by `seconds`): every node the
+    plan expects running seen, one announcement period passed, and the graph unchanged for a
+    while. A node the plan expects absent but that runs must not be missed (a re-run would
+    start a second one)."""
+    expected = set(expected)
+
+    def want(nodes: set[str]) -> set[str]:
+        ctx.names.locate(expected, nodes)
+        return {ctx.names.fqn(c) for c in expected}
+    ctx.rt.wait(lambda: ctx.rt.settled(want), seconds)
+
+
+def wait_status(ctx: Context, comp: str, cond: Callable[[Status], bool], seconds: float) -> bool:
+    """Wait (bounded) until the component's node shows a status that meets `cond`."""
+    return ctx.rt.wait(lambda: (st := ctx.rt.status(ctx.names.fqn(comp))) is not None and cond(st), seconds)
+
+
+def wait_statuses(ctx: Context, comps: Iterable[str]) -> None:
+    """Wait (bounded) for a status from each running component, so violations can be counted."""
+    want = list(comps)
+    ctx.rt.wait(lambda: all(ctx.rt.status(ctx.names.fqn(c)) is not None for c in want), 3.0)
+
+
+def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
+    """Each heard-from component's monitor's count of normal-mode assumptions violated."""
+    out = {}
+    for c in comps:
+        st = ctx.rt.status(ctx.names.fqn(c))
+        if st is not None:
+            out[c] = int(st.get("violations", "0"))
+    return out
+
+
+def check_touched(ctx: Context, expected: State, when: str) -> None:
+    """Every component the plan has touched reads back as `expected` has it."""
+    # a node that answered its services may not be in this node's graph yet, nor heard on
+    # /diagnostics: under load, discovery lags behind the services by seconds
+    want = {ctx.names.fqn(c) for c in ctx.touched & expected.components}
+    ctx.rt.wait(lambda: want <= set(ctx.rt.nodes()), ctx.args.discovery_timeout)
+    seen = observe(ctx, ctx.touched)
+    diffs = ctx.model.differences(expected, as_state(ctx, seen), ctx.touched)
+    if diffs:
+        raise StepFailed(f"{when}: " + "; ".join(diffs))
+
+
+def unusual(ctx: Context, seen: dict[str, Observed]) -> None:
+    """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
+    for c, o in sorted(seen.items()):
+        if o.lifecycle not in ("absent", "active"):
+            ctx.warn(f"    ({c} is {o.lifecycle}: not counted as present)")

@@ -1,0 +1,106 @@
+"""Configurations (`State`) and the states of a plan (`PlanStates`), read from a plan document."""
+from __future__ import annotations
+
+from typing import Any, Iterable, Iterator, Optional
+
+Degraded = tuple[str, str]           # (component, functionality)
+Role = tuple[str, str, str]          # (connector, component, port)
+
+
+class State:
+    """A configuration: present components, degraded (component, functionality), roles
+    (connector, component, port)."""
+
+    def __init__(self, components: Iterable[str], degraded: Iterable[Any], roles: Iterable[Any]) -> None:
+        # frozensets are taken as they are (a state derived from another shares its unchanged parts)
+        self.components: frozenset[str] = components if isinstance(components, frozenset) else frozenset(components)
+        self.degraded: frozenset[Degraded] = degraded if isinstance(degraded, frozenset) \
+            else frozenset((d[0], d[1]) for d in degraded)
+        self.roles: frozenset[Role] = roles if isinstance(roles, frozenset) \
+            else frozenset((r[0], r[1], r[2]) for r in roles)
+
+    @staticmethod
+    def from_doc(d: dict[str, Any]) -> "State":
+        return State(d["components"], d["degraded"], d["roles"])
+
+    def changed(self, change: dict[str, Any]) -> "State":
+        """This state with a plan document's change of one step applied (format 2: `add`, `drop`)."""
+        parts: list[frozenset[Any]] = []
+        for key, now in zip(("components", "degraded", "roles"), self.key()):
+            add, drop = ({x if isinstance(x, str) else tuple(x) for x in change.get(side, {}).get(key, ())}
+                         for side in ("add", "drop"))
+            parts.append((now - drop) | add if add or drop else now)
+        return State(parts[0], parts[1], parts[2])
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"components": sorted(self.components), "degraded": [list(d) for d in sorted(self.degraded)],
+                "roles": [list(r) for r in sorted(self.roles)]}
+
+    def key(self) -> tuple[frozenset[str], frozenset[Degraded], frozenset[Role]]:
+        return (self.components, self.degraded, self.roles)
+
+    def only(self, comps: Iterable[str]) -> "State":
+        keep = set(comps)
+        return State(self.components & keep, [d for d in self.degraded if d[0] in keep],
+                     [r for r in self.roles if r[1] in keep])
+
+    def describe(self) -> str:
+        comps = ", ".join(sorted(self.components)) or "-"
+        degraded = ", ".join(f"{c}.{f}" for c, f in sorted(self.degraded) if c in self.components) or "-"
+        roles = ", ".join(f"{c}.{p}@{n}" for n, c, p in sorted(self.roles)) or "-"
+        return f"components: {comps}\n    degraded: {degraded}\n    attachments: {roles}"
+
+
+class PlanStates:
+    """The states of a plan document's plan: from its first state and each step's change
+    (format 2), one state in 64 kept and the others replayed, so a plan of n steps on m
+    components does not take n·m in memory; or every state as recorded (format 1)."""
+
+    EVERY = 64
+
+    def __init__(self, plan: dict[str, Any]) -> None:
+        self.changes: list[dict[str, Any]] = plan.get("changes", [])
+        self.kept: dict[int, State] = {}
+        if "states" in plan:
+            self.kept = {i: State.from_doc(st) for i, st in enumerate(plan["states"])}
+            self.n = len(self.kept)
+        elif "start" in plan:
+            state = State.from_doc(plan["start"])
+            self.kept[0], self.n = state, len(self.changes) + 1
+            for i, change in enumerate(self.changes, 1):
+                state = state.changed(change)
+                if i % self.EVERY == 0 or i == len(self.changes):
+                    self.kept[i] = state
+        else:
+            self.n = 0
+        self.last: tuple[int, Optional[State]] = (0, self.kept.get(0))
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __bool__(self) -> bool:
+        return self.n > 0
+
+    def __getitem__(self, index: int) -> State:
+        i = index + self.n if index < 0 else index
+        if not 0 <= i < self.n:
+            raise IndexError(f"state {index} of a plan with {self.n} states")
+        if i in self.kept:
+            return self.kept[i]
+        j, state = self.last
+        if state is None or not j <= i or i - j >= self.EVERY:
+            j = i - i % self.EVERY
+            state = self.kept[j]
+        for change in self.changes[j:i]:
+            state = state.changed(change)
+        self.last = (i, state)
+        return state
+
+    def __iter__(self) -> Iterator[State]:
+        if not self.n:
+            return
+        state = self.kept[0]
+        yield state
+        for i in range(1, self.n):
+            state = self.kept.get(i) or state.changed(self.changes[i - 1])
+            yield state

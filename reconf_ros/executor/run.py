@@ -1,0 +1,164 @@
+"""A run of a plan on the live system (docs/executor.md): check the live system against the
+plan's state before the first step, perform each step with its wire conditions and read back
+what it touched, then check the end on the wire and in the monitors' counters."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any, Optional
+
+from .conditions import meets
+from .context import Context, StepTiming, Writer
+from .handlers import perform
+from .observe import (
+    as_state,
+    check_touched,
+    neighbourhood,
+    observe,
+    settle,
+    unusual,
+    violations,
+    wait_status,
+    wait_statuses,
+)
+from .processes import warm
+from .run_report import failed, stale, write_report
+from .runtime import Runtime, StepFailed
+from .steps import EXIT_FAILED, EXIT_OK, plan_steps, plural
+
+
+def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> bool:
+    """List the steps to apply; unless --yes, ask."""
+    first, last = args.from_step, args.to_step
+    if args.quiet_list and args.yes:      # a manager: its client has listed them
+        return True
+    print(f"applying steps {first}..{last} of the plan for {doc['system']} ({doc['fingerprint']})", file=out)
+    for i, step in enumerate(plan_steps(doc)[first - 1:last], first):
+        print(step.label(i), file=out)
+    if args.yes:
+        return True
+    try:
+        answer = input("Apply these steps to the running system? [y/N] ")
+    except EOFError:
+        answer = ""
+    if answer.strip().lower() in ("y", "yes"):
+        return True
+    print("nothing done", file=out)
+    return False
+
+
+class Executor:
+    """Applies a plan document's steps to the running system (docs/executor.md). A manager lends
+    its long-lived `runtime` and its `launcher`; a plan script makes its own runtime."""
+
+    def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Writer = sys.stdout,
+                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
+        self.ctx = Context(doc, args, out, err, rt=runtime, launcher=launcher)
+        self.own_runtime = runtime is None
+
+    def apply(self, first: int) -> int:
+        ctx = self.ctx
+        if not confirmed(ctx.doc, ctx.args, ctx.out):
+            return EXIT_FAILED
+        t0 = time.monotonic()
+        if self.own_runtime:
+            ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
+        try:
+            return self._apply(first, t0)
+        finally:
+            if self.own_runtime:
+                ctx.rt.close()
+
+    def _apply(self, first: int, t0: float) -> int:
+        ctx, last = self.ctx, self.ctx.args.to_step
+        warm(ctx, first, last)
+        hood = neighbourhood(ctx)
+        refused = self._check_start(first, hood)
+        if refused is not None:
+            return refused
+        wait_statuses(ctx, hood & ctx.states[first - 1].components)
+        # every monitor heard from, not only the neighbourhood's: a step can reach further on the
+        # wire than in the model (a suspended protocol keeps its clients waiting)
+        counted = violations(ctx, ctx.states[first - 1].components)
+        ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
+        check_at = time.monotonic()
+        ctx.say(f"the live system matches the plan's state before step {first} "
+                f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
+        for i in range(first, last + 1):
+            if not self._step(i):
+                return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
+        return self._finish(first, hood, counted, t0, check_at)
+
+    def _check_start(self, first: int, hood: set[str]) -> Optional[int]:
+        """Refuse (the exit status) unless the live system is the plan's state before `first`."""
+        ctx = self.ctx
+        start = ctx.states[first - 1]
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        settle(ctx, start.components & hood, ctx.args.discovery_timeout)
+        seen = observe(ctx, hood)
+        busy = sorted(c for c, o in seen.items() if o.lifecycle == "unresponsive")
+        if busy:    # a node of a saturated host can take longer than one call's timeout to answer
+            ctx.say(f"not answering within {ctx.args.timeout} s: {', '.join(busy)}; reading them again")
+            seen.update(observe(ctx, busy))
+        observed = as_state(ctx, seen)
+        diffs = ctx.model.differences(start, observed, hood)
+        if not diffs:
+            return None
+        unusual(ctx, seen)
+        return stale(ctx, first, observed, diffs, hood)
+
+    def _step(self, i: int) -> bool:
+        """Perform step `i` and read back what the plan has touched; False (the reason in
+        `ctx.failure`) when it failed or was interrupted."""
+        ctx = self.ctx
+        step = ctx.steps[i - 1]
+        ctx.say(f"{step.label(i)} ...")
+        s0, at = time.monotonic(), round(time.time(), 3)
+        try:
+            perform(ctx, step, ctx.states[i - 1], ctx.states[i])
+            ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+            check_touched(ctx, ctx.states[i], f"after step {i}")
+        except (StepFailed, OSError, KeyboardInterrupt) as e:
+            ctx.failure = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            return False
+        ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
+        ctx.say(f"      done in {time.monotonic() - s0:.3f} s")
+        return True
+
+    def _finish(self, first: int, hood: set[str], counted: dict[str, int], t0: float, check_at: float) -> int:
+        """After the last step: the neighbourhood reads back as the plan's last state, the
+        touched functionalities meet their assumptions on the wire, and no monitor's count moved."""
+        ctx, last = self.ctx, self.ctx.args.to_step
+        end = ctx.states[last]
+        normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
+                  for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
+        final = as_state(ctx, observe(ctx, hood))
+        wrong = ctx.model.differences(end, final, hood)
+        if wrong:
+            return failed(ctx, last, ctx.steps[last - 1], "after the last step: " + "; ".join(wrong))
+        now = violations(ctx, counted)
+        seen_bad = {c: now[c] - n for c, n in counted.items() if now.get(c, n) > n}
+        upto = "" if last == len(ctx.steps) else f"; stopped after step {last} as asked (--to-step)"
+        done = last - first + 1
+        ctx.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {time.monotonic() - t0:.2f} s "
+                f"(checking the live system {check_at - t0:.2f} s, steps "
+                f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
+        if unmet or seen_bad:
+            if unmet:
+                ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
+            for c, n in sorted(seen_bad.items()):
+                ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
+                         "during the run")
+            write_report(ctx, "violated", first, observed=final)
+            return EXIT_FAILED
+        heard = len(counted)
+        ctx.say("on the wire: every functionality the plan touched meets its assumptions, and "
+                + (f"none of the {heard} monitors heard from saw" if heard != 1 else
+                   "the 1 monitor heard from did not see")
+                + " a normal mode's assumption violated during the run")
+        write_report(ctx, "done", first, observed=final)
+        return EXIT_OK

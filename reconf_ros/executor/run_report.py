@@ -1,0 +1,99 @@
+"""What a run says when it ends: the run report (JSON, read by `reconf recover`), and on a
+failure or a stale plan the observed configuration, judged by the same semantics, with the
+way back (docs/executor.md#failure-and-recovery)."""
+from __future__ import annotations
+
+import json
+import os
+import time
+from typing import Any, Optional
+
+from .context import Context
+from .observe import Observed, as_state, observe, unusual
+from .plan_states import State
+from .processes import list_started
+from .runtime import StepFailed
+from .steps import EXIT_FAILED, Step
+
+
+def write_report(ctx: Context, outcome: str, first: int, observed: Optional[State],
+                 failed_step: Optional[int] = None, why: Optional[str] = None) -> str:
+    """Write the run's report (JSON, atomically); return its path ("" when none is asked for)."""
+    path = ctx.args.report or (f"reconf-{ctx.doc['system']}-{outcome}.json" if outcome != "done" else "")
+    if not path:
+        return ""
+    body: dict[str, Any] = {
+        "format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
+        "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
+        "failed_step": failed_step, "reason": why,
+        "observed": None if observed is None else observed.to_doc(),
+        "observed_valid": None if observed is None else not ctx.model.failures(observed),
+        "timings": [t.to_doc() for t in ctx.timings],
+        "started": {c: info.to_doc() for c, info in ctx.started.items()},
+        "plan_document": ctx.doc}
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(body, fh, indent=1, sort_keys=True)
+    os.replace(tmp, path)
+    print(f"report: {path}", file=ctx.err if outcome != "done" else ctx.out)
+    return path
+
+
+def stale(ctx: Context, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
+    """Refuse a plan whose state before step `first` is not what the live system shows; say
+    which state of the plan it is, if any."""
+    ctx.warn(f"refusing to apply: the live system does not match the plan's state before step {first}:")
+    for d in diffs:
+        ctx.warn(f"  - {d}")
+    matches = [i for i, s in enumerate(ctx.states) if not ctx.model.differences(s, observed, hood)]
+    if matches:
+        i = matches[-1]
+        ctx.warn(f"It matches the state after step {i}" + (" (the plan's last: it was applied already)"
+                                                          if i == len(ctx.steps) else "")
+                 + (f"; resume with --from-step {i + 1}" if i < len(ctx.steps) else "") + ".")
+    else:
+        ctx.warn("Plan again from the running system (the plan is stale).")
+    write_report(ctx, "stale", first, observed=observed)
+    return EXIT_FAILED
+
+
+def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> None:
+    """Print the observed configuration, whether it is valid, and which plan state it is."""
+    ctx.warn("Observed configuration (read from the running nodes):\n    " + observed.describe())
+    unusual(ctx, seen)
+    bad = ctx.model.failures(observed)
+    if bad:
+        ctx.warn("It is NOT valid:")
+        for b in bad:
+            ctx.warn(f"  - {b}")
+    else:
+        ctx.warn("It is valid: every assumption of every present functionality holds in the model.")
+    for k, name in ((i - 1, "before"), (i, "after")):
+        if not ctx.model.differences(ctx.states[k], observed, ctx.model.comps):
+            ctx.warn(f"It is the plan's state {name} step {i}.")
+
+
+def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
+    try:
+        seen = observe(ctx, ctx.model.comps)
+        return as_state(ctx, seen), seen
+    except StepFailed as e:
+        ctx.warn(f"could not observe the system after the failure: {e}")
+        return None, {}
+
+
+def failed(ctx: Context, i: int, step: Step, why: str) -> int:
+    """Step `i` failed: read every component, say what the system is now and how to recover."""
+    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}")
+    ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    observed, seen = _observe_all(ctx)
+    if observed is not None:
+        _judge(ctx, i, observed, seen)
+    list_started(ctx, ctx.args.stop_started)
+    if ctx.started and ctx.args.stop_started:
+        observed = as_state(ctx, observe(ctx, ctx.model.comps))
+    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    ctx.warn(f"To recover, plan from the observed configuration:\n"
+             f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
+             f"    reconf recover {path} --back -o recover.py    (back to the plan's start)")
+    return EXIT_FAILED

@@ -1,0 +1,258 @@
+"""The ROS side of the executor: lifecycle and parameter services of each component's node called
+with retries, the graph and when it has settled, and the nodes' statuses on `/diagnostics`.
+
+rclpy and the message packages are imported when a `Runtime` is made, not before: a plan script
+replays its plan (`--dry-run`) without ROS."""
+from __future__ import annotations
+
+import time
+from typing import Any, Callable, Iterable, Optional
+
+from .status import STATUS_FRESH, STATUS_PREFIX, Status, parse_status, tool_node
+
+# Fast DDS announces each participant every 3 s. A participant that starts seconds after
+# another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
+# (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
+# the start of discovery, and once it has been quiet.
+DISCOVERY_ROUND = 3.5
+GRAPH_QUIET = 1.0
+ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
+RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
+
+
+class StepFailed(Exception):
+    """A step (or a read of the live system) could not be carried out; the message says why."""
+
+
+def one(answers: dict[str, Any], key: str) -> Any:
+    """The answer for `key` of a call to many; its StepFailed raised."""
+    answer = answers[key]
+    if isinstance(answer, StepFailed):
+        raise answer
+    return answer
+
+
+class Runtime:
+    """The ROS side: lifecycle and parameter services of each component's node, the graph, and
+    the nodes' statuses on /diagnostics."""
+
+    def __init__(self, name: str, namespace: str, timeout: float, node_name: str = "") -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from lifecycle_msgs.msg import Transition
+        from lifecycle_msgs.srv import ChangeState, GetState
+        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+        from rcl_interfaces.srv import GetParameters, SetParameters
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+        self.rclpy, self.Transition = rclpy, Transition
+        self.ChangeState, self.GetState = ChangeState, GetState
+        self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
+        self.GetParameters, self.SetParameters = GetParameters, SetParameters
+        self.timeout = timeout
+        ns = namespace.strip("/")
+        self.namespace = f"/{ns}" if ns else ""
+        self.deadline = float("inf")
+        self.clients: dict[str, Any] = {}
+        self.statuses: dict[str, Status] = {}             # node fqn -> its last status
+        self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
+        rclpy.init()
+        self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
+        self.started_at = time.monotonic()               # discovery began here
+        self.graph_seen: set[str] = set()
+        self.graph_since = self.started_at                # the graph last changed here
+        self.endpoints_seen: Any = None                   # every topic's types and endpoint counts
+        self.endpoints_at = 0.0                           # when they were last counted
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        try:
+            self.rclpy.shutdown()
+        except Exception:
+            pass
+
+    def _on_status(self, msg: Any) -> None:
+        for st in msg.status:
+            if st.name.startswith(STATUS_PREFIX):
+                fqn = st.name[len(STATUS_PREFIX):]
+                self.statuses[fqn] = parse_status(st.values)
+                self.heard[fqn] = time.monotonic()
+
+    def status(self, fqn: str) -> Optional[Status]:
+        return self.statuses.get(fqn)
+
+    def spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return
+            self.rclpy.spin_once(self.node, timeout_sec=min(left, 0.02))
+
+    def left(self) -> float:
+        remaining = self.deadline - time.monotonic()
+        if remaining <= 0:
+            raise StepFailed("the step took longer than --step-timeout")
+        return remaining
+
+    def wait(self, cond: Callable[[], bool], seconds: float) -> bool:
+        """Spin until `cond()` or `seconds` (and the step's deadline) pass."""
+        end = min(time.monotonic() + seconds, self.deadline)
+        while True:
+            if cond():
+                return True
+            if time.monotonic() >= end:
+                return False
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def nodes(self) -> list[str]:
+        """Nodes discovered in the graph, and nodes heard on /diagnostics (a reconf node publishes
+        its status at least once a second, which discovery may not have caught up with)."""
+        graph = [f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()]
+        now = time.monotonic()
+        heard = {n for n, t in self.heard.items() if now - t <= STATUS_FRESH}
+        return graph + sorted(heard - set(graph))
+
+    def graph(self) -> set[str]:
+        """The nodes now, noting when the set last changed (see `Executor.settle`)."""
+        nodes = set(self.nodes())
+        if nodes != self.graph_seen:
+            self.graph_seen, self.graph_since = nodes, time.monotonic()
+        return nodes
+
+    def settled(self, want: Callable[[set[str]], set[str]], endpoints: bool = False) -> bool:
+        """Whether discovery has caught up (docs/executor.md#discovery): one announcement period
+        and a margin since it began, the nodes `want(graph)` seen, and the graph unchanged for
+        GRAPH_QUIET s. With `endpoints` (for reading them), every topic's publishers and
+        subscribers unchanged too, and every node heard on /diagnostics in the graph itself."""
+        nodes, now = self.graph(), time.monotonic()
+        if endpoints:
+            if now - self.endpoints_at < ENDPOINTS_POLL:
+                return False
+            self.endpoints_at = now
+            sig = frozenset((t, tuple(ty), self.node.count_publishers(t), self.node.count_subscribers(t))
+                            for t, ty in self.node.get_topic_names_and_types())
+            shown = {f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()}
+            if sig != self.endpoints_seen or not nodes <= shown:
+                self.endpoints_seen, self.graph_since = sig, now
+        return want(nodes) <= nodes and now - self.started_at >= DISCOVERY_ROUND and \
+            now - self.graph_since >= GRAPH_QUIET
+
+    def client(self, srv_type: Any, name: str) -> Any:
+        if name not in self.clients:
+            self.clients[name] = self.node.create_client(srv_type, name)
+        return self.clients[name]
+
+    def forget(self, fqn: str) -> None:
+        """Drop the clients of a node that is gone (a new node of that name needs new ones)."""
+        for name in [n for n in self.clients if n.startswith(fqn + "/")]:
+            self.node.destroy_client(self.clients.pop(name))
+
+    def call(self, srv_type: Any, name: str, request: Any) -> Any:
+        """One call that changes something, sent once (reads go through `call_many`)."""
+        return one(self.call_many(srv_type, {name: request}, repeat=False), name)
+
+    def call_many(self, srv_type: Any, requests: dict[str, Any], repeat: bool = True) -> dict[str, Any]:
+        """Calls to many services at once: service name -> answer, or the StepFailed that explains
+        why there is none within the timeout. A read-only call (`repeat`) is sent again every
+        RETRY_AFTER s while unanswered, and the first answer to any of its copies is taken: a
+        request that reaches a new service before the service has matched the caller is only
+        delivered at the next DDS heartbeat, seconds later, and its answer can be lost the same
+        way. A call that changes something is sent once."""
+        answers: dict[str, Any] = {}
+        clients = {n: self.client(srv_type, n) for n in requests}
+        end = time.monotonic() + min(self.timeout, self.left())
+        # each request goes as soon as its service is there: one service that never comes (a node
+        # just gone) must not hold back the others until the time is up
+        futs: dict[str, list[Any]] = {}
+        sent: dict[str, float] = {}
+        while time.monotonic() < end:
+            t = time.monotonic()
+            for n, cli in clients.items():
+                if n not in futs and cli.service_is_ready():
+                    futs[n], sent[n] = [cli.call_async(requests[n])], t
+                elif repeat and n in futs and t - sent[n] >= RETRY_AFTER and not any(f.done() for f in futs[n]):
+                    futs[n].append(cli.call_async(requests[n]))
+                    sent[n] = t
+            if len(futs) == len(clients) and all(any(f.done() for f in fs) for fs in futs.values()):
+                break
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+        for n in clients:
+            if n not in futs:
+                answers[n] = StepFailed(f"service {n} is not available")
+        for n, fs in futs.items():
+            first = next((f for f in fs if f.done()), None)
+            for f in fs:
+                if not f.done():
+                    f.cancel()
+                    clients[n].remove_pending_request(f)
+            if first is None:
+                answers[n] = StepFailed(f"no answer from {n} within {self.timeout} s")
+            elif first.exception() is not None:
+                answers[n] = StepFailed(f"{n} failed: {first.exception()}")
+            else:
+                answers[n] = first.result()
+        return answers
+
+    def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
+        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer)."""
+        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns})
+        return {n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                for n, r in res.items()}
+
+    def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
+        """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
+        reqs = {}
+        for fqn, names in wanted.items():
+            req = self.GetParameters.Request()
+            req.names = list(names)
+            reqs[f"{fqn}/get_parameters"] = req
+        res = self.call_many(self.GetParameters, reqs)
+        out: dict[str, Any] = {}
+        for fqn, names in wanted.items():
+            r = res[f"{fqn}/get_parameters"]
+            try:
+                out[fqn] = r if isinstance(r, StepFailed) else self.values(fqn, names, r)
+            except StepFailed as e:     # this node's answer, not the others'
+                out[fqn] = e
+        return out
+
+    def lifecycle(self, fqn: str) -> str:
+        """The node's lifecycle state, by label (`active`, `inactive`, …)."""
+        return str(one(self.lifecycles([fqn]), fqn))
+
+    def transition(self, fqn: str, transition_id: int, name: str) -> None:
+        req = self.ChangeState.Request()
+        req.transition.id = transition_id
+        res = self.call(self.ChangeState, f"{fqn}/change_state", req)
+        if not res.success:
+            raise StepFailed(f"{fqn} refused the lifecycle transition {name}")
+
+    def get(self, fqn: str, names: list[str]) -> dict[str, Any]:
+        return dict(one(self.get_many({fqn: names}), fqn))
+
+    def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
+        values: dict[str, Any] = {}
+        for n, v in zip(names, res.values):
+            if v.type == self.ParameterType.PARAMETER_STRING:
+                values[n] = v.string_value
+            elif v.type == self.ParameterType.PARAMETER_STRING_ARRAY:
+                values[n] = sorted(v.string_array_value)
+            else:
+                raise StepFailed(f"{fqn} does not implement the control interface: parameter {n} is not "
+                                 "declared as a string or a string array")
+        return values
+
+    def set(self, fqn: str, name: str, value: Any) -> None:
+        pv = self.ParameterValue()
+        if isinstance(value, str):
+            pv.type, pv.string_value = self.ParameterType.PARAMETER_STRING, value
+        else:
+            pv.type, pv.string_array_value = self.ParameterType.PARAMETER_STRING_ARRAY, sorted(value)
+        req = self.SetParameters.Request()
+        req.parameters = [self.Parameter(name=name, value=pv)]
+        res = self.call(self.SetParameters, f"{fqn}/set_parameters", req)
+        if not res.results or not res.results[0].successful:
+            reason = res.results[0].reason if res.results else "no result"
+            raise StepFailed(f"{fqn} refused {name}={value!r}: {reason}")

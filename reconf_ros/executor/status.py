@@ -1,0 +1,41 @@
+"""The status protocol: what every reconf node publishes on `/diagnostics` (its keys are listed in
+docs/control-interface.md#status-on-diagnostics; `reconf_ros.component` writes it), and how a
+component's node is found by its name or by what its status declares (docs/executor.md#names)."""
+from __future__ import annotations
+
+import os
+from typing import Any, Iterable, Optional
+
+STATUS_PREFIX = "reconf:"          # a status's name: "reconf:<node fqn>"
+CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
+STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
+TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
+
+Status = dict[str, str]            # a node's last status: key -> value
+
+
+def parse_status(values: Iterable[Any]) -> Status:
+    """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
+    return {kv.key: kv.value for kv in values}
+
+
+def tool_node(tool: str) -> str:
+    """The node name of one of reconf's own tools (a plan script's runtime, the manager, discover
+    and drift, the status watcher, the recorder): hidden, as ROS hides a name with a leading
+    underscore, so that no reader of the graph takes it for a component (docs/runtime.md#discover)."""
+    safe = "".join(ch if ch.isalnum() else "_" for ch in tool)
+    return f"{TOOL_PREFIX}{safe}_{os.getpid()}"
+
+
+def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],
+              claimed: Iterable[str] = ()) -> Optional[str]:
+    """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
+    is not `claimed` and declares no other component; else the one node of own's namespace whose
+    status declares the component (`declared`), a new version's `X_2` (docs/executor.md#names)."""
+    claimed = set(claimed)
+    if own in graph and own not in claimed and statuses.get(own, {}).get("component", declared) == declared:
+        return own
+    ns = own.rsplit("/", 1)[0]
+    found = [f for f, st in statuses.items() if st.get("component") == declared and f in graph
+             and f.rsplit("/", 1)[0] == ns and f not in claimed]
+    return found[0] if len(found) == 1 else None
