@@ -1,4 +1,4 @@
-"""Adaptive fault tolerance on live ROS 2: the FTM nodes of reconf_ros.ftm under a client's load.
+"""Adaptive fault tolerance on live ROS 2: the FTM nodes of reconf_ros.nodes.ftm under a client's load.
 
 For each FTM of the table, N runs (default 10) of: expand examples/ftm/client_server_pbr_tr.arch
 with that FTM, deploy it one process per host, run the demo client at --hz requests/s, then
@@ -26,8 +26,8 @@ from pathlib import Path
 from typing import Any, Optional
 
 from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
-from reconf_ros.ftm.detect import JITTER_WINDOW
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.nodes.ftm.detect import JITTER_WINDOW
+from reconf_ros.tools.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "ftm" / "client_server_pbr_tr.arch"

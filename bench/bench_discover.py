@@ -31,7 +31,7 @@ from typing import Any
 
 from bench.gen import generate
 from reconf_dsl.loader import load, load_text
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 RATE = re.compile(r"@\s*[0-9.]+\s*(?:kHz|Hz|ms|us|s)\b")
 # what is changed on the live system, by a client of the control interface; `plan` fills it

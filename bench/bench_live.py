@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from reconf_ros.executor.plan_states import PlanStates
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
 EX = ROOT / "examples"

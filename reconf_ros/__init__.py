@@ -3,6 +3,6 @@ control interface, the assumption monitor, and the plan executor (docs/runtime.m
 
 Importing this package needs no ROS; `Component.start()` and `reconf-node` do.
 """
-from .model import Component, Functionality, Input, ModelError, Output, components_to_arch
+from .nodes.api import Component, DeclarationError, Functionality, Input, Output, components_to_arch
 
-__all__ = ["Component", "Functionality", "Input", "Output", "ModelError", "components_to_arch"]
+__all__ = ["Component", "Functionality", "Input", "Output", "DeclarationError", "components_to_arch"]

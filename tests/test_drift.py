@@ -14,7 +14,7 @@ from checker.reality.discover import architecture
 from checker.reality.drift import drift
 from reconf_dsl.loader import load, load_text
 from reconf_ros.executor.snapshot import NodeInfo, Snapshot
-from reconf_ros.model import components_to_arch
+from reconf_ros.nodes.api import components_to_arch
 
 ROOT = Path(__file__).resolve().parents[1]
 CHATTER = str(ROOT / "examples" / "chatter.arch")
@@ -24,7 +24,7 @@ STRING = "std_msgs/msg/String"
 
 def deployed(path: str) -> Snapshot:
     """The system as its model deploys it: every component's node active, normal, attached as declared."""
-    from reconf_ros.generic import from_architecture
+    from reconf_ros.nodes.generic import from_architecture
     system = load([path])
     types = {m.name: m.ros_type for m in system.messages}
     snap = Snapshot()

@@ -227,7 +227,7 @@ def test_bad_from_step_is_a_usage_error(tmp_path: Path) -> None:
 def test_no_manager_is_a_usage_error(tmp_path: Path) -> None:
     _, doc = case_doc("chatter_paper")
     res = run(write_script(tmp_path, doc), "--yes", "--manager", str(tmp_path / "none.sock"))
-    assert res.returncode == 2 and "no reconf manager at" in res.stderr and "python -m reconf_ros.manager" in res.stderr
+    assert res.returncode == 2 and "no reconf manager at" in res.stderr and "python -m reconf_ros.tools.manager" in res.stderr
 
 
 # Applying a plan runs against real ROS 2 in tests/ros (test_live_plans.py, test_live_faults.py).

@@ -26,7 +26,7 @@ from reconf_dsl.span import NO_SPAN, Span
 __all__ = ["FTM_MESSAGES", "expand", "expand_component", "protected_connector", "composition_of", "to_text",
            "node_prefix", "ExpansionInfo"]
 
-# The FTM nodes exchange JSON documents in std_msgs/msg/String (reconf_ros/ftm/wire.py); the
+# The FTM nodes exchange JSON documents in std_msgs/msg/String (reconf_ros/nodes/ftm/wire.py); the
 # model tells the kinds apart by these names.
 FTM_MESSAGES = (("FtmRequest", "std_msgs/msg/String"), ("FtmState", "std_msgs/msg/String"),
                 ("FtmHeartbeat", "std_msgs/msg/String"), ("FtmAlarm", "std_msgs/msg/String"),

@@ -4,7 +4,7 @@ A recording is a directory with metadata.yaml, or a single `.db3` (sqlite3) or `
 read through `rosbags` (pure Python, no ROS). Message bodies are never deserialized: what is
 kept is each topic's name and recorded type(s), and a stream of (topic, log time) pairs in
 time order, read as the storage streams it, so memory does not grow with the recording. When
-the recorder wrote when it started and stopped (reconf_ros.record does, in metadata.yaml's
+the recorder wrote when it started and stopped (reconf_ros.tools.record does, in metadata.yaml's
 custom_data), those bound the recording instead of its first and last messages."""
 from __future__ import annotations
 

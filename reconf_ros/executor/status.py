@@ -1,5 +1,5 @@
 """The status protocol: what every reconf node publishes on `/diagnostics` (its keys are listed in
-docs/control-interface.md#status-on-diagnostics; `reconf_ros.component` writes it), and how a
+docs/control-interface.md#status-on-diagnostics; `reconf_ros.nodes.component` writes it), and how a
 component's node is found by its name or by what its status declares (docs/executor.md#names)."""
 from __future__ import annotations
 

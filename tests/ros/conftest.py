@@ -7,7 +7,7 @@ from typing import Iterator
 
 import pytest
 
-from reconf_ros.livetest import LiveSystem, ros_available
+from reconf_ros.tools.livetest import LiveSystem, ros_available
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -11,8 +11,8 @@ from reconf_dsl.ir import Component as IrComponent
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load, load_text
 from reconf_ros import Component, components_to_arch
-from reconf_ros.model import ModelError, parse_predicate
-from reconf_ros.monitor import Monitor
+from reconf_ros.nodes.api import DeclarationError, parse_predicate
+from reconf_ros.nodes.monitor import Monitor
 
 from .conftest import example
 
@@ -67,15 +67,15 @@ def test_a_system_assembled_from_nodes_checks() -> None:
 
 def test_model_errors_are_clear() -> None:
     comp = Component("c")
-    with pytest.raises(ModelError, match="not a ROS 2 type name"):
+    with pytest.raises(DeclarationError, match="not a ROS 2 type name"):
         comp.create_output("o", "String")
     out = comp.create_output("o", "std_msgs/msg/String")
-    with pytest.raises(ModelError, match="already has a port o"):
+    with pytest.raises(DeclarationError, match="already has a port o"):
         comp.create_input("o", "std_msgs/msg/String")
     f = comp.create_functionality("f", outputs=[out])
-    with pytest.raises(ModelError, match="a rate must be positive"):
+    with pytest.raises(DeclarationError, match="a rate must be positive"):
         f.set_normal_mode(None, rate=0, outputs=[out])
-    with pytest.raises(ModelError, match="not a predicate"):
+    with pytest.raises(DeclarationError, match="not a predicate"):
         parse_predicate("@ 10 Hz")
 
 
@@ -187,7 +187,7 @@ def test_dds_env_points_at_the_shipped_loopback_profile() -> None:
 
     from click.testing import CliRunner
 
-    from reconf_ros.runner import main as node_main
+    from reconf_ros.tools.runner import main as node_main
     result = CliRunner().invoke(node_main, ["--dds-env"])
     assert result.exit_code == 0, result.output
     env = dict(shlex.split(line)[1].split("=", 1) for line in result.output.splitlines())

@@ -1,5 +1,5 @@
 """The FTM nodes without ROS: every component `reconf ftm expand` makes, for every composition,
-gets a behaviour of reconf_ros.ftm, and SEC's sealing holds against tampering."""
+gets a behaviour of reconf_ros.nodes.ftm, and SEC's sealing holds against tampering."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,8 +10,8 @@ from checker.ftm.expand import expand
 from checker.ftm.library import all_compositions
 from reconf_dsl.ir import FtmDecl
 from reconf_dsl.loader import load
-from reconf_ros.ftm import BEHAVIOURS
-from reconf_ros.generic import from_architecture
+from reconf_ros.nodes.ftm import BEHAVIOURS
+from reconf_ros.nodes.generic import from_architecture
 
 from .conftest import example
 
@@ -36,7 +36,7 @@ def test_every_expanded_node_has_a_behaviour(composition: str) -> None:
 
 
 def test_sec_refuses_a_tampered_or_foreign_message(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from reconf_ros.ftm import sec
+    from reconf_ros.nodes.ftm import sec
     monkeypatch.setenv("RECONF_FTM_KEYS", str(tmp_path / "keys"))
     bundle = sec.provision(tmp_path / "keys")
     assert oct((tmp_path / "keys" / "client.sign.key").stat().st_mode & 0o777) == "0o600"

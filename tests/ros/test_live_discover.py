@@ -13,7 +13,7 @@ from typing import Any, Iterator
 import pytest
 
 from reconf_dsl.loader import load
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from .conftest import example
 

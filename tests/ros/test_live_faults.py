@@ -7,7 +7,7 @@ import subprocess
 import sys
 import time
 
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from .conftest import example
 

@@ -14,7 +14,7 @@ from typing import Any, Optional
 import pytest
 
 from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from .conftest import example
 

@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from .conftest import example
 
@@ -94,11 +94,11 @@ def test_through_a_manager(live: LiveSystem) -> None:
     statuses = applied(live, live.run_plan(script, "--manager", sock))
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
-    manager_pid = [p.pid for p in live.procs if p.args[2:3] == ["reconf_ros.manager"]][0]
+    manager_pid = [p.pid for p in live.procs if p.args[2:3] == ["reconf_ros.tools.manager"]][0]
     launcher_pid = parent(live.pid_of("talker_v2"))      # forked by the manager's launcher
     assert parent(launcher_pid) == manager_pid
     with open(f"/proc/{launcher_pid}/cmdline", "rb") as fh:
-        assert b"reconf_ros.launcher" in fh.read()
+        assert b"reconf_ros.tools.launcher" in fh.read()
     again = live.run_plan(script, "--manager", sock, report="again.json")
     assert again.returncode == 1 and "it was applied already" in again.stderr, again.stdout + again.stderr
 

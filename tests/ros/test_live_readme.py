@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from ..test_readme import LIVE, README
 
@@ -23,7 +23,7 @@ SHOWS = {
     "reconf discover": "wrote found.arch: 2 reconf nodes, 0 placeholders",
     "reconf check found.arch": "✓ safe: chatter — 2 components, 1 connector, 1 assumption, all hold",
     "reconf drift": "✓ in sync: chatter — 2 components against",           # and the test's status watcher
-    "python -m reconf_ros.record": "wrote rec:",
+    "python -m reconf_ros.tools.record": "wrote rec:",
     "reconf check examples/chatter.arch --bag rec": "judged against 4 rates, all met",
     "reconf down": "reconf will bring chatter down in 5 steps",
 }

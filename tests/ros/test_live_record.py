@@ -1,4 +1,4 @@
-"""A recording of the live chatter system, made by reconf_ros.record, judged by `check --bag`:
+"""A recording of the live chatter system, made by reconf_ros.tools.record, judged by `check --bag`:
 the example's model holds on it, /diagnostics (every reconf node's 1 Hz status) as a slow second
 topic starts when /chatter does, a copy that promises 50 Hz is contradicted with evidence, and
 the recorder's failures leave nothing behind."""
@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 
 from checker.reality.bag import STARTED, STOPPED
-from reconf_ros.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem
 
 from .conftest import example
 
-RECORD = [sys.executable, "-m", "reconf_ros.record"]
+RECORD = [sys.executable, "-m", "reconf_ros.tools.record"]
 TOPICS = ["--topic", "/chatter", "--topic", "/diagnostics"]
 
 

@@ -45,7 +45,7 @@ def message(store: Any, msgtype: str, i: int) -> bytes:
 def write(path: Path, topics: Iterable[tuple[str, str, list[int]]], storage: str = "sqlite3",
           bounds: Optional[tuple[int, int]] = None) -> Path:
     """A recording at `path` (a directory) of each (topic, type, log times from START), in time order;
-    with `bounds` (ns from START), the recorder's start and stop in custom_data, as reconf_ros.record
+    with `bounds` (ns from START), the recorder's start and stop in custom_data, as reconf_ros.tools.record
     writes them."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore

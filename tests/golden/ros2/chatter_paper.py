@@ -1609,7 +1609,7 @@ def manager_socket(namespace: str = "") -> str:
 
 
 def via_manager(doc: dict[str, Any], argv: list[str], args: argparse.Namespace, path: str) -> int:
-    """Have a running manager (`python -m reconf_ros.manager`) apply the plan: it has discovered
+    """Have a running manager (`python -m reconf_ros.tools.manager`) apply the plan: it has discovered
     the system already, so no discovery wait here (docs/executor.md#manager). Output streams back."""
     import socket
     if not confirmed(doc, args, sys.stdout):
@@ -1618,7 +1618,7 @@ def via_manager(doc: dict[str, Any], argv: list[str], args: argparse.Namespace, 
     try:
         sock.connect(path)
     except OSError as e:
-        print(f"no reconf manager at {path} ({e.strerror or e}): start one with `python -m reconf_ros.manager`, "
+        print(f"no reconf manager at {path} ({e.strerror or e}): start one with `python -m reconf_ros.tools.manager`, "
               "or leave out --manager to apply the plan from this process", file=sys.stderr)
         return EXIT_USAGE
     request = {"doc": doc, "argv": argv + ["--yes", "--quiet-list", "--cwd", os.getcwd()]}

@@ -1,4 +1,4 @@
-"""`python -m reconf_ros.record OUT --topic /chatter [--topic ...] --duration S`: a rosbag2
+"""`python -m reconf_ros.tools.record OUT --topic /chatter [--topic ...] --duration S`: a rosbag2
 recording made with rclpy and rosbags, where there is no `ros2 bag` (docs/recordings.md#recording).
 
 Each topic is subscribed raw (the serialized CDR bytes are written as they came, never decoded)
@@ -24,7 +24,7 @@ from typing import Any, Callable, Optional
 
 from checker.reality.bag import STARTED, STOPPED
 
-from .executor.status import tool_node
+from ..executor.status import tool_node
 
 __all__ = ["main", "EXIT_OK", "EXIT_FAILED", "EXIT_INTERRUPTED"]
 
@@ -40,7 +40,7 @@ class Interrupted(Exception):
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m reconf_ros.record", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m reconf_ros.tools.record", description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the recording's directory (must not exist)")
     p.add_argument("--topic", action="append", required=True, help="a topic to record (repeatable)")
     p.add_argument("--duration", type=float, required=True, help="seconds to record once every topic is matched")

@@ -1,9 +1,9 @@
-"""`python -m reconf_ros.inject TOPIC [TIMEOUT]`: a node that publishes each line of its standard
+"""`python -m reconf_ros.tools.inject TOPIC [TIMEOUT]`: a node that publishes each line of its standard
 input (a JSON document) on TOPIC as a std_msgs/String, volatile, once something subscribes.
 
 It prints `ready` once a subscriber is matched (exit 1 if none within TIMEOUT s) and `sent N`
 after each message, N the subscribers then. Started ahead of a fault's injection
-(reconf_ros.livetest.LiveSystem.injector), so the fault strikes when it is sent, not after a
+(reconf_ros.tools.livetest.LiveSystem.injector), so the fault strikes when it is sent, not after a
 process has started and been discovered."""
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ def main(argv: list[str]) -> int:
     import rclpy
     from std_msgs.msg import String
 
-    from .component import VOLATILE_QOS
+    from ..nodes.component import VOLATILE_QOS
     topic, timeout = argv[0], float(argv[1]) if len(argv) > 1 else 20.0
     rclpy.init()
     node = rclpy.create_node("reconf_inject")

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
-from .dds import loopback_env
+from ..nodes.dds import loopback_env
 
 __all__ = ["LiveSystem", "domain_id", "ros_available"]
 
@@ -118,7 +118,7 @@ class LiveSystem:
         path = self.expanded(arch, ftm)
         if self.watcher is None:
             self.watch()            # readiness is read from the statuses
-        from .ftm.hosts import by_host
+        from ..nodes.ftm.hosts import by_host
         others = [n for names in by_host(path).values() for n in names if n != client]
         procs = self.deploy_by_host(path, others)
         self.wait_ready(others, timeout=90)
@@ -129,10 +129,10 @@ class LiveSystem:
         return procs, log
 
     def injector(self, topic: str, timeout: float = 20.0) -> "Injector":
-        """A node of this system's domain (reconf_ros.inject) that publishes JSON documents on
+        """A node of this system's domain (reconf_ros.tools.inject) that publishes JSON documents on
         `topic`, std_msgs/String, volatile, once something subscribes: a fault's injection, a test
         hook's call. Started ahead, so a document is published when it is sent."""
-        proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.inject", topic, str(timeout)], env=self.env,
+        proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.tools.inject", topic, str(timeout)], env=self.env,
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                 cwd=self.dir, text=True, preexec_fn=_die_with_parent, start_new_session=True)
         self.procs.append(proc)
@@ -144,7 +144,7 @@ class LiveSystem:
         process group of its own (a host's crash is its group's: `os.killpg`), by `reconf-node
         --arch`, which runs a component's own code when its run line is a reconf-node factory,
         and a model-driven node otherwise. Host -> process group id."""
-        from .ftm.hosts import by_host
+        from ..nodes.ftm.hosts import by_host
         hosts = {h: [n for n in names if components is None or n in components] for h, names in by_host(arch).items()}
         hosts = {h: names for h, names in hosts.items() if names}
         self.deployed += [n for names in hosts.values() for n in names]
@@ -180,7 +180,7 @@ class LiveSystem:
         return [self.start(a + deployed, f"deployed-{i}.log") for i, a in enumerate(argvs)]
 
     def watch(self) -> None:
-        self.watcher = self.start([sys.executable, "-m", "reconf_ros.watch", "--out",
+        self.watcher = self.start([sys.executable, "-m", "reconf_ros.tools.watch", "--out",
                                    str(self.status_file)], "watch.log")
 
     def watched_violations(self) -> list[str]:
@@ -193,7 +193,7 @@ class LiveSystem:
     def manager(self, timeout: float = 20.0) -> str:
         """Start a reconf manager for this system; its socket path (pass `--manager PATH` to a plan)."""
         sock, ready = self.dir / "manager.sock", self.dir / "manager.ready"
-        self.start([sys.executable, "-m", "reconf_ros.manager", "--socket", str(sock), "--ready-file", str(ready)],
+        self.start([sys.executable, "-m", "reconf_ros.tools.manager", "--socket", str(sock), "--ready-file", str(ready)],
                    "manager.log")
         end = time.monotonic() + timeout
         while not ready.exists():
@@ -218,7 +218,7 @@ class LiveSystem:
 
     def wait_detectors_armed(self, timeout: float = 30.0) -> bool:
         """Until every crash detector has seen the beats long enough to know their jitter
-        (reconf_ros.ftm.detect): a crash from then on is detected at the learned silence. A system
+        (reconf_ros.nodes.ftm.detect): a crash from then on is detected at the learned silence. A system
         without one is armed at once."""
         def armed(st: dict[str, Any]) -> bool:
             states = [s["values"]["app.detector"] for s in st.values() if "app.detector" in s["values"]]
@@ -323,7 +323,7 @@ class LiveSystem:
 
 
 class Injector:
-    """The handle of a reconf_ros.inject process (LiveSystem.injector)."""
+    """The handle of a reconf_ros.tools.inject process (LiveSystem.injector)."""
 
     def __init__(self, proc: "subprocess.Popen[str]", topic: str, timeout: float) -> None:
         self.proc, self.topic = proc, topic

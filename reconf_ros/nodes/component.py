@@ -25,10 +25,10 @@ from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackRet
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .executor.snapshot import MODEL_PARAM
-from .executor.status import CREATED_ENV, STATUS_PREFIX
-from .executor.steps import join_list
-from .model import Component, Functionality, ModelError, Output, components_to_arch
+from ..executor.snapshot import MODEL_PARAM
+from ..executor.status import CREATED_ENV, STATUS_PREFIX
+from ..executor.steps import join_list
+from .api import Component, DeclarationError, Functionality, Output, components_to_arch
 from .monitor import GAP_FACTOR, Monitor
 
 __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
@@ -117,7 +117,7 @@ class ComponentNode(LifecycleNode):
     def _model_text(self) -> str:
         try:
             return components_to_arch([self.component])
-        except ModelError as e:     # a model reconf cannot print: said, not guessed
+        except DeclarationError as e:     # a model reconf cannot print: said, not guessed
             self.get_logger().warning(f"{MODEL_PARAM} left empty: {e}")
             return ""
 

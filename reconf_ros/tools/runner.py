@@ -1,7 +1,7 @@
 """`reconf-node`: run components as lifecycle nodes, or print them as `.arch` text.
 
     reconf-node reconf_ros.demo.chatter:talker            a Component from a factory
-    reconf-node --arch robot.arch motor_controller        a model-driven node (reconf_ros.generic)
+    reconf-node --arch robot.arch motor_controller        a model-driven node (reconf_ros.nodes.generic)
     reconf-node --plan plan.json 'X@new'                  a component of the architecture a plan reaches
     reconf-node ... --deployed robot.arch                 start as that architecture deploys it
     reconf-node ... --describe                            print the model, run nothing
@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import click
 
-from .model import Component, ModelError, components_to_arch
+from ..nodes.api import Component, DeclarationError, components_to_arch
 
 if TYPE_CHECKING:
     from reconf_dsl.ir import System
@@ -59,7 +59,7 @@ def _from_architecture(system: "System", name: str) -> Component:
         comp = _factory(argv[1])
         comp.name, comp.host = name, ir.host if ir is not None else None
         return comp
-    from .generic import from_architecture
+    from ..nodes.generic import from_architecture
     return from_architecture(system, name)
 
 
@@ -114,7 +114,7 @@ def _from_plan(path: str, name: str) -> Component:
     longer has, as the last state with it has it."""
     from codegen.ros2 import system_at
 
-    from .executor.plan_states import PlanStates
+    from ..executor.plan_states import PlanStates
     system, doc = plan_target(path)
     renames: dict[str, str] = doc["plan"].get("renames", {})
     if system.component(renames.get(name, name)) is None:
@@ -167,7 +167,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
          system_name: Optional[str], gap_factor: float, dds_env: bool, lean: bool) -> None:
     """Run TARGETS (MODULE:FACTORY, or component names with --arch) as lifecycle nodes."""
     if dds_env:
-        from .dds import loopback_env
+        from ..nodes.dds import loopback_env
         for key, value in loopback_env().items():
             click.echo(f"export {key}={shlex.quote(value)}")
         return
@@ -189,7 +189,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
             renamed = _node_remap(ros_args)
             if renamed and len(comps) == 1:      # `--ros-args -r __node:=NAME`: the component is NAME
                 comps[0].name = renamed
-    except (ModelError, KeyError) as e:
+    except (DeclarationError, KeyError) as e:
         raise click.UsageError(str(e)) from None
     if as_name or node_name:
         if len(comps) != 1:
@@ -207,7 +207,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
             for r in conn.roles:
                 if r.component in plan:
                     plan[r.component].setdefault(r.port, []).append(conn.name)
-    from .component import run_components
+    from ..nodes.component import run_components
     sys.exit(run_components(comps, args=[sys.argv[0]] + ros_args, deployed=plan, gap_factor=gap_factor, lean=lean))
 
 

@@ -2,7 +2,7 @@
 beats, the backup's raises an alarm when the beats stop, and Recovery makes the failed replica
 fail-silent and binds the backup's outermost protocol to the proxy, through the control
 interface (docs/control-interface.md), as a plan's attach does. The primary's detector is the
-model-driven publisher of its beats (reconf_ros.ftm.BEHAVIOURS)."""
+model-driven publisher of its beats (reconf_ros.nodes.ftm.BEHAVIOURS)."""
 from __future__ import annotations
 
 import re
@@ -11,7 +11,7 @@ from typing import Any, Optional
 
 from reconf_dsl.ir import System
 
-from ..model import Component
+from ..api import Component
 from .wire import Ports, now, unpack
 
 __all__ = ["Detector", "Recovery", "MISSED_BEATS"]

@@ -25,7 +25,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Optional
 
-from .model import Component, Functionality, Input, Predicate
+from .api import Component, Functionality, Input, Predicate
 
 __all__ = ["Monitor", "SourceStats", "InputStats", "GAP_FACTOR"]
 

@@ -8,7 +8,7 @@ starts from a graph already discovered; it forks new `reconf-node`s from a launc
 (`launcher.py`) that has ROS and reconf imported. Clients reach it through a Unix socket on this host;
 one plan runs at a time. Protocol and reasoning: docs/executor.md#manager.
 
-    python -m reconf_ros.manager [--socket PATH] [--namespace NS]
+    python -m reconf_ros.tools.manager [--socket PATH] [--namespace NS]
 """
 from __future__ import annotations
 
@@ -20,11 +20,11 @@ import sys
 import time
 from typing import Any, Optional
 
-from .executor.run import Executor
-from .executor.runtime import Runtime
-from .executor.script import manager_socket, parse
-from .executor.status import tool_node
-from .executor.steps import EXIT_FAILED, EXIT_USAGE
+from ..executor.run import Executor
+from ..executor.runtime import Runtime
+from ..executor.script import manager_socket, parse
+from ..executor.status import tool_node
+from ..executor.steps import EXIT_FAILED, EXIT_USAGE
 from .launcher import Launcher
 
 __all__ = ["main", "serve"]
@@ -136,7 +136,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m reconf_ros.manager", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m reconf_ros.tools.manager", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--socket", default="", help="where to listen (default: one per ROS domain, under $XDG_RUNTIME_DIR/reconf or /tmp/reconf-UID/reconf)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")

@@ -11,7 +11,7 @@ from reconf_dsl.ir import Component as IrComponent
 from reconf_dsl.ir import Predicate as IrPredicate
 from reconf_dsl.ir import System
 
-from .model import Component, Output, Rate
+from .api import Component, Output, Rate
 
 __all__ = ["from_architecture"]
 

@@ -1,7 +1,7 @@
 """The FTM nodes of paper 000 on reconf_ros: behaviours for the components `reconf ftm expand`
 makes (docs/ftm.md#running).
 
-A model-driven node (`reconf-node --arch EXPANDED NAME`, `reconf_ros.generic`) whose
+A model-driven node (`reconf-node --arch EXPANDED NAME`, `reconf_ros.nodes.generic`) whose
 functionality is one of Table II's behaviours gets that behaviour here instead of the generic
 publisher: `install` looks its functionality up in `BEHAVIOURS`, one row per name the
 expansion gives (checker.ftm.library and checker.ftm.expand are the source of the names; a
@@ -13,7 +13,7 @@ from typing import Callable, Optional
 
 from reconf_dsl.ir import System
 
-from ..model import Component, Input
+from ..api import Component, Input
 from . import detect, pipeline, sec
 from .wire import Ports
 

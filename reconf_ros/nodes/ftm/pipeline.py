@@ -17,7 +17,7 @@ from typing import Any, Callable, Optional
 
 from reconf_dsl.ir import System
 
-from ..model import Component
+from ..api import Component
 from .wire import Ports, now, pack, result_of, unpack
 
 __all__ = ["Proxy", "Protocol", "Before", "Proceed", "After", "RESEND_AFTER", "MAX_TR_RUNS"]

@@ -11,7 +11,7 @@ import json
 import time
 from typing import Any, Optional
 
-from ..model import Component, Functionality, Input, Output, Port
+from ..api import Component, Functionality, Input, Output, Port
 
 __all__ = ["pack", "unpack", "result_of", "Ports", "now"]
 

@@ -28,7 +28,7 @@ from cryptography.hazmat.primitives.kdf.hkdf import HKDF
 
 from reconf_dsl.ir import System
 
-from ..model import Component
+from ..api import Component
 from .wire import Ports, pack, unpack
 
 __all__ = ["CertificationAuthority", "ClientCipher", "ClientDecipher", "ServerDecipher", "ServerCipher",

@@ -1,4 +1,4 @@
-"""`python -m reconf_ros.watch`: follow the components' statuses on /diagnostics.
+"""`python -m reconf_ros.tools.watch`: follow the components' statuses on /diagnostics.
 
 Prints each violation of a normal mode's assumption as a monitor reports it, and with
 `--out FILE` keeps FILE (JSON) updated with the last status of every component seen, which is
@@ -16,7 +16,7 @@ from typing import Any, Optional
 
 import click
 
-from .executor.status import STATUS_PREFIX, parse_status, tool_node
+from ..executor.status import STATUS_PREFIX, parse_status, tool_node
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})

@@ -12,13 +12,13 @@ from fractions import Fraction
 from typing import Any, Callable, Optional, Sequence, Union
 
 __all__ = ["Component", "Functionality", "Input", "Output", "Mode", "Predicate", "ros_type_name", "parse_predicate",
-           "ModelError"]
+           "DeclarationError"]
 
 MsgType = Union[str, type]
 RateLike = Union[int, float, Fraction, str, "Rate", None]
 
 
-class ModelError(ValueError):
+class DeclarationError(ValueError):
     """A component described inconsistently (unknown port, a mode for a port it does not use…)."""
 
 
@@ -26,12 +26,12 @@ def ros_type_name(msg_type: MsgType) -> str:
     """`std_msgs/msg/String` for the class `std_msgs.msg.String` or for the string itself."""
     if isinstance(msg_type, str):
         if not re.fullmatch(r"[A-Za-z_][\w]*/(msg|srv)/[A-Za-z_]\w*", msg_type):
-            raise ModelError(f"{msg_type!r} is not a ROS 2 type name like std_msgs/msg/String")
+            raise DeclarationError(f"{msg_type!r} is not a ROS 2 type name like std_msgs/msg/String")
         return msg_type
     module = getattr(msg_type, "__module__", "")
     package = module.split(".")[0]
     if not package or ".msg" not in module and ".srv" not in module:
-        raise ModelError(f"{msg_type!r} is not a ROS 2 message class")
+        raise DeclarationError(f"{msg_type!r} is not a ROS 2 message class")
     kind = "srv" if ".srv" in module else "msg"
     return f"{package}/{kind}/{msg_type.__name__}"
 
@@ -72,12 +72,12 @@ def to_rate(rate: RateLike) -> Optional[Rate]:
     if isinstance(rate, str):
         m = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]+)?)\s*(Hz|kHz|s|ms|us)\s*", rate)
         if not m:
-            raise ModelError(f"{rate!r} is not a rate like '10 Hz' or '100 ms'")
+            raise DeclarationError(f"{rate!r} is not a rate like '10 Hz' or '100 ms'")
         value, unit = _fraction(m.group(1)), m.group(2)
     else:
         value, unit = _fraction(rate), "Hz"
     if value <= 0:
-        raise ModelError(f"a rate must be positive, not {rate!r}")
+        raise DeclarationError(f"a rate must be positive, not {rate!r}")
     return Rate(value, unit)
 
 
@@ -109,7 +109,7 @@ def parse_predicate(text: str) -> Predicate:
     alias, _, rate = text.partition("@")
     alias = alias.strip()
     if not re.fullmatch(r"[A-Za-z_]\w*", alias):
-        raise ModelError(f"{text!r} is not a predicate like 'String @ 10 Hz'")
+        raise DeclarationError(f"{text!r} is not a predicate like 'String @ 10 Hz'")
     return Predicate(alias, to_rate(rate) if rate.strip() else None)
 
 
@@ -155,7 +155,7 @@ class Input(Port):
         """On a service port: send a request to the server(s) and expect its answer; False when
         nothing was sent."""
         if not self.service:
-            raise ModelError(f"{self.component.name}.{self.name} is not on a service")
+            raise DeclarationError(f"{self.component.name}.{self.name} is not on a service")
         node = self.component.node
         if node is None or not node.send_request(self.name, msg):
             return False
@@ -185,7 +185,7 @@ class Output(Port):
         """On a service port: call `callback(request)` for every request, whatever the mode;
         replies are written with `write()` (so a mode that guarantees nothing answers nothing)."""
         if not self.service:
-            raise ModelError(f"{self.component.name}.{self.name} is not on a service")
+            raise DeclarationError(f"{self.component.name}.{self.name} is not on a service")
         self.handlers.append(callback)
         return self
 
@@ -237,7 +237,7 @@ class Functionality:
         mode.guarantees = {}
         for out, r in items:
             if out not in self.outputs:
-                raise ModelError(f"{self.component.name}.{self.name}: {getattr(out, 'name', out)} is not one of "
+                raise DeclarationError(f"{self.component.name}.{self.name}: {getattr(out, 'name', out)} is not one of "
                                  "its outputs")
             mode.guarantees[out.name] = to_rate(r)
 
@@ -277,7 +277,7 @@ class Component:
     def __init__(self, name: str, *, run: Optional[str] = None, host: Optional[str] = None,
                  replaces: Optional[str] = None) -> None:
         if not re.fullmatch(r"[A-Za-z_]\w*", name):
-            raise ModelError(f"{name!r} is not a valid component (node) name")
+            raise DeclarationError(f"{name!r} is not a valid component (node) name")
         self.name, self.run, self.host, self.replaces = name, run, host, replaces
         self.ports: list[Port] = []
         self.functionalities: list[Functionality] = []
@@ -327,10 +327,10 @@ class Component:
     def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
                              criticality: int = 1) -> Functionality:
         if any(f.name == name for f in self.functionalities):
-            raise ModelError(f"{self.name} already has a functionality {name}")
+            raise DeclarationError(f"{self.name} already has a functionality {name}")
         for p in list(inputs) + list(outputs):
             if p not in self.ports:
-                raise ModelError(f"{self.name}.{name}: {p.name} is not a port of {self.name}")
+                raise DeclarationError(f"{self.name}.{name}: {p.name} is not a port of {self.name}")
         f = Functionality(self, name, inputs, outputs, criticality)
         self.functionalities.append(f)
         return f
@@ -348,16 +348,16 @@ class Component:
     # --- the model ---
     def _fresh(self, name: str) -> str:
         if not re.fullmatch(r"[A-Za-z_]\w*", name):
-            raise ModelError(f"{name!r} is not a valid port name")
+            raise DeclarationError(f"{name!r} is not a valid port name")
         if any(p.name == name for p in self.ports):
-            raise ModelError(f"{self.name} already has a port {name}")
+            raise DeclarationError(f"{self.name} already has a port {name}")
         return name
 
     def port(self, name: str) -> Port:
         for p in self.ports:
             if p.name == name:
                 return p
-        raise ModelError(f"{self.name} has no port {name}")
+        raise DeclarationError(f"{self.name} has no port {name}")
 
     @property
     def inputs(self) -> list[Input]:
@@ -372,7 +372,7 @@ class Component:
         out: dict[str, str] = dict(self.extra_messages)
         for p in self.ports:
             if out.setdefault(p.alias, p.msg_type) != p.msg_type:
-                raise ModelError(f"{self.name}: {p.alias} names both {out[p.alias]} and {p.msg_type}")
+                raise DeclarationError(f"{self.name}: {p.alias} names both {out[p.alias]} and {p.msg_type}")
         return out
 
     def to_arch(self) -> str:
@@ -422,7 +422,7 @@ def components_to_arch(components: Sequence[Component], system: Optional[str] = 
     for c in components:
         for alias, t in c.messages().items():
             if messages.setdefault(alias, t) != t:
-                raise ModelError(f"{alias} names both {messages[alias]} and {t}")
+                raise DeclarationError(f"{alias} names both {messages[alias]} and {t}")
     head = [f"system {system}", ""] if system else []
     head += [f"message {a} = {t}" for a, t in sorted(messages.items())]
     return "\n".join(head) + "\n\n" + "\n".join(c.to_arch() for c in components)

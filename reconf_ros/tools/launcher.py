@@ -119,7 +119,8 @@ def serve(fd: int) -> int:
     from codegen.ros2 import system_at  # noqa: F401
     from reconf_dsl.loader import load  # noqa: F401
 
-    from . import component, generic, runner  # noqa: F401
+    from ..nodes import component, generic  # noqa: F401
+    from . import runner  # noqa: F401
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}
 
@@ -209,7 +210,7 @@ class Launcher:
 
     def __init__(self, timeout: float = 30.0) -> None:
         mine, theirs = socket.socketpair()
-        self.proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.launcher", "--fd", str(theirs.fileno())],
+        self.proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.tools.launcher", "--fd", str(theirs.fileno())],
                                      pass_fds=[theirs.fileno()], stdin=subprocess.DEVNULL,
                                      preexec_fn=_die_with_parent)
         theirs.close()
@@ -302,7 +303,7 @@ def _die_with_parent() -> None:
 
 def main(argv: Optional[list[str]] = None) -> int:
     import argparse
-    ap = argparse.ArgumentParser(prog="python -m reconf_ros.launcher", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m reconf_ros.tools.launcher", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--fd", type=int, required=True, help="the socket to serve (inherited from the manager)")
     args = ap.parse_args(argv)

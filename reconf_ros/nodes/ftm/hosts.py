@@ -1,6 +1,6 @@
-"""`python -m reconf_ros.ftm.hosts FILE [HOST]`: the components FILE places on HOST (one per
+"""`python -m reconf_ros.nodes.ftm.hosts FILE [HOST]`: the components FILE places on HOST (one per
 line, space-separated), or every host with its components: to start one process per host with
-`reconf-node --arch FILE $(python -m reconf_ros.ftm.hosts FILE HOST) --deployed FILE`."""
+`reconf-node --arch FILE $(python -m reconf_ros.nodes.ftm.hosts FILE HOST) --deployed FILE`."""
 from __future__ import annotations
 
 import sys
