@@ -11,12 +11,13 @@ from importlib import resources
 from typing import Any, Optional
 
 from lark import Lark, Token
+from lark.lexer import PatternStr
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error, shorten
 from .gcpause import gc_paused
-from .lexer import MAX_NESTING, Comment, TooDeep, make_driver
+from .lexer import MAX_NESTING, NAMED_WORDS, Comment, TooDeep, make_driver
 from .span import NO_SPAN, Span, make_span
 
 TERMINAL_NAMES = {
@@ -375,6 +376,28 @@ class Parser:
         lark = Lark(grammar, parser="lalr", lexer="basic", keep_all_tokens=True, transformer=_Callbacks(self._ir))
         self._driver = make_driver(lark, self._ir, _Callbacks.RULES, MEANINGFUL)
         self._comments: list[Comment] = self._driver.comments
+        spelled: dict[str, list[str]] = {}
+        for word, terminal in {**NAMED_WORDS, **{t.pattern.value: t.name for t in lark.terminals
+                                                 if isinstance(t.pattern, PatternStr)}}.items():
+            if word[:1].isalpha():
+                spelled.setdefault(terminal, []).append(word)
+        self.keywords = {t: tuple(sorted(w)) for t, w in spelled.items()}
+        """Each keyword terminal's spellings (`MODE_KIND`: degraded, normal), from the grammar."""
+
+    def expected(self, text: str) -> Optional[frozenset[str]]:
+        """The terminals the grammar accepts right after `text` (which ends between two tokens),
+        or None when `text` goes wrong before its end: for completion in an editor."""
+        self._ir.file, self._ir.sink = "<completion>", DiagnosticSink()
+        self._comments.clear()
+        try:
+            with gc_paused():
+                self._driver.parse(text + "\0")
+        except UnexpectedCharacters as e:
+            if e.pos_in_stream == len(text):
+                return frozenset(e.allowed or ())
+        except (UnexpectedInput, TooDeep):
+            pass
+        return None
 
     def parse(self, text: str, file: str) -> ir.Document:
         """Parse one file. Raises DiagnosticError on any error."""

@@ -16,6 +16,7 @@ from checker.cli.fmt import fmt_cmd
 from checker.cli.ftm import ftm_group, transition_cmd
 from checker.cli.gate import gate_cmd
 from checker.cli.graph import graph, graph_plan
+from checker.cli.lsp import lsp_cmd
 from checker.cli.modes import modes_group
 from checker.cli.plan import plan
 from checker.cli.recover import recover_cmd
@@ -43,5 +44,5 @@ def main(allow_includes_outside: bool) -> None:
 
 plan.add_command(transition_cmd)
 for command in (check, alloy_cmd, graph, graph_plan, plan, recover_cmd, up_cmd, down_cmd, gate_cmd, ftm_group,
-                fmt_cmd, modes_group, discover_cmd, drift_cmd, verify_model_cmd):
+                fmt_cmd, modes_group, discover_cmd, drift_cmd, verify_model_cmd, lsp_cmd):
     main.add_command(command)

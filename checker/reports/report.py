@@ -43,12 +43,17 @@ def assumption_diagnostic(r: AssumptionResult) -> Diagnostic:
                  r.assumption.span, related=related)
 
 
+def explanation(r: AssumptionResult, indent: str = "  ") -> str:
+    """An assumption's chain, a line a link, each indented by its depth and marked ✓ or ✗."""
+    return "\n".join((indent * _DEPTH.get(ln.kind, 1)) + ("✓ " if ln.ok else "✗ ") + f"{ln.text}  ({ln.span})"
+                     for ln in r.chain)
+
+
 def assumption_cases(system: str, ev: Evaluation) -> list[CheckCase]:
     """One JUnit case per checked assumption; a failing one carries its explanation chain."""
     cases = []
     for r in ev.results:
-        details = "\n".join(("  " * _DEPTH.get(ln.kind, 1)) + ("✓ " if ln.ok else "✗ ") + f"{ln.text}  ({ln.span})"
-                            for ln in r.chain)
+        details = explanation(r)
         cases.append(CheckCase(f"{system}.{r.component}.{r.functionality}",
                                f"assumption {r.index + 1}: {r.assumption}",
                                None if r.holds else f"{r.component}.{r.functionality} assumes {r.assumption}, "
