@@ -4,13 +4,13 @@ document symbols, completion of names where the grammar expects one, and formatt
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Iterable, Optional
 
 from checker.editor import index as idx
 from checker.editor.workspace import Analysis
-from checker.model.semantics import AssumptionResult
+from checker.model.semantics import AssumptionResult, support
 from checker.reports.report import explanation
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError
@@ -23,7 +23,7 @@ from reconf_dsl.span import Span
 def index_of(analysis: Analysis) -> idx.Index:
     """The analysis's index of names, made on first use."""
     if analysis.index is None:
-        analysis.index = idx.build(analysis.documents, analysis.texts)
+        analysis.index = idx.build(analysis.documents, analysis.document_texts)
     return analysis.index  # type: ignore[no-any-return]
 
 
@@ -42,7 +42,16 @@ def assumption_at(analysis: Analysis, shown: str, line: int, col: int) -> Option
     return None
 
 
-def hover_assumption(r: AssumptionResult) -> str:
+def hover_assumption(r: AssumptionResult, analysis: Analysis) -> str:
+    """Whether `r` holds and why: the chain `reconf check` shows when it does not, and what
+    provides it (inputs, connectors, outputs, the environment) when it does."""
+    if r.holds and analysis.system is not None and analysis.outcome is not None:
+        system = analysis.system
+        comp = system.component(r.component)
+        func = next((f for f in comp.functionalities if f.name == r.functionality), None) if comp else None
+        if comp is not None and func is not None:
+            config = analysis.outcome.judged.python.config
+            r = replace(r, chain=tuple(support(system, config, comp, func, r.assumption)))
     verdict = "✓ holds" if r.holds else "✗ does not hold"
     return (f"**{r.component}.{r.functionality}** assumes `{r.assumption}`: {verdict}\n\n"
             "```text\n" + explanation(r) + "\n```")

@@ -130,7 +130,7 @@ def _hover(session: Session, params: lsp.HoverParams) -> Optional[lsp.Hover]:
     for a in analyses:
         r = features.assumption_at(a, shown, line, col)
         if r is not None:
-            return lsp.Hover(lsp.MarkupContent(lsp.MarkupKind.Markdown, features.hover_assumption(r)))
+            return lsp.Hover(lsp.MarkupContent(lsp.MarkupKind.Markdown, features.hover_assumption(r, a)))
     found, indexes = _occurrence(session, params)
     if found is None:
         return None

@@ -51,6 +51,8 @@ class Analysis:
     outcome: Optional[CheckOutcome] = None
     index: Any = None            # checker.editor.index.Index, made when first asked for
     texts: dict[str, str] = field(default_factory=dict)     # real path -> the text judged
+    stale: bool = False          # `documents` are the last ones that parsed: this text does not
+    document_texts: dict[str, str] = field(default_factory=dict)   # real path -> the text `documents` were read from
 
 
 class ParseCache:
@@ -164,6 +166,11 @@ class Workspace:
             except DiagnosticError as e:
                 analysis.diagnostics = list(e.diagnostics)
                 analysis.files |= {self.absolute(f) for f in sources.texts}
+                previous = self.analyses.get(root)
+                if previous is not None:        # what was last read of it, for names while the text is broken
+                    documents.update(previous.documents)
+                    analysis.stale, analysis.index = True, previous.index
+                    analysis.document_texts = previous.document_texts
                 return self._keep(analysis)
             documents.update({self.absolute(d.file): d for d in docs})
             analysis.files |= set(documents)
@@ -177,6 +184,8 @@ class Workspace:
 
     def _keep(self, analysis: Analysis) -> Analysis:
         analysis.texts = {self.absolute(shown): text for shown, text in analysis.sources.texts.items()}
+        if not analysis.stale:
+            analysis.document_texts = analysis.texts
         self.analyses[analysis.root] = analysis
         return analysis
 
