@@ -277,14 +277,15 @@ def load_documents(paths: list[str], sources: Sources, *, allow_outside: Optiona
     return docs
 
 
-def load(paths: list[str], sources: Optional[Sources] = None, *, allow_outside: Optional[bool] = None) -> ir.System:
+def load(paths: list[str], sources: Optional[Sources] = None, *, allow_outside: Optional[bool] = None,
+         parse: ParseFn = parse_text) -> ir.System:
     """Read, parse, merge and resolve. Raises DiagnosticError with every error found.
 
     `allow_outside` lets includes leave the directory tree of the file named (default:
-    `includes_outside_allowed()`)."""
+    `includes_outside_allowed()`); `parse` parses one file (a warm analyzer's keeps what it read)."""
     sources = sources if sources is not None else Sources()
     with gc_paused():
-        return resolve(load_documents(paths, sources, allow_outside=allow_outside))
+        return resolve(load_documents(paths, sources, allow_outside=allow_outside, parse=parse))
 
 
 def load_text(text: str, file: str = "<input>", sources: Optional[Sources] = None) -> ir.System:

@@ -9,6 +9,7 @@ import os
 from typing import Any, Optional, TextIO
 
 from checker.model.semantics import AssumptionResult, Evaluation
+from checker.reports.clock import process_age  # noqa: F401 - where the commands find it
 from checker.reports.formats import CheckCase
 from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
@@ -145,15 +146,3 @@ def timing_json(wall: float, parts: list[tuple[str, float]]) -> dict[str, float]
     out.update({name.lower().replace(" ", "_").replace("-", "_"): round(s, 4) for name, s in parts})
     out["other"] = round(max(0.0, wall - sum(s for _, s in parts)), 4)
     return out
-
-
-def process_age() -> float:
-    """Seconds since this process started (the interpreter's start-up and imports included),
-    from /proc; 0 where that cannot be read."""
-    try:
-        with open("/proc/self/stat", encoding="ascii") as f:
-            started = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
-        with open("/proc/uptime", encoding="ascii") as f:
-            return max(0.0, float(f.read().split()[0]) - started)
-    except (OSError, ValueError, IndexError):
-        return 0.0
