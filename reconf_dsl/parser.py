@@ -11,8 +11,8 @@ from importlib import resources
 from typing import Any, Optional
 
 from lark import Lark, Token
-from lark.lexer import PatternStr
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.lexer import PatternStr
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error, shorten

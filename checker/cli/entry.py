@@ -29,6 +29,6 @@ def main() -> None:
                 sys.stderr.write(answer.stderr)
                 sys.stderr.flush()
                 sys.exit(answer.exit)
-    from checker.cli.main import main as reconf   # the whole command line, when no warm analyzer answered
+    from checker.cli.main import main as reconf  # the whole command line, when no warm analyzer answered
 
     reconf()

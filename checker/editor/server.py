@@ -12,6 +12,7 @@ handler and both threads report an unexpected failure to the client's log and go
 from __future__ import annotations
 
 import asyncio
+import functools
 import os
 import queue
 import threading
@@ -144,7 +145,7 @@ class Session:
             self.published[root] = set(now)
         for path in sorted(files):
             params = lsp.PublishDiagnosticsParams(convert.uri_of(path), self._diagnostics(path))
-            self.call(lambda params=params: self.server.text_document_publish_diagnostics(params))
+            self.call(functools.partial(self.server.text_document_publish_diagnostics, params))
 
     def _diagnostics(self, path: str) -> list[lsp.Diagnostic]:
         out = [convert.diagnostic(d, self.codec, self.lines, self.ws.absolute) for d in self.ws.diagnostics_of(path)]

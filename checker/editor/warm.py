@@ -159,7 +159,7 @@ class Server:
 
     def bind(self) -> bool:
         """Take the socket; False when another live server holds it."""
-        from checker.editor.workspace import ParseCache   # here for start-up time: a client never loads it
+        from checker.editor.workspace import ParseCache  # here for start-up time: a client never loads it
         os.makedirs(os.path.dirname(self.path), mode=0o700, exist_ok=True)
         if os.path.exists(self.path):
             if status() is not None:
@@ -228,7 +228,7 @@ class Server:
         return True
 
     def _run(self, request: dict[str, Any]) -> tuple[str, str, int]:
-        from checker.editor.workspace import LOCK   # here for start-up time: a client never loads it
+        from checker.editor.workspace import LOCK  # here for start-up time: a client never loads it
         with LOCK, _client(request["cwd"], request.get("env", {}), float(request.get("age", 0.0))):
             return self.runner(list(request["argv"]))
 
