@@ -58,6 +58,7 @@ class Session:
     alloy: bool = True
     warm: bool = True                                             # serve `reconf check` over a local socket
     timings: list[float] = field(default_factory=list)            # seconds from an edit to its diagnostics
+    _lines: dict[str, tuple[Optional[str], list[str]]] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ reporting to the client
 
@@ -82,12 +83,18 @@ class Session:
     # ------------------------------------------------------------------ texts and positions
 
     def lines(self, path: str) -> list[str]:
-        """The lines of `path` as the editor has it, else as last judged, else on disk."""
+        """The lines of `path` as the editor has it, else as last judged, else on disk (kept
+        while the text is the same: a diagnostic's chain asks for them once a link)."""
         text = self.ws.open.get(path)
         for a in list(self.ws.analyses.values()):
             text = text if text is not None else a.texts.get(path)
         text = text if text is not None else self.ws.text(path)
-        return (text or "").splitlines(True) or [""]
+        kept = self._lines.get(path)
+        if kept is not None and kept[0] is text:
+            return kept[1]
+        lines = (text or "").splitlines(True) or [""]
+        self._lines[path] = (text, lines)
+        return lines
 
     @property
     def codec(self) -> Any:

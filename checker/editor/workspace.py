@@ -117,11 +117,12 @@ class Workspace:
 
     def includes(self, path: str) -> tuple[str, ...]:
         """The real paths `path` includes, read off its text (kept until the text changes)."""
-        text = self.text(path)
-        stamp: Any = hash(text) if path in self.open else _stamp(path)
+        text = self.open.get(path)
+        stamp: Any = hash(text) if text is not None else _stamp(path)
         kept = self._includes.get(path)
         if kept is not None and kept[0] == stamp:
             return kept[1]
+        text = text if text is not None else self.text(path)
         found = tuple(os.path.realpath(os.path.join(os.path.dirname(path), m.group(1)))
                       for m in _INCLUDE.finditer(text or ""))
         self._includes[path] = (stamp, found)
