@@ -128,6 +128,9 @@ class Session:
                 if k == "stop":
                     return
                 (changed if k == "change" else saved).add(p)
+                if k == "change" and p in saved:    # edited after its save: what was saved is gone
+                    saved.discard(p)
+                    self.log(f"reconf: not proved: {display_path(p)} was edited after it was saved")
             self.guarded("judging the files", lambda: self._judge(changed, saved))
 
     def _judge(self, changed: set[str], saved: set[str]) -> None:
@@ -174,6 +177,7 @@ class Session:
     def _prove_all(self, proofs: list[Proof], analyses: list[Analysis]) -> None:
         for proof, analysis in zip(proofs, analyses):
             self.proving = proof
+            self.log(f"reconf: proving {display_path(proof.root)} in Alloy")
             self.guarded("the Alloy proof", lambda: self._prove(proof, analysis))
             if proof.cancelled:
                 self.log(f"reconf: the Alloy proof of {display_path(proof.root)} was cancelled: the file changed")
