@@ -56,7 +56,10 @@ class Analysis:
 
 
 class ParseCache:
-    """Each (file name, text) parsed once: a Document, or the DiagnosticError it raised."""
+    """Each (file name, text) parsed once: a Document, or the DiagnosticError it raised; at
+    most `PER_FILE` texts of one file (an undo finds the text before), `size` in all."""
+
+    PER_FILE = 2
 
     def __init__(self, size: int = 256) -> None:
         self._items: OrderedDict[tuple[str, str], Any] = OrderedDict()
@@ -73,6 +76,9 @@ class ParseCache:
             except DiagnosticError as e:
                 found = e
             self._items[key] = found
+            older = [k for k in self._items if k[0] == file][:-self.PER_FILE]
+            for k in older:                 # an edited file's earlier texts: only the last few are kept
+                del self._items[k]
             if len(self._items) > self._size:
                 self._items.popitem(last=False)
         else:
