@@ -10,7 +10,9 @@ LARK := lark==1.3.1
 
 .PHONY: demo test typecheck bench clean
 
-$(STAMP): pyproject.toml
+# The editable install also compiles the lexer and LALR driver (reconf_dsl/_fastparse.pyx, through
+# setup.py and Cython); where that cannot be built, the Python driver parses (docs/editor.md).
+$(STAMP): pyproject.toml setup.py reconf_dsl/_fastparse.pyx
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[test,ros]'

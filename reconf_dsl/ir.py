@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from fractions import Fraction
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Literal, Optional
 
 from .span import NO_SPAN, Span
@@ -40,7 +40,9 @@ PERIOD_UNITS = {"s": Fraction(1), "ms": Fraction(1, 1000), "us": Fraction(1, 1_0
 UNITS = {**FREQUENCY_UNITS, **PERIOD_UNITS}
 
 
+@lru_cache(maxsize=4096)
 def rate_in_hz(value: Fraction, unit: str) -> Fraction:
+    """`value` in `unit` as hertz (kept: a system writes the same few rates thousands of times)."""
     if unit in FREQUENCY_UNITS:
         return value * FREQUENCY_UNITS[unit]
     if value == 0:

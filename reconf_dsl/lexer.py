@@ -13,6 +13,7 @@ bounded here: a `(` deeper than `MAX_NESTING` raises `TooDeep`.
 """
 from __future__ import annotations
 
+import os
 import re
 from typing import Any, Optional
 
@@ -20,6 +21,8 @@ from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedToken
 from lark.lexer import PatternStr
 from lark.parsers.lalr_analysis import Shift
+
+from .span import Span
 
 # Every repetition of a group is possessive (`*+`) and the block comment repeats one character
 # class: a repeated group that may backtrack costs the regular expression engine memory for
@@ -220,3 +223,34 @@ class Driver:
         if "NAME" in accepts or "ROS_TYPE" not in accepts:
             return "NAME"
         return "ROS_TYPE"
+
+
+PURE_ENV = "RECONF_PURE_PARSER"   # set (to anything but "" or 0): the Python driver, even where the compiled one is built
+
+
+def compiled_driver_available() -> bool:
+    """Whether the compiled driver (`_fastparse`, built by `make` from `_fastparse.pyx`) imports here."""
+    try:
+        from . import _fastparse  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def make_driver(lark: Lark, target: Any, rules: tuple[str, ...], meaningful: frozenset[str]) -> Any:
+    """The compiled driver where it is built and not turned off by RECONF_PURE_PARSER, else the
+    Python one (`Driver`, which reaches `target`'s methods through Lark's callbacks). Either
+    gives the same documents, comments and errors."""
+    if os.environ.get(PURE_ENV, "") in ("", "0"):
+        try:
+            from ._fastparse import FastDriver
+        except ImportError:
+            pass
+        else:
+            return FastDriver(lark, target, rules, meaningful, NAMED_WORDS, MAX_NESTING, _comment, TooDeep, Span)
+    return Driver(lark)
+
+
+def driver_kind(driver: Any) -> str:
+    """"compiled" or "python": which driver parses (for timing lines and benchmarks)."""
+    return "python" if isinstance(driver, Driver) else "compiled"

@@ -12,7 +12,7 @@ import os
 import stat
 import sys
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Callable, Optional
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, Related, error
@@ -217,9 +217,16 @@ def _outside(v: _Visit, real: str, at: Span) -> Diagnostic:
                         f"`reconf --allow-includes-outside` (or {ALLOW_OUTSIDE_ENV}=1) allows others",))
 
 
-def load_documents(paths: list[str], sources: Sources, *, allow_outside: Optional[bool] = None) -> list[ir.Document]:
+Reader = Callable[[str, Sources, Optional[Span], Budget], str]
+"""How a file's text is had: `read_source`, or an editor's text of the files it has open."""
+ParseFn = Callable[[str, str], ir.Document]
+
+
+def load_documents(paths: list[str], sources: Sources, *, allow_outside: Optional[bool] = None,
+                   reader: Reader = read_source, parse: ParseFn = parse_text) -> list[ir.Document]:
     """Parse the given files and everything they include, each file once, in the order a
-    depth-first walk meets them."""
+    depth-first walk meets them. `reader` reads a file as `read_source` does (an editor gives
+    the text it has), `parse` parses it as `parse_text` does (an editor keeps what it parsed)."""
     allow = includes_outside_allowed() if allow_outside is None else allow_outside
     docs: list[ir.Document] = []
     seen: set[str] = set()
@@ -250,12 +257,12 @@ def load_documents(paths: list[str], sources: Sources, *, allow_outside: Optiona
         seen.add(real)
         shown = display_path(v.path)
         try:
-            text = read_source(v.path, sources, at, budget)
+            text = reader(v.path, sources, at, budget)
             if not text.strip() and at is None:
                 raise DiagnosticError([error("RC006", f"{shown} is empty: nothing to check",
                                              Span(shown, 1, 1, 1, 1),
                                              notes=("an architecture starts with `system NAME`",))])
-            doc = parse_text(text, shown)
+            doc = parse(text, shown)
         except DiagnosticError as e:
             errors.extend(e.diagnostics)
             continue
@@ -270,14 +277,15 @@ def load_documents(paths: list[str], sources: Sources, *, allow_outside: Optiona
     return docs
 
 
-def load(paths: list[str], sources: Optional[Sources] = None, *, allow_outside: Optional[bool] = None) -> ir.System:
+def load(paths: list[str], sources: Optional[Sources] = None, *, allow_outside: Optional[bool] = None,
+         parse: ParseFn = parse_text) -> ir.System:
     """Read, parse, merge and resolve. Raises DiagnosticError with every error found.
 
     `allow_outside` lets includes leave the directory tree of the file named (default:
-    `includes_outside_allowed()`)."""
+    `includes_outside_allowed()`); `parse` parses one file (a warm analyzer's keeps what it read)."""
     sources = sources if sources is not None else Sources()
     with gc_paused():
-        return resolve(load_documents(paths, sources, allow_outside=allow_outside))
+        return resolve(load_documents(paths, sources, allow_outside=allow_outside, parse=parse))
 
 
 def load_text(text: str, file: str = "<input>", sources: Optional[Sources] = None) -> ir.System:

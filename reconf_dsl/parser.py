@@ -12,12 +12,13 @@ from typing import Any, Optional
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.lexer import PatternStr
 
 from . import ir
 from .diagnostics import Diagnostic, DiagnosticError, DiagnosticSink, Related, error, shorten
 from .gcpause import gc_paused
-from .lexer import MAX_NESTING, Comment, Driver, TooDeep
-from .span import NO_SPAN, Span
+from .lexer import MAX_NESTING, NAMED_WORDS, Comment, TooDeep, make_driver
+from .span import NO_SPAN, Span, make_span
 
 TERMINAL_NAMES = {
     "NAME": "a name", "ROS_NAME": "a ROS name like /ns/topic", "ROS_TYPE": "a message type like std_msgs/msg/String",
@@ -74,12 +75,12 @@ class _ToIR:
 
     def span_of(self, meta: Optional[tuple[int, int, int, int]]) -> Span:
         if meta is None:
-            return Span(self.file, 1, 1, 1, 1)
-        return Span(self.file, *meta)
+            return make_span(self.file, 1, 1, 1, 1)
+        return make_span(self.file, meta[0], meta[1], meta[2], meta[3])
 
     def tok(self, t: Token) -> Span:
-        return Span(self.file, t.line or 1, t.column or 1, t.end_line or t.line or 1,
-                    t.end_column or t.column or 1)
+        return make_span(self.file, t.line or 1, t.column or 1, t.end_line or t.line or 1,
+                         t.end_column or t.column or 1)
 
     def start(self, meta: Any, items: list[Any]) -> list[Any]:
         return items
@@ -269,8 +270,10 @@ NUMBER_RANGE = (f"a number has at most {MAX_NUMBER_CHARS} characters and an expo
                 f"-{MAX_EXPONENT} and {MAX_EXPONENT}")
 
 
+@lru_cache(maxsize=4096)
 def number(text: str) -> Optional[Fraction]:
-    """The value of a NUMBER token, or None when it is out of range or malformed."""
+    """The value of a NUMBER token, or None when it is out of range or malformed (kept for the
+    next time: a file writes the same few rates thousands of times, and a Fraction is immutable)."""
     if len(text) > MAX_NUMBER_CHARS:
         return None
     _, e, exponent = text.lower().partition("e")
@@ -371,8 +374,30 @@ class Parser:
         grammar = resources.files(__package__).joinpath("grammar.lark").read_text(encoding="utf-8")
         self._ir = _ToIR()
         lark = Lark(grammar, parser="lalr", lexer="basic", keep_all_tokens=True, transformer=_Callbacks(self._ir))
-        self._driver = Driver(lark)
+        self._driver = make_driver(lark, self._ir, _Callbacks.RULES, MEANINGFUL)
         self._comments: list[Comment] = self._driver.comments
+        spelled: dict[str, list[str]] = {}
+        for word, terminal in {**NAMED_WORDS, **{t.pattern.value: t.name for t in lark.terminals
+                                                 if isinstance(t.pattern, PatternStr)}}.items():
+            if word[:1].isalpha():
+                spelled.setdefault(terminal, []).append(word)
+        self.keywords = {t: tuple(sorted(w)) for t, w in spelled.items()}
+        """Each keyword terminal's spellings (`MODE_KIND`: degraded, normal), from the grammar."""
+
+    def expected(self, text: str) -> Optional[frozenset[str]]:
+        """The terminals the grammar accepts right after `text` (which ends between two tokens),
+        or None when `text` goes wrong before its end: for completion in an editor."""
+        self._ir.file, self._ir.sink = "<completion>", DiagnosticSink()
+        self._comments.clear()
+        try:
+            with gc_paused():
+                self._driver.parse(text + "\0")
+        except UnexpectedCharacters as e:
+            if e.pos_in_stream == len(text):
+                return frozenset(e.allowed or ())
+        except (UnexpectedInput, TooDeep):
+            pass
+        return None
 
     def parse(self, text: str, file: str) -> ir.Document:
         """Parse one file. Raises DiagnosticError on any error."""

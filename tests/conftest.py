@@ -10,6 +10,10 @@ if ROOT not in sys.path:
 
 import pytest  # noqa: E402
 
+# Every command the tests run is cold, whatever warm analyzer (`reconf daemon`, `reconf lsp`) the
+# machine runs; tests/editor/test_warm.py starts its own, on a socket of its own.
+os.environ["RECONF_NO_WARM"] = "1"
+
 pytest_plugins = ["tests.support.fixtures"]
 
 ALLOY_DIR = os.path.join(ROOT, "tests", "alloy") + os.sep

@@ -162,7 +162,7 @@ def test_the_summary_says_where_the_time_went() -> None:
     assert all(v >= 0 for v in timing.values())
     assert sum(parts.values()) <= timing["wall"] + 1e-3
     text = CliRunner().invoke(main, ["check", path_of("chatter")]).output
-    assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d, parsing \d+\.\d\d, Python engine \d+\.\d\d, "
+    assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d \(cold\), parsing \d+\.\d\d, Python engine \d+\.\d\d, "
                      r"Alloy start \d+\.\d\d, rendering \d+\.\d\d, Alloy \d+\.\d\d \(1 instance, read \d+\.\d\d s, "
                      r"evaluated \d+\.\d\d s\)", text), text
 

@@ -45,7 +45,8 @@ COMMANDS: dict[str, list[str]] = {
 JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "ftm select", "up",
         "down"}
 # commands that take no architecture: only the failures that apply to them
-OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"]}
+OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"],
+                                "lsp": ["lsp", "--stdio"], "daemon status": ["daemon", "status"]}
 
 
 def args(name: str, f: str, g: str = MIGRATED) -> list[str]:

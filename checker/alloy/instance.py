@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Collection, Iterable, Mapping, Sequence
 
 from checker.alloy.bridge import AlloyBridge
+from checker.alloy.cancel import checkpoint
 from checker.alloy.evaluate import evaluator
 from checker.model.actions import KINDS
 from checker.model.config import Configuration
@@ -87,6 +88,7 @@ def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | N
     render = read = evaluate = 0.0
     clock = time.perf_counter()
     for focus in focuses:
+        checkpoint()    # a caller inside checker.alloy.cancel.cancellable may stop here
         for lean in ((True, False) if keep and focus is not None else (False,)):
             tick = time.perf_counter()
             data = describe_instance_data(system, config, focus, index, keep if lean else None)

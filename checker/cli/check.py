@@ -20,11 +20,14 @@ from checker.cli.common import (
 )
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
 from checker.cli.recording import bag_options, judge_bag, refuse_bag_options_alone
+from checker.editor import warm
 from checker.gate.check import check_system
 from checker.reports import formats, report
 from checker.reports.progress import status
 from checker.reports.report import ReportFormat
-from reconf_dsl.loader import Sources, load
+from reconf_dsl import loader
+from reconf_dsl.loader import STDIN, Sources, load
+from reconf_dsl.parser import parse_text
 
 
 @click.command()
@@ -47,16 +50,20 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
 
     del solver     # no effect on a check (solver_option_unused)
     refuse_bag_options_alone(bag)
-    age = report.process_age()     # the interpreter's start-up and imports
+    if warm.wanted() and STDIN not in files:
+        _ask_warm(files, exclude, output_format, engine, bag, window, tolerance)
+    served = warm.start_up()       # in a warm analyzer: the client's start-up, and which analyzer
+    age = served[0] if served else report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
     if engine != "python":
         start_early()              # the analyzer starts while the files are parsed
-    system = load(expand(files, exclude) or nothing_left(files), sources)
+    system = load(expand(files, exclude) or nothing_left(files), sources, parse=warm.shared_parse() or parse_text)
     parsed = time.perf_counter() - started - age
     with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
         outcome = check_system(system, engine)
     outcome.recording = judge_bag(system, bag, window, tolerance)
     judging, details = outcome.timing_parts()
+    details["start-up"] = f"warm: {served[1]}" if served else "cold"
     parts = [("start-up", age), ("parsing", parsed)] + judging
     wall = time.perf_counter() - started
     line = outcome.line(report.timing_note(wall, parts, details))
@@ -66,7 +73,28 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     emit_report(rep, output_format, sources,
                 lambda: report.document("check", verdict, diags, system=system.name, files=list(system.files),
                                         engines=outcome.engines, timing=report.timing_json(wall, parts),
+                                        analyzer=details["start-up"],
                                         assumptions=report.evaluation_json(outcome.judged.python),
                                         **({"recording": outcome.recording.doc} if outcome.recording else {})),
                 human)
     sys.exit(EXIT_OK if outcome.safe else EXIT_UNSAFE)
+
+
+def _ask_warm(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str,
+              bag: Optional[str], window: float, tolerance: float) -> None:
+    """Run this check in a warm analyzer (`reconf lsp`, `reconf daemon`) if one runs: print what it
+    printed and exit as it did. Returns (to run cold) when none answers."""
+    argv = ["--allow-includes-outside"] if loader.settings.allow_includes_outside else []
+    argv += ["check", "--output-format", output_format.value, "--engine", engine]
+    for glob in exclude:
+        argv += ["--exclude", glob]
+    if bag is not None:
+        argv += ["--bag", bag, "--window", repr(window), "--tolerance", repr(tolerance)]
+    answer = warm.ask(argv + ["--", *files], report.process_age(), sys.stderr.isatty())
+    if answer is None:
+        return
+    sys.stdout.write(answer.stdout)
+    sys.stdout.flush()
+    sys.stderr.write(answer.stderr)
+    sys.stderr.flush()
+    sys.exit(answer.exit)

@@ -10,12 +10,14 @@ import click
 from checker.cli.alloy import alloy_cmd
 from checker.cli.bringup import down_cmd, up_cmd
 from checker.cli.check import check
+from checker.cli.daemon import daemon_group
 from checker.cli.discover import discover_cmd
 from checker.cli.drift import drift_cmd
 from checker.cli.fmt import fmt_cmd
 from checker.cli.ftm import ftm_group, transition_cmd
 from checker.cli.gate import gate_cmd
 from checker.cli.graph import graph, graph_plan
+from checker.cli.lsp import lsp_cmd
 from checker.cli.modes import modes_group
 from checker.cli.plan import plan
 from checker.cli.recover import recover_cmd
@@ -43,5 +45,6 @@ def main(allow_includes_outside: bool) -> None:
 
 plan.add_command(transition_cmd)
 for command in (check, alloy_cmd, graph, graph_plan, plan, recover_cmd, up_cmd, down_cmd, gate_cmd, ftm_group,
-                fmt_cmd, modes_group, discover_cmd, drift_cmd, verify_model_cmd):
+                fmt_cmd, modes_group, discover_cmd, drift_cmd, verify_model_cmd, lsp_cmd,
+                daemon_group):
     main.add_command(command)

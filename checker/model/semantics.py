@@ -194,6 +194,32 @@ def _holds(g: "nx.DiGraph[tuple[str, ...]]", system: System, comp: str, f: Funct
     return any(satisfies(e.guarantee, a) for e in system.environment)
 
 
+def support(system: System, config: Configuration, comp: Component, f: Functionality, a: Predicate) -> list[Link]:
+    """Why an assumption that holds does: each satisfied input of `f` whose assumption
+    satisfies `a`, with its satisfied connectors and the outputs that satisfy them, and each
+    environment guarantee that satisfies `a` (empty when `a` does not hold)."""
+    g = build_graph(system, config)
+    links: list[Link] = []
+    for pname in f.ports:
+        node = ("in", comp.name, pname)
+        if node not in g or not g.nodes[node]["sat"] or not satisfies(g.nodes[node]["port"].assumption, a):
+            continue
+        port = g.nodes[node]["port"]
+        links.append(Link("input", f"input {comp.name}.{pname} assumes {port.assumption}, which satisfies it",
+                          port.span, True))
+        for cn in g.predecessors(node):
+            conn = g.nodes[cn]["connector"]
+            if not g.nodes[cn]["sat"]:
+                continue
+            links.append(Link("connector", f"{conn.kind} {conn.name} guarantees {conn.guarantee}", conn.span, True))
+            for o in g.predecessors(cn):
+                links += [Link("output", f"output {o[1]}.{o[2]}: {fo.name} guarantees {gp}", fo.span, True)
+                          for fo, gp, _ in g.nodes[o]["guarantees"] if satisfies(gp, conn.guarantee)]
+    links += [Link("environment", f"environment {e.name} guarantees {e.guarantee}", e.span, True)
+              for e in system.environment if satisfies(e.guarantee, a)]
+    return links
+
+
 def _explain(g: "nx.DiGraph[tuple[str, ...]]", system: System, comp: Component, f: Functionality, mode: Mode,
              a: Predicate) -> list[Link]:
     links = [Link("functionality", f"{comp.name}.{f.name} ({mode.kind} mode)", f.span, False),

@@ -9,6 +9,7 @@ import os
 from typing import Any, Optional, TextIO
 
 from checker.model.semantics import AssumptionResult, Evaluation
+from checker.reports.clock import process_age  # noqa: F401 - where the commands find it
 from checker.reports.formats import CheckCase
 from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
@@ -43,12 +44,17 @@ def assumption_diagnostic(r: AssumptionResult) -> Diagnostic:
                  r.assumption.span, related=related)
 
 
+def explanation(r: AssumptionResult, indent: str = "  ") -> str:
+    """An assumption's chain, a line a link, each indented by its depth and marked ✓ or ✗."""
+    return "\n".join((indent * _DEPTH.get(ln.kind, 1)) + ("✓ " if ln.ok else "✗ ") + f"{ln.text}  ({ln.span})"
+                     for ln in r.chain)
+
+
 def assumption_cases(system: str, ev: Evaluation) -> list[CheckCase]:
     """One JUnit case per checked assumption; a failing one carries its explanation chain."""
     cases = []
     for r in ev.results:
-        details = "\n".join(("  " * _DEPTH.get(ln.kind, 1)) + ("✓ " if ln.ok else "✗ ") + f"{ln.text}  ({ln.span})"
-                            for ln in r.chain)
+        details = explanation(r)
         cases.append(CheckCase(f"{system}.{r.component}.{r.functionality}",
                                f"assumption {r.index + 1}: {r.assumption}",
                                None if r.holds else f"{r.component}.{r.functionality} assumes {r.assumption}, "
@@ -140,15 +146,3 @@ def timing_json(wall: float, parts: list[tuple[str, float]]) -> dict[str, float]
     out.update({name.lower().replace(" ", "_").replace("-", "_"): round(s, 4) for name, s in parts})
     out["other"] = round(max(0.0, wall - sum(s for _, s in parts)), 4)
     return out
-
-
-def process_age() -> float:
-    """Seconds since this process started (the interpreter's start-up and imports included),
-    from /proc; 0 where that cannot be read."""
-    try:
-        with open("/proc/self/stat", encoding="ascii") as f:
-            started = int(f.read().rsplit(")", 1)[1].split()[19]) / os.sysconf("SC_CLK_TCK")
-        with open("/proc/uptime", encoding="ascii") as f:
-            return max(0.0, float(f.read().split()[0]) - started)
-    except (OSError, ValueError, IndexError):
-        return 0.0
