@@ -23,6 +23,7 @@ from checker.cli.recording import bag_options, judge_bag, refuse_bag_options_alo
 from checker.editor import warm
 from checker.gate.check import check_system
 from checker.reports import formats, report
+from checker.reports.clock import process_age
 from checker.reports.progress import status
 from checker.reports.report import ReportFormat
 from reconf_dsl import loader
@@ -53,7 +54,7 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     if warm.wanted() and STDIN not in files:
         _ask_warm(files, exclude, output_format, engine, bag, window, tolerance)
     served = warm.start_up()       # in a warm analyzer: the client's start-up, and which analyzer
-    age = served[0] if served else report.process_age()     # the interpreter's start-up and imports
+    age = served[0] if served else process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
     if engine != "python":
         start_early()              # the analyzer starts while the files are parsed
@@ -90,7 +91,7 @@ def _ask_warm(files: tuple[str, ...], exclude: tuple[str, ...], output_format: R
         argv += ["--exclude", glob]
     if bag is not None:
         argv += ["--bag", bag, "--window", repr(window), "--tolerance", repr(tolerance)]
-    answer = warm.ask(argv + ["--", *files], report.process_age(), sys.stderr.isatty())
+    answer = warm.ask(argv + ["--", *files], process_age(), sys.stderr.isatty())
     if answer is None:
         return
     sys.stdout.write(answer.stdout)

@@ -9,7 +9,6 @@ import os
 from typing import Any, Optional, TextIO
 
 from checker.model.semantics import AssumptionResult, Evaluation
-from checker.reports.clock import process_age  # noqa: F401 - where the commands find it
 from checker.reports.formats import CheckCase
 from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
