@@ -9,9 +9,11 @@
 - docs/architecture.md is the map of the tree: it names every module, package, Alloy module and
   template, and every test file, each by its path from the root; every path it names exists;
   and its layers table lists the layers of the first import contract in their order.
+- Every public function and class of the Component API has a docstring with its contract.
 """
 from __future__ import annotations
 
+import ast
 import re
 import tomllib
 from functools import cache
@@ -270,3 +272,23 @@ def test_the_map_draws_the_layers_in_the_contract_s_order() -> None:
     section = read(ARCHITECTURE).split("\n## The layers", 1)[1].split("\n## ", 1)[0]
     rows = re.findall(r"^\| *`([\w/]+/)`", section, re.M)
     assert rows == layers, f"the layers table of docs/architecture.md: {rows}; the contract: {layers}"
+
+
+# --- 5. the Component API states its contracts ----------------------------------------------------
+
+COMPONENT_API = ["reconf_ros/nodes/api.py", "reconf_ros/nodes/component.py"]
+
+
+def test_every_public_function_of_the_component_api_has_its_contract() -> None:
+    """What a node's author calls or overrides says what it does, when it may be called, what it
+    guarantees and what it raises; a class's docstring holds its constructor's."""
+    bare = []
+    for rel in COMPONENT_API:
+        tree = ast.parse(read(ROOT / rel))
+        for node in tree.body:
+            members = node.body if isinstance(node, ast.ClassDef) else []
+            for f in [node, *members]:
+                public = isinstance(f, ast.ClassDef) or isinstance(f, ast.FunctionDef) and not f.name.startswith("_")
+                if public and not ast.get_docstring(f):  # type: ignore[arg-type]
+                    bare.append(f"{rel}:{f.lineno}: {getattr(f, 'name', '?')}")
+    assert not bare, f"public functions of the Component API without a docstring: {bare}"
