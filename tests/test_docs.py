@@ -3,7 +3,7 @@
 - No file cites a design document outside the repository: the design is docs/design.md.
 - Every markdown link, and every `docs/….md#anchor` named in code, templates, Alloy modules,
   examples or docs, resolves inside the repository: the file exists and, for a markdown file,
-  the heading its anchor names (GitHub's anchors).
+  the heading its anchor names (GitHub's anchors); every file and module the docs name exists.
 - Every paper cited ("paper 001 §4.3", "paper 000 Table I") is listed in docs/references.md, and
   so is every distribution `pyproject.toml` installs.
 - docs/architecture.md is the map of the tree: it names every module, package, Alloy module and
@@ -169,6 +169,51 @@ def test_the_anchors_are_github_s() -> None:
     assert slug("Running an FTM on ROS 2 (`reconf_ros.nodes.ftm`)") == "running-an-ftm-on-ros-2-reconf_rosnodesftm"
     assert "tests" in anchors(ARCHITECTURE) and "the-layers" in anchors(ARCHITECTURE)
 
+
+# A file or module of the tree named in the docs' prose: `checker/alloy/bridge.py`, `tests/ros/`,
+# `reconf_ros.executor.status.find_node`. A pattern (`tests/ros/test_live_*`, `checker/cli/<name>.py`)
+# names no one file; fenced blocks hold commands and their output, not references.
+TREE_PATH = re.compile(r"(?<![\w./-])((?:reconf_dsl|checker|codegen|reconf_ros|alloy_model|bench|tests|docs|examples)"
+                       r"/[\w./-]*[\w/])(?![\w*<])")
+DOTTED = re.compile(r"(?<![\w./-])((?:reconf_dsl|checker|codegen|reconf_ros|bench|tests)(?:\.[A-Za-z_]\w*)+)")
+
+
+@cache
+def top_level_names(module: Path) -> frozenset[str]:
+    out = set()
+    for node in ast.walk(ast.parse(read(module))):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            out.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            out |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            out |= {t.id for t in targets if isinstance(t, ast.Name)}
+    return frozenset(out)
+
+
+def dotted_exists(name: str) -> bool:
+    """`a.b.c.f`: the longest prefix that is a module of the tree, then a name it defines."""
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        base = ROOT.joinpath(*parts[:i])
+        module = base.with_suffix(".py") if base.with_suffix(".py").is_file() else base / "__init__.py"
+        if module.is_file():
+            return i == len(parts) or parts[i] in top_level_names(module)
+    return False
+
+
+def test_every_file_and_module_the_docs_name_exists() -> None:
+    bad = []
+    for path in (p for p in text_files() if p.suffix == ".md"):
+        text = without_code_blocks(read(path))
+        for m in TREE_PATH.finditer(text):
+            if not (ROOT / m.group(1)).exists():
+                bad.append(f"{_rel(path)}:{line_of(text, m.start())}: {m.group(1)}")
+        for m in DOTTED.finditer(text):
+            if not dotted_exists(m.group(1)):
+                bad.append(f"{_rel(path)}:{line_of(text, m.start())}: {m.group(1)}")
+    assert not bad, "the docs name what the tree does not have:\n" + "\n".join(bad)
 
 # --- 3. papers and projects are in docs/references.md -------------------------------------------
 
