@@ -245,7 +245,7 @@ def test_the_committed_recordings_are_the_kit_s(tmp_path: Path) -> None:
 def test_the_recorder_refuses_before_it_starts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """An existing OUT, or a parent that is not a directory: exit 2 with a message, nothing written
     (tests/ros/test_live_record.py runs the recorder's live failures)."""
-    from reconf_ros import record
+    from reconf_ros.tools import record
     (tmp_path / "rec").mkdir()
     assert record.main([str(tmp_path / "rec"), "--topic", "/chatter", "--duration", "1"]) == 2
     assert capsys.readouterr().err == f"{tmp_path / 'rec'} exists: a recording is written to a new directory\n"
