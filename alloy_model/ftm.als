@@ -1,6 +1,6 @@
 /*
- * reconf FTM rules (DESIGN.md §6, paper 000 Table I): what each fault-tolerance mechanism
- * tolerates, what it needs of the application, and what resources it takes; when a
+ * reconf FTM rules (docs/ftm.md#the-library, paper 000 Table I): what each fault-tolerance
+ * mechanism tolerates, what it needs of the application, and what resources it takes; when a
  * composition is well formed and when it is valid for a component's (F, A, R).
  *
  * A composition is a set of mechanisms: its nesting order is fixed by layer (SEC outside a

@@ -1,7 +1,8 @@
 /*
- * reconf meta-model: the semantic model of event-driven systems (DESIGN.md §3), the six
- * reconfiguration actions with their pre/post-conditions (paper 001 §4.3), and the
- * assertions that each action takes a valid configuration to a valid one.
+ * reconf meta-model: the semantic model of event-driven systems
+ * (docs/design.md#the-semantic-model), the six reconfiguration actions with their
+ * pre/post-conditions (paper 001 §4.3), and the assertions that each action takes a valid
+ * configuration to a valid one.
  *
  * Generated from codegen/templates/alloy/ by `python -m codegen.alloy --regenerate`;
  * edit the templates, not this file.

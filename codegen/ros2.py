@@ -1,4 +1,4 @@
-"""ROS 2 plan scripts: one self-contained Python file per plan (DESIGN.md §8).
+"""ROS 2 plan scripts: one self-contained Python file per plan (docs/executor.md).
 
 The caller decides everything and hands over a plan document, a JSON-able dict:
 
@@ -16,8 +16,8 @@ the text of the plan executor, the modules of `reconf_ros/executor/` joined into
 (`executor_source`; read as package data: the executor imports only the standard library until it
 applies a plan, so the script is self-contained).
 The script replays the plan offline (`--dry-run`, no ROS needed) with the executor's copy of
-the satisfaction rules of DESIGN.md §3 (held to the checker's by tests), or drives the running
-system through lifecycle services, the parameter-based control interface of
+the satisfaction rules of docs/design.md#the-semantic-model (held to the checker's by tests), or
+drives the running system through lifecycle services, the parameter-based control interface of
 docs/control-interface.md and the nodes' statuses (docs/executor.md).
 
 `model_data` is a plain data conversion of the IR; rates become exact fractions in hertz,

@@ -1,5 +1,5 @@
 """`reconf recover REPORT`: plan from the configuration a failed run observed (its report) on to
-the plan's target, or back to its start (docs/executor.md#recovery)."""
+the plan's target, or back to its start (docs/executor.md#failure-and-recovery)."""
 from __future__ import annotations
 
 import json

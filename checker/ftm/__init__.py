@@ -1,4 +1,4 @@
-"""Fault-tolerance mechanisms (paper 000; DESIGN.md §6) on the semantic model of paper 001.
+"""Fault-tolerance mechanisms (paper 000; docs/ftm.md) on the semantic model of paper 001.
 
 The encoding, in one place:
 

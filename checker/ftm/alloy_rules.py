@@ -2,7 +2,8 @@
 FTM, one per candidate composition) that `open`s alloy_model/ftm.als, and asks the Analyzer
 which compositions are valid for which component. Python's `select.judge` must agree.
 
-Modules are passed in memory (DESIGN.md §5): {"ftm.als": the shipped rules, "ftm_instance.als": this}.
+Modules are passed in memory (docs/soundness.md#the-alloy-bridge):
+{"ftm.als": the shipped rules, "ftm_instance.als": this}.
 """
 from __future__ import annotations
 

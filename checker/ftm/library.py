@@ -1,5 +1,5 @@
 """The FTM library: Table I (what each mechanism tolerates, needs and costs) and Table II
-(what its Before, Proceed and After do, per replica role), as data (DESIGN.md §6).
+(what its Before, Proceed and After do, per replica role), as data (docs/ftm.md#the-library).
 
 A mechanism belongs to one *layer*: `sec` (outermost), `dup` (the duplex patterns PBR, LFR,
 A&D; two replicas) or `tr` (innermost). A composition is written outermost first, one
@@ -7,7 +7,7 @@ mechanism per layer at most, in that order: `SEC(PBR(TR))`. Since the order is f
 composition is determined by its set of mechanisms.
 
 Where Table I is silent or garbled (A&D's duplex, what SEC tolerates and needs, `omission`), the
-readings taken are in docs/ftm.md#the-library-designmd-6-tables-i-and-ii.
+readings taken are in docs/ftm.md#the-library.
 """
 from __future__ import annotations
 

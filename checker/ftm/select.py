@@ -1,5 +1,5 @@
-"""Selection (DESIGN.md §6): from a component's (F, A, R), every FTM and composition that is
-valid, ranked by resource cost, and for each other one the assumptions that rule it out.
+"""Selection (docs/ftm.md#selection): from a component's (F, A, R), every FTM and composition that
+is valid, ranked by resource cost, and for each other one the assumptions that rule it out.
 
 (F, A, R) of a component: F its `faults`; A its `application` characteristics (a
 characteristic not declared is not assumed: an application is deterministic, or has state

@@ -6,7 +6,7 @@ Read from `--policy FILE`, else from the nearest `reconf.toml` or `pyproject.tom
 In `reconf.toml` the keys may stand at the top level or under `[tool.reconf]`.
 
     [tool.reconf]
-    max-disruption = 4                     # Σ criticality × steps degraded (DESIGN.md §7)
+    max-disruption = 4                     # Σ criticality × steps degraded (docs/design.md#disruption)
     never-degrade = ["listener.listen", "control"]   # COMPONENT.FUNCTIONALITY or FUNCTIONALITY
     keep-ftm = true                        # or a list of component names and FTM names ("PBR")
     strategy = "default"                   # planning strategy: default, paper, exhaustive
@@ -16,7 +16,7 @@ Every value is checked for its type where it is read (RC505, at the value in the
 every name against the architectures once they are loaded (`check_names`, RC508, with the
 closest name that exists): a misspelt name would otherwise protect nothing.
 
-FTM coverage (from the FTM table of DESIGN.md §6): PBR and LFR cover crash faults, TR covers
+FTM coverage (the FTM table of docs/ftm.md#the-library): PBR and LFR cover crash faults, TR covers
 transient faults, AD covers crash and transient faults, SEC covers intrusions; a nested FTM
 (`SEC(PBR(TR))`) covers the union of what its parts cover. A component covers a fault when it
 declares it (`faults crash`) and its FTM covers it. An FTM is weakened when a fault covered in

@@ -1,8 +1,8 @@
 """The six reconfiguration actions of paper 001 §4.3 and their preconditions.
 
 Each action takes a valid configuration to a valid one when its preconditions hold
-(DESIGN.md §3). `preconditions` returns the failing ones in words, `apply` performs an
-action or raises `ActionRefused`.
+(docs/design.md#the-six-actions). `preconditions` returns the failing ones in words, `apply`
+performs an action or raises `ActionRefused`.
 
 Each action is defined here once: its class (fields, name, symbol), its precondition, its
 effect, and its entry in `KINDS` (`checker.model.action_kinds.ActionKind`), which also says how it
@@ -20,9 +20,9 @@ Two points where the paper's model is narrower than ours, and what is done about
   mode assumes nothing (rule ii); otherwise a functionality reading its own output could
   never be degraded.
 
-Extension (DESIGN.md §3): attaching a second publisher to a `single` topic or to a service
-is refused. Upgrading is refused when it would break a connector, which can only happen
-when rule (iii) on modes is violated.
+Extension (docs/design.md#where-reconf-departs-from-paper-001): attaching a second publisher to
+a `single` topic or to a service is refused. Upgrading is refused when it would break a
+connector, which can only happen when rule (iii) on modes is violated.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The safety engine: satisfaction exactly as DESIGN.md §3 states it, on a networkx graph.
+"""The safety engine: satisfaction exactly as docs/design.md#the-semantic-model states it, on a networkx graph.
 
 Graph nodes: ("out", comp, port), ("conn", name), ("in", comp, port), ("env", name).
 Edges run the way data flows: output → connector → input. Functionalities read the graph:

@@ -1,4 +1,4 @@
-"""Planning safe reconfigurations as sequences of the six actions (DESIGN.md §7).
+"""Planning safe reconfigurations as sequences of the six actions (docs/design.md#planning).
 
 Strategies: `paper` (Algorithm 1 of paper 001), `default` (make before break, least
 disruption found without search), `exhaustive` (decides whether a plan exists; A* for the

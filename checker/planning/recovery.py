@@ -3,7 +3,7 @@
 The observed configuration may be invalid (a node died): the plan then starts by degrading,
 as `settle` finds them, the functionalities whose assumptions fail; a degraded mode assumes
 nothing, so those steps only take away what the running system no longer has. From there
-it is an ordinary plan, verified step by step (docs/executor.md#recovery).
+it is an ordinary plan, verified step by step (docs/executor.md#failure-and-recovery).
 """
 from __future__ import annotations
 

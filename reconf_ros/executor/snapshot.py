@@ -179,7 +179,7 @@ def _read(rt: Any, progress: Progress, model_names: ModelNames) -> Snapshot:
 def _read_reconf(rt: Runtime, snap: Snapshot, model_names: ModelNames) -> None:
     """Lifecycle states, models, then the reconf nodes' modes and attachments, each all at once.
     A node's lifecycle state is the one its own status last said, when that status is fresh (it
-    publishes one on every change and each second: docs/control-interface.md#status), and is
+    publishes one on every change and each second: docs/control-interface.md#status-on-diagnostics), and is
     asked by get_state otherwise: at 100 nodes a round of get_state calls took 1.5-3 s. A node
     that does not answer is marked so."""
     now = time.monotonic()

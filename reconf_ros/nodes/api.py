@@ -23,7 +23,9 @@ class DeclarationError(ValueError):
 
 
 def ros_type_name(msg_type: MsgType) -> str:
-    """`std_msgs/msg/String` for the class `std_msgs.msg.String` or for the string itself."""
+    """`std_msgs/msg/String` for the class `std_msgs.msg.String` or for the string itself.
+    DeclarationError for a string not of the form `pkg/msg/Type` (or `pkg/srv/Type`), or a class
+    that is not a ROS 2 message or service class."""
     if isinstance(msg_type, str):
         if not re.fullmatch(r"[A-Za-z_][\w]*/(msg|srv)/[A-Za-z_]\w*", msg_type):
             raise DeclarationError(f"{msg_type!r} is not a ROS 2 type name like std_msgs/msg/String")
@@ -46,13 +48,16 @@ def _fraction(x: Union[int, float, Fraction, str]) -> Fraction:
 
 @dataclass(frozen=True)
 class Rate:
-    """A rate as written (`10 Hz`, `100 ms`); `hz` is exact."""
+    """A rate as written (`10 Hz`, `100 ms`): `value` in `unit` (Hz, kHz, s, ms or us); `hz` is
+    exact. Made by `to_rate`, which refuses a rate that is not positive."""
 
     value: Fraction
     unit: str = "Hz"
 
     @property
     def hz(self) -> Fraction:
+        """The rate in Hz, exactly: a frequency scaled (2 kHz is 2000), a period inverted (100 ms
+        is 10)."""
         if self.unit in ("Hz", "kHz"):
             return self.value * (1000 if self.unit == "kHz" else 1)
         return 1 / (self.value * _PERIOD[self.unit])
@@ -64,7 +69,9 @@ class Rate:
 
 
 def to_rate(rate: RateLike) -> Optional[Rate]:
-    """10 → 10 Hz; "10 Hz", "100 ms", "2 kHz", "1 s" as written; None stays None."""
+    """10 → 10 Hz; "10 Hz", "100 ms", "2 kHz", "1 s" as written; None stays None. A float is taken
+    as written (0.1 is 1/10). DeclarationError for text that is not a rate, or a value that is
+    not positive."""
     if rate is None:
         return None
     if isinstance(rate, Rate):
@@ -90,10 +97,12 @@ class Predicate:
 
     @property
     def hz(self) -> Optional[Fraction]:
+        """The rate asked or promised, in Hz; None when the predicate has no rate."""
         return None if self.rate is None else self.rate.hz
 
     def satisfies(self, other: "Predicate") -> bool:
-        """DESIGN.md §3: same type, and other asks no rate or self promises at least other's."""
+        """Same type, and other asks no rate or self promises at least other's
+        (docs/design.md#the-semantic-model)."""
         if self.alias != other.alias:
             return False
         if other.hz is None:
@@ -105,7 +114,8 @@ class Predicate:
 
 
 def parse_predicate(text: str) -> Predicate:
-    """`"Image @ 15 Hz"`, `"Obstacles @ 1 s"`, `"String"`."""
+    """`"Image @ 15 Hz"`, `"Obstacles @ 1 s"`, `"String"`: a type alias as the architecture names it,
+    and an optional rate. DeclarationError for anything else."""
     alias, _, rate = text.partition("@")
     alias = alias.strip()
     if not re.fullmatch(r"[A-Za-z_]\w*", alias):
@@ -115,6 +125,10 @@ def parse_predicate(text: str) -> Predicate:
 
 @dataclass(eq=False)
 class Port:
+    """A port of a component: its name, its ROS type (`pkg/msg/Type`) and the alias the
+    architecture calls that type by. Made by `Component.create_input` or `create_output`, never
+    directly. Ports compare by identity."""
+
     component: "Component"
     name: str
     msg_type: str            # pkg/msg/Type
@@ -132,7 +146,8 @@ class Port:
 
     @property
     def message_class(self) -> Any:
-        """The rclpy message class (imported on first use)."""
+        """The rclpy message class (imported on first use); ImportError or AttributeError when
+        the message package is not installed or has no such type."""
         import importlib
         package, kind, name = self.msg_type.split("/")
         return getattr(importlib.import_module(f"{package}.{kind}"), name)
@@ -153,7 +168,11 @@ class Input(Port):
 
     def request(self, msg: Any) -> bool:
         """On a service port: send a request to the server(s) and expect its answer; False when
-        nothing was sent."""
+        nothing was sent (the component is not running, its node not active, or the port attached
+        to nothing). True when it was published on `<connector>/request` of every connector the
+        port is attached to; on an on-demand port one answer is then owed (`expect`). `msg` is a
+        message of the port's type or the value of its `data` field. DeclarationError on a port
+        not on a service."""
         if not self.service:
             raise DeclarationError(f"{self.component.name}.{self.name} is not on a service")
         node = self.component.node
@@ -163,13 +182,16 @@ class Input(Port):
         return True
 
     def expect(self) -> None:
-        """Note that one message is now owed on this on-demand input (the next arrival pays it)."""
+        """Note that one message is now owed on this on-demand input (the next arrival pays it).
+        The monitor judges an on-demand input's rate only while something is owed. Does nothing
+        before the component runs, or on an input that is not on demand."""
         node = self.component.node
         if node is not None and self.on_demand:
             node.expect(self.name)
 
     def read(self) -> Any:
-        """The last message received (None before the first), whatever the mode."""
+        """The last message received on any of the port's connectors (None before the first, or
+        before the component runs), whatever the mode or lifecycle state."""
         node = self.component.node
         return None if node is None else node.last_message(self.name)
 
@@ -183,18 +205,25 @@ class Output(Port):
 
     def on_request(self, callback: Callable[[Any], None]) -> "Output":
         """On a service port: call `callback(request)` for every request, whatever the mode;
-        replies are written with `write()` (so a mode that guarantees nothing answers nothing)."""
+        replies are written with `write()` (so a mode that guarantees nothing answers nothing).
+        Requests that arrive while the node is not active are kept and handed over, in order, on
+        activation. An exception in the callback is counted in the node's status, not raised.
+        Returns the port; DeclarationError on a port not on a service."""
         if not self.service:
             raise DeclarationError(f"{self.component.name}.{self.name} is not on a service")
         self.handlers.append(callback)
         return self
 
     def new(self, **fields: Any) -> Any:
+        """A message of the port's type with `fields` set (`out.new(data="hello")`); the message
+        package must be installed (see `message_class`)."""
         return self.message_class(**fields)
 
     def write(self, msg: Any) -> bool:
         """Publish on every connector the port is attached to; False when nothing was published
-        (not attached, not running, or the current mode guarantees nothing on this port)."""
+        (not attached, not running, or the current mode guarantees nothing on this port). `msg`
+        is a message of the port's type, or the value of its `data` field. Call it from the
+        component's callbacks (the node's executor thread)."""
         node = self.component.node
         return False if node is None else node.write(self.name, msg)
 
@@ -226,6 +255,7 @@ class Functionality:
 
     @property
     def ports(self) -> list[str]:
+        """The names of the ports it is associated with, inputs first, in declaration order."""
         return [p.name for p in self.inputs] + [p.name for p in self.outputs]
 
     def _mode(self, mode: Mode, callback: Optional[Callback], rate: RateLike,
@@ -246,7 +276,13 @@ class Functionality:
                         assumes: Optional[Sequence[Union[str, Predicate]]] = None) -> "Functionality":
         """Run `callback` at `rate` (or on every message of an input when no rate), guarantee
         each output in `outputs` at `rate` (a dict gives each its own), and assume `assumes`
-        (by default what the functionality's inputs assume)."""
+        (by default what the functionality's inputs assume).
+
+        Outputs left out guarantee nothing in this mode. Declare before `Component.start()`: the
+        model the node publishes (`reconf.model`) is made when it starts, and a running node
+        reads a mode's behaviour when it switches to it. Returns the functionality;
+        DeclarationError for an output not associated with it, a rate that is not a rate, or an
+        assumption that is not a predicate."""
         self._mode(self.normal, callback, rate, outputs)
         if assumes is not None:
             self.normal.assumes = [a if isinstance(a, Predicate) else parse_predicate(a) for a in assumes]
@@ -255,16 +291,25 @@ class Functionality:
     def set_degraded_mode(self, callback: Optional[Callback] = None, rate: RateLike = None,
                           outputs: Union[Sequence[Output], dict[Output, RateLike], None] = None) -> "Functionality":
         """The degraded mode assumes nothing; `outputs` are the ports it still serves (e.g. zero
-        velocities at 20 Hz); every other output is silent."""
+        velocities at 20 Hz); every other output is silent. Whatever a degraded guarantee
+        satisfies, the normal one must satisfy too (`reconf check` says so, RC112). Declare
+        before `Component.start()`, as `set_normal_mode`. Returns the functionality;
+        DeclarationError as for `set_normal_mode`."""
         self._mode(self.degraded, callback, rate, outputs)
         return self
 
     def mode(self, kind: str) -> Mode:
+        """The normal mode for "normal", the degraded one for anything else."""
         return self.normal if kind == "normal" else self.degraded
 
 
 class Component:
     """A component: one lifecycle node named after it (docs/control-interface.md).
+
+    Declared in Python, no ROS needed: its ports, functionalities and modes are its model, which
+    `to_arch` prints and `reconf` checks and plans with. `start()` runs it. Declare everything
+    before it starts. `Component(name, run=, host=, replaces=)`: DeclarationError for a name that
+    is not a valid node name.
 
         comp = Component("talker")
         out = comp.create_output("out", "std_msgs/msg/String")
@@ -293,7 +338,12 @@ class Component:
                      alias: Optional[str] = None, service: bool = False, durable: Optional[bool] = None,
                      on_demand: Optional[bool] = None) -> Input:
         """A subscriber (`service=True`: the client side of a service, see `Input.request`; its
-        replies are on demand unless `on_demand=False`)."""
+        replies are on demand unless `on_demand=False`).
+
+        Its assumption is `msg_type` at `rate` (None: any rate), the type named `alias` (default:
+        the type's last part). It subscribes to nothing until a plan attaches it (paper 001 §5.2:
+        the framework attaches). DeclarationError for a name that is not valid or taken, a type
+        that is not a ROS type, or a rate that is not one."""
         t = ros_type_name(msg_type)
         a = alias or t.rsplit("/", 1)[1]
         port = Input(self, self._fresh(name), t, a, assumption=Predicate(a, to_rate(rate)), service=service,
@@ -305,7 +355,9 @@ class Component:
     def create_output(self, name: str, msg_type: MsgType, *, alias: Optional[str] = None, service: bool = False,
                       durable: Optional[bool] = None) -> Output:
         """A publisher (`service=True`: the server side of a service, see `Output.on_request`).
-        Data is durable (transient-local) unless `durable=False`; a service's replies are not."""
+        Data is durable (transient-local) unless `durable=False`; a service's replies are not.
+        What it guarantees is said by the modes that name it; it publishes nothing until a plan
+        attaches it. DeclarationError as for `create_input`."""
         t = ros_type_name(msg_type)
         port = Output(self, self._fresh(name), t, alias or t.rsplit("/", 1)[1], service=service,
                       durable=not service if durable is None else durable)
@@ -314,7 +366,8 @@ class Component:
 
     def create_timer(self, rate: RateLike, callback: Callable[[], None]) -> None:
         """Run `callback` at `rate` while the node is active, whatever the modes: the application's
-        own activity, such as a client sending requests (a mode's timer is `set_normal_mode`)."""
+        own activity, such as a client sending requests (a mode's timer is `set_normal_mode`).
+        `rate` must be given; DeclarationError for one that is not a rate."""
         r = to_rate(rate)
         assert r is not None
         self.timers.append((r, callback))
@@ -326,6 +379,11 @@ class Component:
 
     def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
                              criticality: int = 1) -> Functionality:
+        """A functionality associated with `inputs` and `outputs` (ports of this component), of
+        weight `criticality` in a plan's disruption. Until its modes are set, its normal mode
+        assumes what its inputs assume and guarantees nothing, and its degraded mode assumes and
+        guarantees nothing. DeclarationError for a name it already has, or a port of another
+        component."""
         if any(f.name == name for f in self.functionalities):
             raise DeclarationError(f"{self.name} already has a functionality {name}")
         for p in list(inputs) + list(outputs):
@@ -341,7 +399,10 @@ class Component:
         return alias
 
     def start(self, args: Optional[list[str]] = None, **options: Any) -> int:
-        """Bring the component up as a lifecycle node and spin until it is shut down."""
+        """Bring the component up as a lifecycle node and spin until it is shut down: it waits
+        unconfigured for a plan's `create` (or, with `deployed=`, comes up as deployed).
+        `run_components([self], args=args, **options)`: needs rclpy, initialises it (once per
+        process) and returns 0 when the node is finalized or the process is signalled."""
         from .component import run_components
         return run_components([self], args=args, **options)
 
@@ -354,6 +415,7 @@ class Component:
         return name
 
     def port(self, name: str) -> Port:
+        """The port `name`; DeclarationError when the component has none of that name."""
         for p in self.ports:
             if p.name == name:
                 return p
@@ -361,14 +423,17 @@ class Component:
 
     @property
     def inputs(self) -> list[Input]:
+        """The input ports, in declaration order."""
         return [p for p in self.ports if isinstance(p, Input)]
 
     @property
     def outputs(self) -> list[Output]:
+        """The output ports, in declaration order."""
         return [p for p in self.ports if isinstance(p, Output)]
 
     def messages(self) -> dict[str, str]:
-        """alias -> ROS type of every port and assumption."""
+        """alias -> ROS type of every port and of the types named by `message`; DeclarationError
+        when one alias names two types."""
         out: dict[str, str] = dict(self.extra_messages)
         for p in self.ports:
             if out.setdefault(p.alias, p.msg_type) != p.msg_type:
@@ -417,7 +482,8 @@ def _quote(text: str) -> str:
 
 
 def components_to_arch(components: Sequence[Component], system: Optional[str] = None) -> str:
-    """Message declarations and component blocks of several components, as one `.arch` text."""
+    """Message declarations and component blocks of several components, as one `.arch` text;
+    DeclarationError when one alias names two types across them."""
     messages: dict[str, str] = {}
     for c in components:
         for alias, t in c.messages().items():

@@ -52,7 +52,28 @@ TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silenc
 
 
 class ComponentNode(LifecycleNode):
-    """One component, one lifecycle node named after it."""
+    """One component, one lifecycle node named after it: the control interface's node side.
+
+    `ComponentNode(component, namespace=, gap_factor=, status_period=, deployed=, lean=)` needs
+    `rclpy.init()` first (`run_components` does both). It makes the node `component.node_name`
+    (else `component.name`) in `namespace`, sets `component.node` to itself, and declares, so that
+    they can be read in every lifecycle state: `reconf.mode.<f>` (string) per functionality,
+    `reconf.port.<p>` (string array) per port, and the read-only `reconf.model` (the component as
+    `.arch` text; empty, with a warning, when the component cannot be printed). It starts
+    unconfigured, every mode `degraded`, every port attached to nothing, and publishes its status
+    on `/diagnostics` whenever it changes and every `status_period` seconds (1). `gap_factor` is
+    the monitor's k (docs/runtime.md#the-assumption-monitor); `deployed` (port -> connectors)
+    makes it attach so once active and turn each functionality normal as soon as its assumptions
+    are met on the wire; `lean` serves only the control interface's four services
+    (docs/runtime.md#cost).
+
+    The control interface (docs/control-interface.md) goes through parameters: a set of
+    `reconf.mode.*` or `reconf.port.*` is applied by `set_mode` or `set_attachments` before the
+    answer, and refused with a reason, changing nothing, when the node is not active or the
+    value is wrong. Called directly, those methods skip the lifecycle check and leave the
+    parameters' values as they were. The node holds no lock: call its methods from callbacks of
+    its own executor (the component's behaviours are such callbacks), not from another thread.
+    """
 
     def __init__(self, component: Component, *, namespace: str = "", gap_factor: float = GAP_FACTOR,
                  status_period: float = 1.0, deployed: Optional[dict[str, list[str]]] = None,
@@ -188,9 +209,20 @@ class ComponentNode(LifecycleNode):
 
     # --- modes ---
     def functionality(self, name: str) -> Functionality:
+        """The component's functionality `name`; StopIteration when it has none of that name."""
         return next(f for f in self.component.functionalities if f.name == name)
 
     def set_mode(self, name: str, mode: str) -> None:
+        """Run functionality `name` in `mode` ("normal" or "degraded", not checked here: the
+        parameter callback refuses anything else) from now on.
+
+        A mode with a callback and a rate gets a timer at that rate, replacing the previous mode's;
+        a mode without a rate runs its callback on each message of its inputs; a mode without a
+        callback runs nothing. `write` then publishes only what the new mode guarantees. Setting
+        the mode a functionality is in already changes nothing (a timed mode whose timer is not
+        running yet, as at activation, gets it). The status is marked changed. Any lifecycle
+        state; the `reconf.mode.<name>` parameter is not updated (see the class docstring).
+        StopIteration for an unknown functionality."""
         m = self.functionality(name).mode(mode)
         timed = m.rate is not None and m.callback is not None
         if self.modes[name] == mode and (name in self.mode_timers) == timed:
@@ -219,6 +251,18 @@ class ComponentNode(LifecycleNode):
 
     # --- attachments ---
     def set_attachments(self, port: str, wanted: list[str]) -> Optional[str]:
+        """Attach `port` to exactly the connectors `wanted` (absolute topic names); None when done,
+        else why not, with nothing changed.
+
+        Refused: a name that is not an absolute topic name; a newly wanted topic that the graph
+        shows carrying another type; a message type that is not installed. Otherwise the
+        connectors no longer wanted lose their publisher or subscription (and a service port its
+        request side) before the new ones get theirs: an output's publisher (a service's server
+        subscribes to `<k>/request` first), an input's subscription (a service's client publishes
+        on `<k>/request`), with the port's QoS (`DATA_QOS`, or `VOLATILE_QOS` when not durable).
+        When it returns, the endpoints exist or are gone; matching with remote ones follows. Any
+        lifecycle state; the `reconf.port.<port>` parameter is not updated (see the class
+        docstring). DeclarationError for a port the component does not have."""
         p = self.component.port(port)
         bad = [k for k in wanted if not k.startswith("/") or "." in k or " " in k]
         if bad:
@@ -335,6 +379,9 @@ class ComponentNode(LifecycleNode):
         return True
 
     def expect(self, port: str) -> None:
+        """Note that one more message is owed on input `port`, asked for now: the monitor judges an
+        on-demand input's rate only while something is owed (`Input.expect` calls this for
+        on-demand inputs only). KeyError for a port that is not an input."""
         self.monitor.expect(port, time.time())
 
     def matched(self, port: str) -> int:
@@ -349,11 +396,18 @@ class ComponentNode(LifecycleNode):
         return sum(pub.get_subscription_count() for (q, _), pub in self.req_pubs.items() if q == port)
 
     def last_message(self, port: str) -> Any:
+        """The last message input `port` received, from any of its connectors, in any mode or
+        lifecycle state; None before the first (or for a port that is not an input)."""
         return self.last.get(port)
 
     def write(self, port: str, msg: Any) -> bool:
         """Publish on every connector `port` is attached to, if its functionality's current mode
-        guarantees something there (a mode that guarantees nothing stays silent)."""
+        guarantees something there (a mode that guarantees nothing stays silent).
+
+        True when published; False, publishing nothing, when the node is not active, the port is
+        attached to nothing, or no functionality associated with it guarantees anything on it in
+        its current mode. `msg` is a message of the port's type, or a value that becomes the
+        `data` field of one (a type without `data` then raises)."""
         if not self.active or not self.attached.get(port):
             return False
         if not any(port in self.functionality(f).mode(m).guarantees for f, m in self.modes.items()
@@ -394,6 +448,10 @@ class ComponentNode(LifecycleNode):
             self._flush.trigger()
 
     def status(self) -> dict[str, str]:
+        """The node's status as it is now: the key-values of docs/control-interface.md#status-on-diagnostics
+        (lifecycle, pid, modes, ports, the monitor's verdicts and counters, matched subscribers,
+        messages published, `created` for a node a plan started, and the component's `app.*`
+        reports). Any state; publishes nothing."""
         now = time.time()
         out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
                "pid": str(os.getpid()), "errors": str(len(self.errors))}
@@ -410,6 +468,10 @@ class ComponentNode(LifecycleNode):
         return out
 
     def publish_status(self) -> None:
+        """Publish `status()` on `/diagnostics` now, as one `DiagnosticStatus` named
+        `reconf:<node fqn>`: ERROR while a functionality in its normal mode has an assumption not met
+        on the wire, WARN after a behaviour raised, OK otherwise. The node also does this by itself on
+        every change and every status period; calling it clears the pending change."""
         self._dirty = False
         values = self.status()
         st = DiagnosticStatus()
@@ -454,9 +516,16 @@ class ComponentNode(LifecycleNode):
 
     # --- lifecycle ---
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """unconfigured -> inactive: succeeds and does nothing; everything was declared at
+        construction, so nothing new appears (docs/control-interface.md)."""
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """inactive -> active: the state the `create` action promises. Every functionality degraded
+        (timed degraded modes start), every port attached to nothing and the parameters so; the
+        component's own timers (`Component.create_timer`) start, and the service requests that
+        arrived while inactive are handed to their handlers, in order. Then the node accepts
+        mode and attachment changes. Succeeds."""
         self.active = True
         self._isolate()
         self.app_timers = [self.create_timer(1.0 / float(r.hz), self._runner("timer", cb))
@@ -471,6 +540,10 @@ class ComponentNode(LifecycleNode):
         self.app_timers = []
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """active -> inactive: the component's timers stop, every functionality is degraded and
+        every port detached (the parameters so), and the node refuses mode and attachment changes
+        until it is active again; a service request that still reaches it is kept for the next
+        activation. Succeeds."""
         self._stop_timers()
         self._isolate()
         self.active = False
@@ -478,9 +551,13 @@ class ComponentNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """inactive -> unconfigured: succeeds and does nothing (the node is already isolated)."""
         return TransitionCallbackReturn.SUCCESS
 
     def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Any primary state -> finalized: the component's timers stop, an active node isolates
+        itself first, and the node is marked finished: `run_components` ends the process once
+        every node it runs is finished and the answer has had time to go out. Succeeds."""
         self._stop_timers()
         if self.active:
             self._isolate()
@@ -505,7 +582,13 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
 
     With `deployed` (component -> port -> connectors), each node configures and activates
     itself, attaches as given and turns each functionality normal once its assumptions are met
-    on the wire; otherwise nodes wait unconfigured for a plan's `create`."""
+    on the wire; otherwise nodes wait unconfigured for a plan's `create`.
+
+    Calls `rclpy.init(args=args)` (so once per process), makes one `ComponentNode` per component
+    (`lean` for all, or per component), spins them on one single-threaded executor, and replaces
+    the SIGINT and SIGTERM handlers with ones that end the loop. Returns 0 `linger` seconds after
+    every node is finalized, or at a signal, having destroyed the nodes and shut rclpy down.
+    Whatever `rclpy.init` or a node's construction raises is not caught."""
     rclpy.init(args=args)
     stop = {"now": False}
 

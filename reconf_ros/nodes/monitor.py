@@ -9,7 +9,8 @@ functionalities' assumptions are met. docs/runtime.md states the rule:
   associated input can satisfy comes from the environment and is not observed.
 
 A *violation* is a stretch of time in which a functionality is in its normal mode and one of
-its observed assumptions is not met: the safety property of DESIGN.md §3, on the wire.
+its observed assumptions is not met: the safety property of docs/design.md#the-semantic-model,
+on the wire.
 
 Times are the middleware's: an arrival is timed by its reception timestamp, so a node that is
 itself slow to run its callbacks does not mistake its own delay for a gap on the wire. A gap is
@@ -216,7 +217,7 @@ class Monitor:
         return changed
 
     def status(self, now: float) -> dict[str, str]:
-        """The monitor's part of the component's status (docs/control-interface.md#status)."""
+        """The monitor's part of the component's status (docs/control-interface.md#status-on-diagnostics)."""
         out = {"violations": str(self.violations),
                "violation_s": f"{self.violation_seconds + sum(now - t for t in self.violating.values()):.3f}"}
         for f, v in self.verdicts.items():
