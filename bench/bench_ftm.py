@@ -6,7 +6,7 @@ transition of one of them planned and verified.
 Figures (one process, after imports):
   parse    load the generated .arch text (N servers, N clients, 2 hosts)
   expand   `checker.ftm.expand.expand` (every FTM into its computation graph)
-  rules    `checker.ftm.rules.ftm_diagnostics` (the RC4xx rules)
+  rules    `checker.ftm.diagnose.ftm_diagnostics` (the RC4xx rules)
   check    `checker.model.semantics.evaluate` on the expanded architecture
   plan     `checker.ftm.transition.plan_transition` for service 0 (planning, suspension, and the
            step-by-step verification every plan passes in the Python engine)
@@ -25,9 +25,9 @@ from __future__ import annotations
 import argparse
 import time
 
+from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import expand
 from checker.ftm.library import compose
-from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.transition import parse_ftm, plan_transition
 from checker.model.config import Configuration
 from checker.model.semantics import evaluate

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from checker.reports.formats.rules import rule
+from checker.reports.formats.sarif_rules import rule
 from reconf_dsl import codes
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -65,7 +65,7 @@ def test_plan_summary_with_one_and_with_many(tmp_path: Path) -> None:
 
 
 def test_duplex_on_too_few_hosts(tmp_path: Path) -> None:
-    from checker.ftm.rules import ftm_diagnostics
+    from checker.ftm.diagnose import ftm_diagnostics
     text = open(os.path.join(ROOT, "examples", "ftm", "deterministic_lfr.arch"), encoding="utf-8").read()
     for hosts, words in (("site_a, site_a", "but 1 distinct host is given"), ("", "but no distinct hosts are given")):
         path = tmp_path / "x.arch"
@@ -101,7 +101,7 @@ def test_verify_model_summary(rows: int, said: str) -> None:
     from rich.console import Console
 
     from checker.alloy.verify_model import CommandRow, VerifyReport
-    from checker.cli.verify_model import _render_text
+    from checker.cli.verify_model_cmd import _render_text
     report = VerifyReport(3, "sat4j", [CommandRow(f"c{i}", "run", "3", "instance", "instance", True, 0.1, "sat4j",
                                                   bounds={"A": "<= 3"}) for i in range(rows)], wall=1.0)
     out = io.StringIO()

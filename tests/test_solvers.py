@@ -58,7 +58,7 @@ def test_an_unknown_solver_is_a_usage_error_naming_the_choices(args: list[str]) 
 
 
 def test_solver_names_are_not_case_sensitive() -> None:
-    from checker.cli.verify_model import verify_model_cmd
+    from checker.cli.verify_model_cmd import verify_model_cmd
     opt = next(p for p in verify_model_cmd.params if p.name == "solver")
     assert opt.type.convert("Glucose", opt, None) == "glucose"   # type: ignore[union-attr]
 

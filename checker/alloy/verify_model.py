@@ -1,5 +1,5 @@
 """Run every command of the Alloy meta-model and compare each outcome with its `expect`:
-the proof behind `reconf verify-model` (the command is `checker.cli.verify_model`)."""
+the proof behind `reconf verify-model` (the command is `checker.cli.verify_model_cmd`)."""
 from __future__ import annotations
 
 import time

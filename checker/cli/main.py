@@ -7,21 +7,21 @@ from __future__ import annotations
 
 import click
 
-from checker.cli.alloy import alloy_cmd
-from checker.cli.bringup import down_cmd, up_cmd
-from checker.cli.check import check
-from checker.cli.daemon import daemon_group
-from checker.cli.discover import discover_cmd
-from checker.cli.drift import drift_cmd
-from checker.cli.fmt import fmt_cmd
-from checker.cli.ftm import ftm_group, transition_cmd
-from checker.cli.gate import gate_cmd
-from checker.cli.graph import graph, graph_plan
-from checker.cli.lsp import lsp_cmd
-from checker.cli.modes import modes_group
-from checker.cli.plan import plan
-from checker.cli.recover import recover_cmd
-from checker.cli.verify_model import verify_model_cmd
+from checker.cli.alloy_cmd import alloy_cmd
+from checker.cli.bringup_cmd import down_cmd, up_cmd
+from checker.cli.check_cmd import check
+from checker.cli.daemon_cmd import daemon_group
+from checker.cli.discover_cmd import discover_cmd
+from checker.cli.drift_cmd import drift_cmd
+from checker.cli.fmt_cmd import fmt_cmd
+from checker.cli.ftm_cmd import ftm_group, transition_cmd
+from checker.cli.gate_cmd import gate_cmd
+from checker.cli.graph_cmd import graph, graph_plan
+from checker.cli.lsp_cmd import lsp_cmd
+from checker.cli.modes_cmd import modes_group
+from checker.cli.plan_cmd import plan
+from checker.cli.recover_cmd import recover_cmd
+from checker.cli.verify_model_cmd import verify_model_cmd
 from reconf_dsl import loader
 from reconf_dsl.loader import ALLOW_OUTSIDE_ENV
 

@@ -1,6 +1,6 @@
 """The options every `reconf plan ...` command takes, in one place.
 
-Kept apart from `checker.cli.plan` so that commands registered from other packages (the
+Kept apart from `checker.cli.plan_cmd` so that commands registered from other packages (the
 FTM transition) can share them without importing the CLI while it is being built."""
 from __future__ import annotations
 

@@ -28,9 +28,9 @@ The encoding, in one place:
 
 See docs/ftm.md.
 """
+from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import expand, expand_component, to_text
 from checker.ftm.library import LIBRARY, Composition, all_compositions, compose
-from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.select import profile, select
 from checker.ftm.transition import plan_ftm_migrate, plan_transition
 

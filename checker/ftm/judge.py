@@ -7,7 +7,7 @@ from typing import Any, Optional
 from checker.alloy import AlloyError, AlloyUnavailable
 from checker.alloy.engines import EnginesDisagree, EngineUnavailable
 from checker.ftm.alloy_rules import alloy_ftm_verdict
-from checker.ftm.rules import ftm_findings, in_order
+from checker.ftm.diagnose import ftm_findings, in_order
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span

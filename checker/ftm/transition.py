@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
+from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import ExpansionInfo, expand
 from checker.ftm.library import LAYER_ORDER
-from checker.ftm.rules import ftm_diagnostics
 from checker.model.actions import (
     Action,
     Attach,

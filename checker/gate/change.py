@@ -13,7 +13,7 @@ from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable
 from checker.alloy.engines import EngineUnavailable
-from checker.ftm.change import plan_change, planned_on
+from checker.ftm.plan_change import plan_change, planned_on
 from checker.gate.check import check_system
 from checker.gate.policy import Policy, coverage, covered, ftm_names
 from checker.model.actions import failing_assumptions

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, Optional
 
-from checker.reality.naming import unique
 from checker.reality.node_text import parse_model
+from checker.reality.unique_names import unique
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Severity
 from reconf_dsl.formatter import format_document, pred
 from reconf_dsl.ir import Component, Document, MessageType, Mode, Predicate

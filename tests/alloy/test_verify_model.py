@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from checker.alloy import AlloyBridge, metamodel_modules
 from checker.alloy.metamodel import MAIN
 from checker.alloy.verify_model import PAPER_SIGS, CommandRow, VerifyReport, verify_model
-from checker.cli.verify_model import verify_model_cmd
+from checker.cli.verify_model_cmd import verify_model_cmd
 from codegen.alloy import DEFAULT_SCOPE
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,7 +61,7 @@ def test_exit_code_1_and_text_counterexample(tmp_path: Path) -> None:
 
 def test_exit_code_2_without_alloy() -> None:
     env = {**os.environ, "RECONF_ALLOY_JAR": "/nonexistent/alloy.jar", "PYTHONPATH": str(ROOT)}
-    out = subprocess.run([sys.executable, "-m", "checker.cli.verify_model", "--scope", "3"], env=env,
+    out = subprocess.run([sys.executable, "-m", "checker.cli.verify_model_cmd", "--scope", "3"], env=env,
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert out.returncode == 2
     assert "Alloy jar not found" in out.stderr

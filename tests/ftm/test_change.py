@@ -1,4 +1,4 @@
-"""One entry point plans a change (checker.ftm.change): `plan migrate`, `gate` and `graph-plan`
+"""One entry point plans a change (checker.ftm.plan_change): `plan migrate`, `gate` and `graph-plan`
 plan a change between architectures with FTMs on their expansions, and so the same plan."""
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from checker.cli.main import main
-from checker.ftm.change import planned_on
 from checker.ftm.expand import expand
+from checker.ftm.plan_change import planned_on
 from checker.reports.plan_document import fingerprint
 from reconf_dsl.loader import load
 

@@ -5,7 +5,7 @@ import json
 
 from click.testing import CliRunner
 
-from checker.cli.ftm import ftm_group, transition_cmd
+from checker.cli.ftm_cmd import ftm_group, transition_cmd
 from reconf_dsl.loader import load_text
 from tests.support.ftm import EXAMPLES
 

@@ -8,7 +8,7 @@ from typing import Optional
 import pytest
 from click.testing import CliRunner
 
-from checker.cli.ftm import ftm_group
+from checker.cli.ftm_cmd import ftm_group
 from reconf_dsl.loader import load
 from tests.support.ftm import EXAMPLES
 

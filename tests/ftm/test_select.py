@@ -7,8 +7,8 @@ import random
 import pytest
 
 from checker.ftm.alloy_rules import alloy_ftm_verdict, alloy_profiles, ftm_rules_text
+from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.library import all_compositions, compose
-from checker.ftm.rules import ftm_diagnostics
 from checker.ftm.select import Profile, judge, profile, select
 from reconf_dsl.loader import load, load_text
 from tests.support.ftm import EXAMPLES, client_server

@@ -6,7 +6,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from checker.cli.ftm import columns, ftm_group
+from checker.cli.ftm_cmd import columns, ftm_group
 from tests.support.ftm import EXAMPLES
 
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 import os
 import re
 
-from checker.reality.naming import unique
 from checker.reality.smh import DEGRADED_VALUE, PARAM
 from checker.reality.smh.read import Model, Part, SystemMode
+from checker.reality.unique_names import unique
 from reconf_dsl.diagnostics import Diagnostic, warning
 
 __all__ = ["to_arch"]

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from typing import Callable
 
+from checker.reports.formats.findings import CheckCase, Report, failure_cases
 from checker.reports.formats.github import to_github
 from checker.reports.formats.junit import to_junit
-from checker.reports.formats.model import CheckCase, Report, failure_cases
 from checker.reports.formats.sarif import to_sarif
 
 RENDERERS: dict[str, Callable[[Report], str]] = {"sarif": to_sarif, "github": to_github, "junit": to_junit}

@@ -4,7 +4,7 @@ Escaping follows the runner's rules: in the message `%`, CR and LF are percent-e
 property values `:` and `,` are too. Severities map to error, warning and notice."""
 from __future__ import annotations
 
-from checker.reports.formats.model import Report
+from checker.reports.formats.findings import Report
 from checker.reports.formats.sarif import known, message_text
 from reconf_dsl.diagnostics import Severity
 

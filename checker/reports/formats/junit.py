@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from checker.reports.formats.model import CheckCase, Report
+from checker.reports.formats.findings import CheckCase, Report
 
 
 def to_junit(report: Report) -> str:

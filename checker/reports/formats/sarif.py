@@ -12,8 +12,8 @@ from importlib import metadata
 from typing import Any, Optional
 from urllib.parse import quote
 
-from checker.reports.formats.model import Report
-from checker.reports.formats.rules import rule
+from checker.reports.formats.findings import Report
+from checker.reports.formats.sarif_rules import rule
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.span import Span
 

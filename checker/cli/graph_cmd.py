@@ -17,7 +17,7 @@ from checker.cli.common import (
     picture_format_option,
     write_pictures,
 )
-from checker.ftm.change import plan_change
+from checker.ftm.plan_change import plan_change
 from checker.gate.revisions import path_to_load, revisions
 from checker.planning import STRATEGIES, Fallback, NoSafePlan
 from checker.reports.pictures import picture, plan_picture, step_pictures

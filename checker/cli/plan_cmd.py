@@ -19,7 +19,7 @@ from rich.markup import escape
 
 from checker.cli.common import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from checker.cli.plan_options import with_common, with_plan_options
-from checker.ftm.change import has_ftm, plan_change, planned_on
+from checker.ftm.plan_change import has_ftm, plan_change, planned_on
 from checker.planning import Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import BadRequest, degradation, unknown

@@ -9,6 +9,7 @@ from typing import Optional
 import click
 
 from checker.alloy.evaluate import start_early
+from checker.cli.bag_options import bag_options, judge_bag, refuse_bag_options_alone
 from checker.cli.common import (
     EXIT_OK,
     EXIT_UNSAFE,
@@ -19,7 +20,6 @@ from checker.cli.common import (
     solver_option_unused,
 )
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
-from checker.cli.recording import bag_options, judge_bag, refuse_bag_options_alone
 from checker.editor import warm
 from checker.gate.check import check_system
 from checker.reports import formats, report

@@ -9,7 +9,7 @@ from typing import Any, Optional
 import click
 
 from checker.cli.common import guarded
-from checker.cli.plan import run
+from checker.cli.plan_cmd import run
 from checker.cli.plan_options import with_plan_options
 from checker.model.config import Configuration
 from checker.planning.recovery import plan_recovery

@@ -16,7 +16,7 @@ import click
 
 from checker.cli.common import guarded
 from checker.cli.inputs import exclude_option, expand, nothing_left, paths_argument
-from checker.cli.plan import run
+from checker.cli.plan_cmd import run
 from checker.cli.plan_options import with_plan_options
 from checker.planning.bringup import plan_down, plan_up
 from reconf_dsl.loader import Sources, load

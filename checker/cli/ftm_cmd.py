@@ -14,7 +14,7 @@ from typing import Any, Optional
 import click
 
 from checker.cli.common import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, write_atomically
-from checker.cli.plan import default_files, run
+from checker.cli.plan_cmd import default_files, run
 from checker.cli.plan_options import with_common
 from checker.ftm.alloy_rules import alloy_profiles
 from checker.ftm.expand import expand, to_text

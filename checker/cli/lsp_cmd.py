@@ -36,7 +36,7 @@ def lsp_cmd(stdio: bool, no_alloy: bool, no_warm: bool) -> None:
     del stdio
     from importlib.metadata import version
 
-    from checker.editor.handlers import make_server  # here for start-up time: pygls loads for this command alone
+    from checker.editor.protocol import make_server  # here for start-up time: pygls loads for this command alone
     server, session = make_server(alloy=not no_alloy, version=version("reconf"))
     session.warm = not no_warm
     stdin, stdout = _protocol_streams()
