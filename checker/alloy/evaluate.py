@@ -80,20 +80,23 @@ class Evaluator:
                                  self.main) from None
 
     def judge(self, xml: str) -> Evaluated:
-        """`valid` in the configuration `xml`, and when it does not hold, which assumptions fail."""
+        """`valid` and `well_formed` in the configuration `xml`, and when it is not valid, which
+        assumptions fail (an ill-formed configuration with every assumption holding is not
+        valid either, with none failing)."""
         clock = time.perf_counter()
         instance = self.read(xml)
         read = time.perf_counter() - clock
         clock = time.perf_counter()
-        valid = instance.holds("valid")
+        valid = instance.holds("valid") and instance.holds("well_formed")
         failing = () if valid else tuple((f, d) for f, d in instance.value("unsatisfied"))
         return Evaluated(valid, failing, read, time.perf_counter() - clock)
 
 
 _MODULES: dict[str, tuple[Callable[[], str], tuple[str, ...]]] = {
-    "evaluate.als": (render_evaluation_module, ("valid", "unsatisfied")),
+    "evaluate.als": (render_evaluation_module, ("valid", "well_formed", "unsatisfied")),
     "plan_evaluate.als": (render_plan_evaluation_module,
-                          ("plan_safe", "valid_states", "ok_steps", "lossless_states", "stable_states")),
+                          ("plan_safe", "valid_states", "formed_states", "ok_steps", "lossless_states",
+                           "stable_states")),
 }
 _evaluators: dict[tuple[int, str], Evaluator] = {}
 _lock = threading.Lock()

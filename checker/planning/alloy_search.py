@@ -101,7 +101,6 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
         return gen.union([f"{atom['connector', k]} -> {atom['port', c, p]}" for k, c, p in sorted(rs)],
                          "(Connector -> Port - Connector -> Port)")
 
-    single = gen.union([atom["connector", k.name] for k in system.connectors if k.single_publisher], "none")
     all_funcs = [(c.name, f.name) for c in _all_components(system) for f in c.functionalities]
     crit = gen.union([f"{atom['functionality', c, f]} -> {cat.funcs[c, f].criticality}" for c, f in all_funcs],
                      "(Functionality -> Int - Functionality -> Int)")
@@ -112,7 +111,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     # with overflow forbidden the analyzer discards it; decoded plans are re-costed.
     bitwidth = _bitwidth((bound or 0) + start_weight + total) if bound is not None else 4
     module = PlannerModule(
-        module_name, system.name, arch, _two_state_actions(), single, crit, bound, start_weight, bitwidth,
+        module_name, system.name, arch, _two_state_actions(), crit, bound, start_weight, bitwidth,
         states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
         start=StateTerms(comps(start.components), roles(start.roles),
                          funcs(_alloy_degraded(system, start.components, start.degraded))),

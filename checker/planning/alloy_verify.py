@@ -297,7 +297,7 @@ def _too_big(target: Plan) -> str:
 
 def _verdict(target: Plan) -> "AlloyPlanVerdict":
     return alloy_plan_verdict(target.system, target.states, serving=target.serving, stable=target.stable,
-                              protocols=target.protocols, handover=target.handover)
+                              protocols=target.protocols, handover=target.handover, actions=target.steps)
 
 
 def _judge(plan: Plan, target: Plan, offset: int = 0) -> tuple[str, float, str]:
@@ -310,6 +310,9 @@ def _judge(plan: Plan, target: Plan, offset: int = 0) -> tuple[str, float, str]:
         n = offset + i
         return "the initial configuration" if n == 0 else f"the state after step {n} ({plan.steps[n - 1].describe()})"
 
+    for i, ok in enumerate(verdict.formed):
+        if not ok:
+            return f"{after(i)} is not well formed", verdict.seconds, verdict.text
     for i, ok in enumerate(verdict.valid):
         if not ok:
             return f"{after(i)} is not valid", verdict.seconds, verdict.text
