@@ -693,11 +693,11 @@ def describe_instance_data(system: System, config: Configuration, focus: Iterabl
 def describe_plan_data(system: System, configs: Sequence[Configuration], serving: Sequence[tuple[str, str]] = (),
                        stable: Sequence[str] = (), protocols: Sequence[tuple[str, str]] = (),
                        handover: Sequence[tuple[str, str]] = (),
-                       actions: Sequence[Action] | None = None) -> InstanceData:
+                       actions: Sequence[Action | None] | None = None) -> InstanceData:
     """A plan's configurations (see `render_plan`) as an instance of the plan evaluation
     module (`render_plan_evaluation_module`): states S0, S1, ..., their attachments through
     Role atoms, and a Step atom per step with its action's arguments (the plan's `actions`,
-    one per step, when given)."""
+    one per step, when given; a step given as None is no action's)."""
     scope = _whole(system, configs)
     states = [f"S{i}" for i in range(len(scope.configs))]
     parts, atoms, fields = _architecture_data(system, scope, {s: ("state", str(i)) for i, s in enumerate(states)})
@@ -720,7 +720,7 @@ def describe_plan_data(system: System, configs: Sequence[Configuration], serving
 
 def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Parts,
                     atoms: dict[str, tuple[str, ...]], fields: dict[str, tuple[tuple[str, ...], ...]],
-                    actions: Sequence[Action] | None = None) -> None:
+                    actions: Sequence[Action | None] | None = None) -> None:
     """A Step atom per step: the states around it, and the action it is with its arguments
     (one field per kind: its `params`) and its `<action>_steps`: the plan's own `actions`
     when given, else the one action the difference between the two states is, if any. A
@@ -745,8 +745,10 @@ def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Par
     fields.update({name: tuple(tuples) for name, tuples in rel.items()})
 
 
-def _declared(action: Action, before: str, after: str, atoms: Mapping[Meaning, str]) -> Step | None:
-    """A plan's own step, or None when the module does not show its arguments."""
+def _declared(action: Action | None, before: str, after: str, atoms: Mapping[Meaning, str]) -> Step | None:
+    """A plan's own step, or None when there is none or the module does not show its arguments."""
+    if action is None:
+        return None
     args = kind_of(action).alloy_args(action)
     if any(m not in atoms for m in args):
         return None

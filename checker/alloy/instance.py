@@ -163,7 +163,7 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
                        serving: Iterable[tuple[str, str]] = (), stable: Iterable[str] = (),
                        protocols: Iterable[tuple[str, str]] = (),
                        handover: Iterable[tuple[str, str]] = (),
-                       actions: Sequence[Action] | None = None) -> AlloyPlanVerdict:
+                       actions: Sequence[Action | None] | None = None) -> AlloyPlanVerdict:
     """Judge a plan (its successive configurations, initial first) in Alloy, by evaluating
     the plan evaluation module's `plan_safe` in it as an instance (checker.alloy.evaluate):
     each configuration valid, each step one of the six actions with its preconditions met,

@@ -27,7 +27,7 @@ when rule (iii) on modes is violated.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import ClassVar, Iterable, Optional, TypeVar, Union, cast
+from typing import Any, ClassVar, Iterable, Optional, TypeVar, Union, cast
 
 from checker.model.action_kinds import ActionKind, Change, Kind, Meaning
 from checker.model.config import Configuration, FuncId, Role
@@ -38,7 +38,7 @@ from reconf_dsl.ir import satisfies as _satisfies
 
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
            "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",
-           "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "refusals", "unknown_name",
+           "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "refusals", "unknown_name", "step_refusals",
            "state_refusals", "kind_of", "changes", "recognise"]
 
 
@@ -441,6 +441,29 @@ def refusals(system: System, config: Configuration, action: Action) -> list[Refu
     if unknown is not None:
         raise ValueError(unknown)
     return kind_of(action).preconditions(Snapshot(cat, config), action)
+
+
+def step_refusals(system: System, before: Configuration, action: Action, after: Configuration) -> list[Refusal]:
+    """The rules (`checker.model.rules`) a step from `before` by `action` to `after` breaks:
+    its preconditions in `before`, and `<action>.effect` when `after` is not the action's
+    effect (the modes of absent components aside: neither engine reads them). Raises
+    ValueError as `refusals` does."""
+    out = refusals(system, before, action)
+    expected = _settled(effect(system, before, action))
+    got = _settled(after)
+    if got != expected:
+        diff = [f"{'has' if extra else 'lacks'} {what}" for part, (want, have) in zip(("component", "degraded", "role"),
+                                                                                     zip(expected, got))
+                for extra, items in ((True, have - want), (False, want - have)) for what in
+                (f"{part} {'.'.join(x) if isinstance(x, tuple) else x}" for x in sorted(items, key=str))]
+        out.append(_no(f"{action.kind}.effect", f"the configuration after {action.describe()} is not its effect: "
+                                                f"it {', '.join(diff[:4])}{', …' if len(diff) > 4 else ''}"))
+    return out
+
+
+def _settled(c: Configuration) -> tuple[frozenset[Any], frozenset[Any], frozenset[Any]]:
+    """What both engines read of a configuration: the modes of present components only."""
+    return c.components, frozenset(d for d in c.degraded if d[0] in c.components), c.roles
 
 
 def unknown_name(cat: _Catalogue, action: Action) -> Optional[str]:
