@@ -87,7 +87,12 @@ fact architecture {
   all c: Component | c.funcs.assoc_in in c.inputs and c.funcs.assoc_out in c.outputs
   -- a guarantee per associated output, in each mode
   all f: Functionality | f.nguar.Data = f.assoc_out and f.dguar.Data = f.assoc_out
-  -- a port's assumption and its guarantees are of its message type (or nothing)
+}
+
+-- A port's assumption and its guarantees are of its message type, or nothing (the DSL's
+-- RC121 and its port declarations). Only the typing of attachments reads it, so it is the
+-- hypothesis of KeepsTyped rather than a fact every check carries.
+pred typed_ports {
   all i: Input | i.iasm in Msg implies i.iasm.mtype = i.ptype
   all f: Functionality, o: f.assoc_out | (o.(f.nguar) + o.(f.dguar)) & Msg in mtype.(o.ptype)
 }
@@ -471,7 +476,7 @@ assert AbsentDegraded { absent_degraded[Pre] and step[Pre, Post] implies absent_
 -- present components.
 assert KeepsSingle    { single_ok[Pre] and step[Pre, Post] implies single_ok[Post] }
 assert KeepsOneServer { service_ok[Pre] and step[Pre, Post] implies service_ok[Post] }
-assert KeepsTyped     { typed_ok[Pre] and step[Pre, Post] implies typed_ok[Post] }
+assert KeepsTyped     { typed_ports and typed_ok[Pre] and step[Pre, Post] implies typed_ok[Post] }
 assert KeepsOwned     { owned_ok[Pre] and step[Pre, Post] implies owned_ok[Post] }
 assert AttachWellTyped { all k: Connector, p: Port | attach[Pre, Post, k, p] implies well_typed[Post, k, p] }
 -- The two encodings of connector satisfaction in the shared semantics agree.

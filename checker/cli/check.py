@@ -8,6 +8,7 @@ from typing import Optional
 
 import click
 
+from checker.alloy.engines import Engine
 from checker.alloy.evaluate import start_early
 from checker.cli.common import (
     EXIT_OK,
@@ -35,7 +36,7 @@ from reconf_dsl.loader import Sources, load
 @solver_option_unused
 @bag_options
 @guarded("check")
-def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str,
+def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: Engine, solver: str,
           bag: Optional[str], window: float, tolerance: float, sources: Sources) -> None:
     """Prove that every functionality's assumptions hold in PATHs (one system; includes followed;
     a directory stands for the .arch files under it).
@@ -49,11 +50,11 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     refuse_bag_options_alone(bag)
     age = report.process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
-    if engine != "python":
+    if engine.alloy:
         start_early()              # the analyzer starts while the files are parsed
     system = load(expand(files, exclude) or nothing_left(files), sources)
     parsed = time.perf_counter() - started - age
-    with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
+    with status(f"checking {system.name}{engine.says()}…"):
         outcome = check_system(system, engine)
     outcome.recording = judge_bag(system, bag, window, tolerance)
     judging, details = outcome.timing_parts()

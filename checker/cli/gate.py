@@ -11,7 +11,7 @@ from typing import Callable, Optional
 
 import click
 
-from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.engines import Engine, EnginesDisagree, EngineUnavailable
 from checker.cli.common import (
     EXIT_CHANGES,
     EXIT_OK,
@@ -103,7 +103,7 @@ def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic
 @solver_option_unused
 @guarded("gate")
 def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: Engine, solver: str,
              sources: Sources) -> None:
     """Pass when NEW is safe and a verified migration plan from OLD to NEW exists within the policy.
 
@@ -148,7 +148,7 @@ def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -
 
 
 def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str,
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: Engine,
              sources: Sources) -> None:
     with revisions() as revs:
         try:

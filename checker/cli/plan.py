@@ -17,6 +17,7 @@ from typing import Any, Callable, Optional, Sequence
 import click
 from rich.markup import escape
 
+from checker.alloy.engines import Engine
 from checker.cli.common import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
 from checker.cli.plan_options import with_common, with_plan_options
 from checker.ftm.change import has_ftm, plan_change, planned_on
@@ -130,7 +131,7 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
 
 def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
-        target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
+        target: Optional[System] = None, engine: Engine = Engine.PYTHON, max_steps: int = 12,
         detailed_exitcode: bool = False, chain: bool = False,
         apply: Optional[Callable[[dict[str, Any]], int]] = None) -> None:
     """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
@@ -147,7 +148,7 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
 
         try:
             verified = plan_verified(make, use_alloy=use_alloy, chain=chain, judge=judge,
-                                     alloy_planner=engine == "alloy", max_steps=max_steps, progress=say)
+                                     alloy_planner=engine is Engine.ALLOY, max_steps=max_steps, progress=say)
         except NoPlanFound as e:
             return no_plan(label, e.reasons, fmt, attempts=e.attempts)
         except NoSafePlan as e:

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable
-from checker.alloy.engines import EngineUnavailable
+from checker.alloy.engines import Engine, EngineUnavailable
 from checker.ftm.change import plan_change, planned_on
 from checker.gate.check import check_system
 from checker.gate.policy import Policy, coverage, covered, ftm_names
@@ -195,11 +195,11 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
     out.ok("gate.policy", f"{new.name} is safe alone (the base is not; {allowed})", new.span)
 
 
-def judge_change(old: System, new: System, policy: Policy, engine: str,
+def judge_change(old: System, new: System, policy: Policy, engine: Engine,
                  allow_unsafe_base: bool = False) -> Outcome:
     out = Outcome()
     ftm_findings(old, new, policy, out)
-    with status(f"checking {new.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
+    with status(f"checking {new.name}{engine.says()}…"):
         head = check_system(new, engine)        # the head is judged as `reconf check` judges it
     broken = [d for d in head.ftm if d.is_error]
     out.safe, out.engines = head.safe, head.engines
@@ -222,5 +222,5 @@ def judge_change(old: System, new: System, policy: Policy, engine: str,
                    f"allow-unsafe-base = true in {policy.where}" if policy.allow_unsafe_base else None)
         unsafe_base_findings(old, new, base_failing, allowed, out)
         return out
-    plan_findings(old, new, policy, engine != "python", out)
+    plan_findings(old, new, policy, engine.alloy, out)
     return out

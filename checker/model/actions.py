@@ -401,12 +401,13 @@ def state_refusals(system: System, config: Configuration) -> list[Refusal]:
             out.append(_no("state.typed", f"{who} carries {p.message}, but {conn} carries {k.guarantee.message}"))
         if p.kind == "output":
             pubs.setdefault(conn, []).append(who)
-    for conn, who in sorted(pubs.items()):
+    for conn, names in sorted(pubs.items()):
         k = cat.conns[conn]
-        if len(who) > 1 and k.kind == "service":
-            out.append(_no("state.service", f"{conn} is a service with {len(who)} servers: {', '.join(who)}"))
-        elif len(who) > 1 and k.single:
-            out.append(_no("state.single", f"{conn} takes a single publisher and has {len(who)}: {', '.join(who)}"))
+        if len(names) > 1 and k.kind == "service":
+            out.append(_no("state.service", f"{conn} is a service with {len(names)} servers: {', '.join(names)}"))
+        elif len(names) > 1 and k.single:
+            out.append(_no("state.single", f"{conn} takes a single publisher and has {len(names)}: "
+                                           f"{', '.join(names)}"))
     out += [_no("state.valid", f"{c}.{f} assumes {a}, which does not hold") for c, f, a in failing_assumptions(system, config)]
     return out
 
