@@ -58,6 +58,8 @@ BUGS = [
     ("upgrade.assumptions", "SafeUpgrade", "upgrade"),
     ("modes.rule_iii", "SafeUpgrade", "upgrade"),
     ("upgrade.present", "AbsentDegraded", "upgrade"),
+    ("attach.single", "KeepsSingle", "attach"),
+    ("attach.service", "KeepsOneServer", "attach"),
 ]
 
 
@@ -69,6 +71,8 @@ def test_a_planted_bug_is_a_counterexample(weakening: str, assertion: str, actio
     assert cex is not None and cex["action"].startswith(action + " ")
     if assertion.startswith("Safe"):    # read again over the model's finite universes
         assert cex["pre"]["unsatisfied"] == [] and cex["post"]["unsatisfied"], cex
+    elif assertion.startswith("Keeps"):  # a second publisher attached
+        assert cex["action"].startswith("attach ") and cex["pre"]["roles"] != cex["post"]["roles"], cex
     else:                               # a functionality of an absent component is normal after
         owner = {f: d["component"] for f, d in cex["static"]["functionalities"].items()}
         post = cex["post"]
@@ -84,6 +88,20 @@ def test_every_planted_bug_names_a_weakening() -> None:
 def test_attach_is_safe_whatever_it_requires() -> None:
     """Attaching only adds satisfaction: its preconditions serve well-typed connections."""
     assert prove("SafeAttach", [w for w in WEAKENINGS if w.startswith("attach.")]).result == "proved"
+
+
+@pytest.mark.parametrize("assertion, kind", [("KeepsSingle", "single"), ("KeepsOneServer", "service")])
+def test_a_single_topic_and_a_service_are_reached(assertion: str, kind: str) -> None:
+    """The one-publisher proofs are not vacuous: a valid configuration can attach the first
+    publisher of a `single` topic or the first server of a service."""
+    import z3
+
+    from checker.model import unbounded as u
+    _, v, pre, acts = u._setup(frozenset())
+    solver = z3.Solver()
+    solver.add(v.facts(frozenset()) + [pre.valid(), acts["attach"].precondition(frozenset(), z3),
+                                       z3.Not(z3.Bool("p_is_input")), getattr(v, kind)(z3.Const("k", v.Connector))])
+    assert solver.check() == z3.sat
 
 
 def test_a_solver_that_gives_up_is_unknown_not_proved() -> None:

@@ -102,7 +102,7 @@ def verify_plan(system: System, plan: PlanInput, engine: Engine = Engine.BOTH) -
         if found is not None:
             out.diagnostics.append(found)
     if engine.alloy:
-        out.engines["alloy"] = alloy_evidence(_as_plan(system, plan))
+        out.engines["alloy"] = alloy_evidence(_as_plan(system, plan), given=True)
     return out
 
 

@@ -21,6 +21,7 @@ from checker.model.config import Configuration
 from reconf_dsl.diagnostics import DiagnosticError, error
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
+from reconf_dsl.words import agree, plural
 
 __all__ = ["PlanInput", "read_plan"]
 
@@ -180,7 +181,8 @@ def _full_states(doc: _Doc, plan: dict[str, Any], root: str, system: System,
                  steps: int) -> tuple[tuple[Configuration, ...], list[str]]:
     states = doc.get(plan, root, "states", list, "the plan")
     if len(states) != steps + 1:
-        raise doc.bad(f"{root}/states", f"{steps} steps need {steps + 1} states, not {len(states)}")
+        raise doc.bad(f"{root}/states", f"{plural(steps, 'step')} {agree(steps, 'needs', 'need')} "
+                                         f"{plural(steps + 1, 'state')}, not {len(states)}")
     spans = [f"{root}/states/{i}" for i in range(len(states))]
     return tuple(_state(doc, s, p, system) for s, p in zip(states, spans)), spans
 
@@ -191,7 +193,8 @@ def _changed_states(doc: _Doc, plan: dict[str, Any], root: str, system: System,
                    f"{root}/start", system)
     changes = doc.get(plan, root, "changes", list, "the plan")
     if len(changes) != steps:
-        raise doc.bad(f"{root}/changes", f"{steps} steps need {steps} changes, not {len(changes)}")
+        raise doc.bad(f"{root}/changes", f"{plural(steps, 'step')} {agree(steps, 'needs', 'need')} "
+                                          f"{plural(steps, 'change')}, not {len(changes)}")
     states, spans = [start], [f"{root}/start"]
     for i, change in enumerate(changes):
         here = f"{root}/changes/{i}"
