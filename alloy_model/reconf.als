@@ -49,7 +49,7 @@ sig Component {
   funcs: set Functionality
 }
 abstract sig Port {
-  ptype: one MType  -- the message type it carries
+  ptype: set MType  -- the message type it carries (one: typed_ports, the only reader)
 }
 sig Input extends Port {
   iasm: one Data
@@ -93,6 +93,7 @@ fact architecture {
 -- RC121 and its port declarations). Only the typing of attachments reads it, so it is the
 -- hypothesis of KeepsTyped rather than a fact every check carries.
 pred typed_ports {
+  all p: Port | one p.ptype
   all i: Input | i.iasm in Msg implies i.iasm.mtype = i.ptype
   all f: Functionality, o: f.assoc_out | (o.(f.nguar) + o.(f.dguar)) & Msg in mtype.(o.ptype)
 }

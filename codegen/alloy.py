@@ -234,12 +234,14 @@ def _fun(name: str, type_: str, terms: Sequence[str]) -> Fun:
 
 def render_instance(system: System, config: Configuration, module_name: str = "instance",
                     focus: Iterable[str] | None = None, index: "SliceIndex | None" = None,
-                    keep: Mapping[str, Collection[tuple[str, str]]] | None = None
+                    keep: Mapping[str, Collection[tuple[str, str]]] | None = None, valid: bool = True
                     ) -> tuple[str, dict[str, Meaning]]:
     """An Alloy module for `system` in `config`, and a map from each atom name to what it
     stands for (`codegen.alloy_module.Meaning`). The module defines `valid`, `unsatisfied:
     Functionality -> Data` (evaluate it in the `Verdict` instance) and `check Valid` (a
-    counterexample means the configuration is not valid).
+    counterexample means the configuration is not valid), whose `expect` says what the
+    caller's verdict `valid` is: 0 (no counterexample) for a valid configuration, 1 for one
+    that is not.
 
     With `focus` (a set of component names), the module is the slice that judges only
     those components: `valid` holds in it exactly when every assumption of the focus's
@@ -254,7 +256,7 @@ def render_instance(system: System, config: Configuration, module_name: str = "i
     `keep` ({connector: {(component, output)}}) has a slice show only those publishers of
     a connector it reads (besides the focus's own): a connector is satisfied by some
     attached output, so a slice valid with some of them is valid with all of them."""
-    module = describe_instance(system, config, module_name, focus, index, keep)
+    module = replace(describe_instance(system, config, module_name, focus, index, keep), valid=valid)
     return render_instance_module(module), module.architecture.names
 
 

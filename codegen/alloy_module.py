@@ -66,6 +66,7 @@ class InstanceModule:
     system_name: str
     architecture: Architecture
     configuration: tuple[Fun, ...]
+    valid: bool = True          # the expectation its `check Valid` states (the caller's verdict)
 
 
 @dataclass(frozen=True)
