@@ -14,7 +14,7 @@ import threading
 import time
 from typing import Any, Callable, NamedTuple
 
-from checker.alloy.bridge import AlloyBridge
+from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.errors import AlloyError
 from codegen.alloy import render_evaluation_module, render_plan_evaluation_module
 
@@ -50,12 +50,12 @@ class Instance:
 class Evaluator:
     """An evaluation module parsed by one bridge, its expressions `exprs`, and instances of it."""
 
-    def __init__(self, bridge: AlloyBridge, main: str, text: str, exprs: tuple[str, ...]) -> None:
+    def __init__(self, bridge: Backend, main: str, text: str, exprs: tuple[str, ...]) -> None:
         from edu.mit.csail.sdg.alloy4 import A4Reporter, Err  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.parser import CompUtil  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.translator import A4SolutionReader  # type: ignore[import-not-found]
 
-        self.main, self.lock = main, bridge._lock
+        self.main, self.lock = main, bridge.lock
         self._Err, self._reader = Err, A4SolutionReader
         try:
             module = CompUtil.parseEverything_fromString(A4Reporter(), text)
@@ -102,7 +102,7 @@ _evaluators: dict[tuple[int, str], Evaluator] = {}
 _lock = threading.Lock()
 
 
-def evaluator(bridge: AlloyBridge, main: str = "evaluate.als") -> Evaluator:
+def evaluator(bridge: Backend, main: str = "evaluate.als") -> Evaluator:
     """The bridge's evaluator of the evaluation module `main` (evaluate.als, a configuration;
     plan_evaluate.als, a plan), parsing the module on first use."""
     with _lock:
@@ -134,8 +134,8 @@ def start_early() -> None:
 
     def start() -> None:
         try:
-            evaluator(AlloyBridge.get())
-        except Exception:  # noqa: BLE001 - the next AlloyBridge.get() raises it, in its place
+            evaluator(get_backend())
+        except Exception:  # noqa: BLE001 - the next get_backend() raises it, in its place
             return
         # A thread the JVM knows as a user thread holds the JVM's shutdown at exit until it
         # is detached, and this one ends here: detached, the process ends when it is done.

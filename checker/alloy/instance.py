@@ -6,7 +6,7 @@ import time
 from dataclasses import dataclass
 from typing import Collection, Iterable, Mapping, Sequence
 
-from checker.alloy.bridge import AlloyBridge
+from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.evaluate import evaluator
 from checker.model.actions import KINDS, Action
 from checker.model.config import Configuration
@@ -67,7 +67,7 @@ def slices(system: System, config: Configuration, size: int = SLICE, only: Itera
     return [set(present[i:i + size]) for i in range(0, len(present), size)]
 
 
-def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | None = None,
+def alloy_verdict(system: System, config: Configuration, bridge: Backend | None = None,
                   slice_size: int = SLICE, only: Iterable[str] | None = None,
                   keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> AlloyVerdict:
     """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
@@ -79,7 +79,7 @@ def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | N
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
     clock = time.perf_counter()
-    judge = evaluator(bridge or AlloyBridge.get())
+    judge = evaluator(bridge or get_backend())
     start = time.perf_counter() - clock
     index = slice_index(system, config) if parts else None
     texts: list[str] = []
@@ -159,7 +159,7 @@ class AlloyPlanVerdict:
         return all(self.valid) and all(self.formed) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
-def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge: AlloyBridge | None = None,
+def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge: Backend | None = None,
                        serving: Iterable[tuple[str, str]] = (), stable: Iterable[str] = (),
                        protocols: Iterable[tuple[str, str]] = (),
                        handover: Iterable[tuple[str, str]] = (),
@@ -178,7 +178,7 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
     data = describe_plan_data(system, configs, list(serving), list(stable), list(protocols), list(handover),
                               actions)
     text = instance_xml(data, PLAN_EVALUATION_SIGS)
-    judge = evaluator(bridge or AlloyBridge.get(), PLAN_MODULE)
+    judge = evaluator(bridge or get_backend(), PLAN_MODULE)
     clock = time.perf_counter()
     instance = judge.read(text)
     n = len(configs)

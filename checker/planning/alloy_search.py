@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Optional
 
 import codegen.alloy as gen
-from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
+from checker.alloy.bridge import DEFAULT_SOLVER, Backend, atom_name, get_backend
 from checker.alloy.errors import AlloyError
 from checker.model.actions import Action, catalogue, changes
 from checker.model.config import Configuration
@@ -122,7 +122,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
 # -- Solving and decoding -----------------------------------------------------------------
 
 def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
-           bridge: AlloyBridge) -> tuple[Optional[list[Configuration]], float]:
+           bridge: Backend) -> tuple[Optional[list[Configuration]], float]:
     """Run the module's one command; the trace's configurations (up to its loop), or None
     when there is no plan; and the solving time."""
     trace = bridge.solve_module(text, MAIN, ("System.comps", "System.degraded", "System.roles"), 0, solver)
@@ -206,14 +206,14 @@ def _fewest_steps(problem: Problem) -> int:
 
 
 def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER,
-                 bridge: Optional[AlloyBridge] = None, minimise: bool = True) -> AlloySearch:
+                 bridge: Optional[Backend] = None, minimise: bool = True) -> AlloySearch:
     """Plan `problem` (its goal settled, see `plan_with_alloy`) in Alloy; see the module
     docstring. Raises NoSafePlan when no plan of at most `max_steps` steps exists."""
 
     system, start, goal = problem.system, problem.start, problem.goal
     if goal.reached(start):
         return AlloySearch([], 0, max_steps, True)
-    bridge = bridge or AlloyBridge.get()
+    bridge = bridge or get_backend()
     solves: list[Solve] = []
     best: Optional[list[Action]] = None
     best_cost = 0
