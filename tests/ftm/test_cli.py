@@ -73,10 +73,11 @@ def test_plan_transition_among_services_is_verified_in_alloy_on_its_slice_and_lo
     assert r.exit_code == 0 and "client side kept" in r.output
 
 
-def test_transition_to_an_ftm_the_component_rules_out_warns() -> None:
+def test_transition_to_an_ftm_the_component_rules_out_warns_when_allowed() -> None:
     """TR needs a deterministic application: moving the non-deterministic server of
-    client_server_pbr.arch to PBR(TR) is planned, with the rule it breaks as a warning."""
-    args = ["server", "PBR(TR)", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy"]
+    client_server_pbr.arch to PBR(TR) is planned with --allow-invalid-ftm, with the rule it
+    breaks as a warning."""
+    args = ["server", "PBR(TR)", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy", "--allow-invalid-ftm"]
     r = CliRunner().invoke(transition_cmd, args)
     assert r.exit_code == 0, r.output
     assert "warning: the target breaks an FTM rule: RC403" in r.output
