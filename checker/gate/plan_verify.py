@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 from checker.alloy.engines import Engine
 from checker.model.actions import state_refusals, step_refusals
@@ -57,7 +57,7 @@ def _code(r: Refusal) -> str:
 def first_broken(system: System, plan: PlanInput) -> Optional[Diagnostic]:
     """The Python engine's judgement: the first rule the plan breaks, where it breaks it, or None."""
     where = _where(plan)
-    found = _state(system, plan.states[0], plan.state_spans[0], where(0), "")
+    found = _state(system, plan.states[0], plan.state_spans[0], where(0))
     if found:
         return found
     for i, action in enumerate(plan.steps):
@@ -67,19 +67,21 @@ def first_broken(system: System, plan: PlanInput) -> Optional[Diagnostic]:
             r = refused[0]
             return error(_code(r), f"step {i + 1} ({action.describe()}) breaks {r.rule}: {r.text}",
                          plan.step_spans[i], notes=_more(refused))
-        found = _state(system, after, plan.state_spans[i + 1], where(i + 1), f" after step {i + 1}")
+        found = _state(system, after, plan.state_spans[i + 1], where(i + 1))
         if found:
             return found
     return None
 
 
-def _where(plan: PlanInput) -> Any:
+def _where(plan: PlanInput) -> Callable[[int], str]:
+    """How the diagnostics name configuration i of the plan."""
     def name(i: int) -> str:
         return "the first configuration" if i == 0 else f"the configuration after step {i} ({plan.steps[i - 1].describe()})"
     return name
 
 
-def _state(system: System, config: Configuration, span: Span, name: str, _: str) -> Optional[Diagnostic]:
+def _state(system: System, config: Configuration, span: Span, name: str) -> Optional[Diagnostic]:
+    """The first rule configuration `config` (named `name`, given at `span`) breaks, or None."""
     refused = state_refusals(system, config)
     if not refused:
         return None
@@ -107,6 +109,7 @@ def verify_plan(system: System, plan: PlanInput, engine: Engine = Engine.BOTH) -
 
 
 def _as_plan(system: System, plan: PlanInput) -> Plan:
+    """The document's plan as the planners' plans are, for Alloy's verification of plans."""
     last = plan.states[-1]
     return Plan(system, list(plan.steps), list(plan.states), "document", 0,
                 Goal(last.components, last.roles, last.degraded))

@@ -50,12 +50,12 @@ class _Doc:
         self.file = file
         try:
             self.value = json.loads(text)
+            self.where = json_source_map.calculate(text)
         except json.JSONDecodeError as e:
             raise DiagnosticError([error("RC308", f"not a plan document: {e.msg}",
                                          Span(file, e.lineno, e.colno, e.lineno, e.colno + 1))]) from None
         except RecursionError:
             raise DiagnosticError([error("RC308", "not a plan document: nested too deep", Span.unknown(file))]) from None
-        self.where = json_source_map.calculate(text)
 
     def span(self, pointer: str) -> Span:
         entry = self.where.get(pointer)
