@@ -87,13 +87,15 @@ class Evaluator:
         instance = self.read(xml)
         read = time.perf_counter() - clock
         clock = time.perf_counter()
-        valid = instance.holds("valid") and instance.holds("well_formed")
+        valid = instance.holds(JUDGED)
         failing = () if valid else tuple((f, d) for f, d in instance.value("unsatisfied"))
         return Evaluated(valid, failing, read, time.perf_counter() - clock)
 
 
+# what a configuration must be, evaluated as one formula (one pass of the evaluator)
+JUDGED = "valid and well_formed"
 _MODULES: dict[str, tuple[Callable[[], str], tuple[str, ...]]] = {
-    "evaluate.als": (render_evaluation_module, ("valid", "well_formed", "unsatisfied")),
+    "evaluate.als": (render_evaluation_module, (JUDGED, "unsatisfied")),
     "plan_evaluate.als": (render_plan_evaluation_module,
                           ("plan_safe", "valid_states", "formed_states", "ok_steps", "lossless_states",
                            "stable_states")),
