@@ -49,7 +49,9 @@ sig Component {
   outputs: set Output,
   funcs: set Functionality
 }
-abstract sig Port {}
+abstract sig Port {
+  ptype: set MType  -- the message type it carries (one: typed_ports, the only reader)
+}
 sig Input extends Port {
   iasm: one Data
 }
@@ -66,6 +68,13 @@ sig Functionality {
 sig Connector {
   cguar: one Data
 }
+-- The `single` topics and the services: each takes at most one publisher (server).
+one sig Kinds {
+  singles: set Connector,
+  services: set Connector
+}
+fun single: set Connector { Kinds.singles }
+fun service: set Connector { Kinds.services }
 
 one sig Env {
   guars: set Data
@@ -79,6 +88,15 @@ fact architecture {
   all c: Component | c.funcs.assoc_in in c.inputs and c.funcs.assoc_out in c.outputs
   -- a guarantee per associated output, in each mode
   all f: Functionality | f.nguar.Data = f.assoc_out and f.dguar.Data = f.assoc_out
+}
+
+-- A port's assumption and its guarantees are of its message type, or nothing (the DSL's
+-- RC121 and its port declarations). Only the typing of attachments reads it, so it is the
+-- hypothesis of KeepsTyped rather than a fact every check carries.
+pred typed_ports {
+  all p: Port | one p.ptype
+  all i: Input | i.iasm in Msg implies i.iasm.mtype = i.ptype
+  all f: Functionality, o: f.assoc_out | (o.(f.nguar) + o.(f.dguar)) & Msg in mtype.(o.ptype)
 }
 
 -- Rules on modes: (i) every functionality has both modes (by construction); (ii) the
@@ -282,7 +300,27 @@ pred valid_j[s: System] {
 }
 
 pred valid[s: System] {
-  valid_q[s]
+  valid_q[s]                  --@rule state.valid
+}
+
+-- The rules of a configuration besides validity (checker.model.rules, `state.*`), one
+-- predicate each: a `single` topic has at most one publisher and a service one server;
+-- every attachment is well typed and of a present component. The quantifiers range over
+-- the few `single` topics and services only.
+pred single_ok[s: System] {
+  all k: single | lone k.(s.roles) & Output                       --@rule state.single
+}
+pred service_ok[s: System] {
+  all k: service | lone k.(s.roles) & Output                      --@rule state.service
+}
+pred typed_ok[s: System] {
+  (s.roles).ptype in cguar.mtype                                  --@rule state.typed
+}
+pred owned_ok[s: System] {
+  Connector.(s.roles) in (s.comps).(inputs + outputs)  --@rule state.owned
+}
+pred well_formed[s: System] {
+  single_ok[s] and service_ok[s] and typed_ok[s] and owned_ok[s]
 }
 
 -- Actions ----------------------------------------------------------------------------
@@ -346,39 +384,43 @@ pred upgrade_holds_j[s: System, f: Functionality] {
 pred remove[s, s2: System, c: Component] {
   c in s.comps                                             --@pre remove.present
   no s.roles.(c.inputs + c.outputs)                        --@pre remove.isolated
-  s2.comps = s.comps - c
-  s2.degraded = s.degraded + c.funcs
-  s2.roles = s.roles
+  s2.comps = s.comps - c                                   --@post remove.effect
+  s2.degraded = s.degraded + c.funcs                       --@post remove.effect
+  s2.roles = s.roles       --@post remove.effect
 }
 
 -- Create a component with all its functionalities degraded (they are: it was absent).
 pred create[s, s2: System, c: Component] {
   c not in s.comps                                         --@pre create.absent
   c.funcs in s.degraded                                    --@pre create.degraded
-  s2.comps = s.comps + c
-  s2.degraded = s.degraded
-  s2.roles = s.roles
+  s2.comps = s.comps + c                                   --@post create.effect
+  s2.degraded = s.degraded                                 --@post create.effect
+  s2.roles = s.roles       --@post create.effect
 }
 
--- Detach port p from connector k.
+-- Detach port p of a present component from connector k.
 pred detach[s, s2: System, k: Connector, p: Port] {
   p in k.(s.roles)                                         --@pre detach.attached
+  p in s.comps.(inputs + outputs)                          --@pre detach.present
   p in Input implies detach_input_safe_q[s, k, p]         --@pre detach.input
   (p in Output and not conn_satisfied_no_out[s, k, p]) implies detach_output_safe_q[s, k]  --@pre detach.output
-  s2.comps = s.comps
-  s2.degraded = s.degraded
-  s2.roles = s.roles - k -> p
+  s2.comps = s.comps                                       --@post detach.effect
+  s2.degraded = s.degraded                                 --@post detach.effect
+  s2.roles = s.roles - k -> p --@post detach.effect
 }
 
--- Attach port p of a present component to connector k.
+-- Attach port p of a present component to connector k; a `single` topic and a service take
+-- one publisher (server).
 pred attach[s, s2: System, k: Connector, p: Port] {
   p in s.comps.(inputs + outputs)                          --@pre attach.present
   p not in k.(s.roles)                                     --@pre attach.detached
   p in Output implies attach_output_ok_q[s, k, p]      --@pre attach.output
   p in Input implies satisfy[k.cguar, p.iasm]              --@pre attach.input
-  s2.comps = s.comps
-  s2.degraded = s.degraded
-  s2.roles = s.roles + k -> p
+  (p in Output and k in single) implies no k.(s.roles) & Output   --@pre attach.single
+  (p in Output and k in service) implies no k.(s.roles) & Output  --@pre attach.service
+  s2.comps = s.comps                                       --@post attach.effect
+  s2.degraded = s.degraded                                 --@post attach.effect
+  s2.roles = s.roles + k -> p --@post attach.effect
 }
 
 -- Degrade functionality f of a present component.
@@ -386,19 +428,22 @@ pred degrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre degrade.present
   f not in s.degraded                                      --@pre degrade.normal
   degrade_safe_q[s, f]                                --@pre degrade.safe
-  s2.comps = s.comps
-  s2.degraded = s.degraded + f
-  s2.roles = s.roles
+  s2.comps = s.comps                                       --@post degrade.effect
+  s2.degraded = s.degraded + f                             --@post degrade.effect
+  s2.roles = s.roles       --@post degrade.effect
 }
 
--- Upgrade functionality f of a present component to its normal mode.
+-- Upgrade functionality f of a present component to its normal mode, breaking no connector
+-- (rule iii on modes, a fact of the meta-model, makes that clause hold there; an instance
+-- module checks it).
 pred upgrade[s, s2: System, f: Functionality] {
   f in present_funcs[s]                                    --@pre upgrade.present
   f in s.degraded                                          --@pre upgrade.degraded
   upgrade_holds_q[s, f]                               --@pre upgrade.assumptions
-  s2.comps = s.comps
-  s2.degraded = s.degraded - f
-  s2.roles = s.roles
+  (s.csat) in (s2.csat)            --@pre upgrade.connectors
+  s2.comps = s.comps                                       --@post upgrade.effect
+  s2.degraded = s.degraded - f                             --@post upgrade.effect
+  s2.roles = s.roles       --@post upgrade.effect
 }
 
 -- Attaching only adds satisfaction, so SafeAttach holds whatever attach requires; its
@@ -428,6 +473,13 @@ assert SafeUpgrade { all f: Functionality | valid[Pre] and upgrade[Pre, Post, f]
 -- absent component) are read in Alloy.
 pred absent_degraded[s: System] { (Component - s.comps).funcs in s.degraded }
 assert AbsentDegraded { absent_degraded[Pre] and step[Pre, Post] implies absent_degraded[Post] }
+-- The six actions keep the rules of a configuration besides validity (checker.model.rules):
+-- one publisher on a `single` topic, one server on a service, attachments well typed and of
+-- present components.
+assert KeepsSingle    { single_ok[Pre] and step[Pre, Post] implies single_ok[Post] }
+assert KeepsOneServer { service_ok[Pre] and step[Pre, Post] implies service_ok[Post] }
+assert KeepsTyped     { typed_ports and typed_ok[Pre] and step[Pre, Post] implies typed_ok[Post] }
+assert KeepsOwned     { owned_ok[Pre] and step[Pre, Post] implies owned_ok[Post] }
 assert AttachWellTyped { all k: Connector, p: Port | attach[Pre, Post, k, p] implies well_typed[Post, k, p] }
 -- The two encodings of connector satisfaction in the shared semantics agree.
 assert ConnectorEncodingsAgree {
@@ -481,6 +533,10 @@ check SafeAttach  for 5 expect 0
 check SafeDegrade for 5 expect 0
 check SafeUpgrade for 5 expect 0
 check AbsentDegraded for 5 expect 0
+check KeepsSingle for 5 expect 0
+check KeepsOneServer for 5 expect 0
+check KeepsTyped for 5 expect 0
+check KeepsOwned for 5 expect 0
 check AttachWellTyped for 5 expect 0
 check ConnectorEncodingsAgree for 5 expect 0
 check SatEncodingsAgree for 5 expect 0
@@ -548,4 +604,20 @@ run PortOnTwoConnectors {
   some i: Input, disj k1, k2: Connector, f: Functionality |
     k1 -> i + k2 -> i in Pre.roles and i in f.assoc_in and f in present_funcs[Pre] - Pre.degraded
     and one f.assoc_in and some f.nasms and valid[Pre] and detach[Pre, Post, k1, i] and valid[Post]
+} for 3 expect 1
+-- A `single` topic gains its publisher, and a service its server, in valid, well-formed
+-- steps; and the topic or service that has one refuses another.
+run SingleTopicPublisher {
+  some k: single - service, p: Output | some Pre.comps.funcs.nasms and well_formed[Pre] and valid[Pre]
+    and attach[Pre, Post, k, p] and valid[Post] and well_formed[Post] and some k.(Post.roles) & Input
+} for 3 expect 1
+run ServiceServer {
+  some k: service - single, p: Output | well_formed[Pre] and valid[Pre]
+    and attach[Pre, Post, k, p] and valid[Post] and well_formed[Post] and some k.(Post.roles) & Input
+} for 3 expect 1
+run SecondPublisherRefused {
+  some k: single + service, p: Output - k.(Pre.roles) | well_formed[Pre] and valid[Pre]
+    and some k.(Pre.roles) & Output and attach_output_ok_q[Pre, k, p] and p in Pre.comps.outputs
+    and Post.comps = Pre.comps and Post.degraded = Pre.degraded and Post.roles = Pre.roles + k -> p
+    and not attach[Pre, Post, k, p]
 } for 3 expect 1

@@ -40,10 +40,10 @@ import json, sys, time
 t0 = time.perf_counter()
 from reconf_dsl.loader import load
 from checker.model.config import Configuration
-from checker.alloy import AlloyBridge
+from checker.alloy import get_backend
 from checker.alloy.instance import alloy_verdict, slices
 system = load([sys.argv[1]])
-bridge = AlloyBridge.get()
+bridge = get_backend()
 t1 = time.perf_counter()
 config = Configuration.initial(system)
 verdict = alloy_verdict(system, config, bridge=bridge)
@@ -56,12 +56,12 @@ PLAN_CHILD = r"""
 import json, sys, time
 from bench.gen import hub_component
 from reconf_dsl.loader import load
-from checker.alloy import AlloyBridge
+from checker.alloy import get_backend
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning import plan_replace
 system = load([sys.argv[1]])
 shape, n = sys.argv[2], int(sys.argv[3])
-bridge = AlloyBridge.get()
+bridge = get_backend()
 hub = hub_component(shape, n)
 t0 = time.perf_counter()
 plan = plan_replace(system, hub, hub + "_v2")

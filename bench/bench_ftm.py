@@ -104,9 +104,9 @@ def main() -> None:
     ok_plan = True
     checked = 0.0
     if not args.no_alloy:
-        from checker.alloy import AlloyBridge
+        from checker.alloy import get_backend
         from checker.planning.alloy_verify import alloy_evidence
-        AlloyBridge.get()
+        get_backend()
         t6 = time.perf_counter()
         evidence = alloy_evidence(tr.plan)
         t7 = time.perf_counter()

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Collection, Hashable, Iterable, Mapping, Sequence, TypeVar
 
 from checker.model.actions import KINDS as ACTION_KINDS
-from checker.model.actions import kind_of, recognise
+from checker.model.actions import Action, kind_of, recognise
 from checker.model.config import Configuration
 from reconf_dsl.ir import Component, Connector, Predicate, System
 
@@ -91,6 +91,12 @@ class StateAccess:
     def roles_format(self) -> str:
         """A configuration's roles, to `format` with its variable (the actions take two)."""
         return "(roles_of[%s])" if self.role_atoms else "%s.roles"
+
+    @property
+    def csat_format(self) -> str:
+        """A configuration's satisfied connectors, to `format` with its variable (an action's
+        precondition reads them in both of its configurations)."""
+        return "(%s.csat)" if self.materialized and not self.store else "sat_conns_def[%s]"
 
     def cached(self, field: str, definition: str) -> str:
         """A derived set of the configuration: the stored relation `field` when
@@ -228,12 +234,14 @@ def _fun(name: str, type_: str, terms: Sequence[str]) -> Fun:
 
 def render_instance(system: System, config: Configuration, module_name: str = "instance",
                     focus: Iterable[str] | None = None, index: "SliceIndex | None" = None,
-                    keep: Mapping[str, Collection[tuple[str, str]]] | None = None
+                    keep: Mapping[str, Collection[tuple[str, str]]] | None = None, valid: bool = True
                     ) -> tuple[str, dict[str, Meaning]]:
     """An Alloy module for `system` in `config`, and a map from each atom name to what it
     stands for (`codegen.alloy_module.Meaning`). The module defines `valid`, `unsatisfied:
     Functionality -> Data` (evaluate it in the `Verdict` instance) and `check Valid` (a
-    counterexample means the configuration is not valid).
+    counterexample means the configuration is not valid), whose `expect` says what the
+    caller's verdict `valid` is: 0 (no counterexample) for a valid configuration, 1 for one
+    that is not.
 
     With `focus` (a set of component names), the module is the slice that judges only
     those components: `valid` holds in it exactly when every assumption of the focus's
@@ -248,7 +256,7 @@ def render_instance(system: System, config: Configuration, module_name: str = "i
     `keep` ({connector: {(component, output)}}) has a slice show only those publishers of
     a connector it reads (besides the focus's own): a connector is satisfied by some
     attached output, so a slice valid with some of them is valid with all of them."""
-    module = describe_instance(system, config, module_name, focus, index, keep)
+    module = replace(describe_instance(system, config, module_name, focus, index, keep), valid=valid)
     return render_instance_module(module), module.architecture.names
 
 
@@ -355,12 +363,17 @@ class _Data:
             atom = f"d_{len(self.atoms)}"
             self.atoms[key] = atom
             self.names[atom] = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
-            if pred.message not in self.messages:
-                self.messages[pred.message] = mangle("message", pred.message)
-                self.names[self.messages[pred.message]] = ("message", pred.message)
+            self.mtype(pred.message)
             if pred.hz is not None:
                 self.rates.add(pred.hz)
         return self.atoms[key]
+
+    def mtype(self, message: str) -> str:
+        """The atom of a message type."""
+        if message not in self.messages:
+            self.messages[message] = mangle("message", message)
+            self.names[self.messages[message]] = ("message", message)
+        return self.messages[message]
 
 
 @dataclass
@@ -379,7 +392,7 @@ class _Parts:
     guarantees: list[tuple[str, str, Meaning, str, str]] = field(default_factory=list)
     rel: dict[str, list[tuple[str, ...]]] = field(default_factory=lambda: {k: [] for k in (
         "inputs", "outputs", "funcs", "iasm", "assoc_in", "assoc_out", "nasms", "gfunc",
-        "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg")})
+        "gout", "gn", "gd", "nguar", "dguar", "cguar", "envg", "ptype", "single", "service")})
 
     def name(self, atom: str, meaning: Meaning) -> str:
         self.names[atom] = meaning
@@ -430,6 +443,7 @@ def _declare_ports(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
         if not scope.judged(c.name) and (p.kind == "input" or (c.name, p.name) not in scope.context):
             continue
         pa = parts.ports[c.name, p.name] = parts.name(mangle("port", c.name, p.name), ("port", c.name, p.name))
+        parts.rel["ptype"].append((pa, data.mtype(p.message)))
         if p.kind == "input":
             parts.inputs.append(pa)
             parts.rel["inputs"].append((ca, pa))
@@ -476,6 +490,10 @@ def _collect(system: System, scope: _Scope, names: dict[str, Meaning]) -> _Parts
     for k in scope.connectors:
         ka = parts.conns[k.name] = parts.name(mangle("connector", k.name), ("connector", k.name))
         parts.rel["cguar"].append((ka, parts.data.atom(k.guarantee)))
+        if k.kind == "service":
+            parts.rel["service"].append((ka,))
+        elif k.single:
+            parts.rel["single"].append((ka,))
     for e in system.environment:
         parts.rel["envg"].append((parts.data.atom(e.guarantee),))
     return parts
@@ -569,7 +587,10 @@ def _architecture_funs(parts: _Parts, rates: list[tuple[Fraction, str]], ternary
         _fun("nasms", "Functionality -> Data", rel["nasms"]),
         *guarantees,
         _fun("cguar", "Connector -> Data", rel["cguar"]),
+        _fun("ptype", "Port -> MType", rel["ptype"]),
         Fun("envg", "set Data", union(rel["envg"], "(Data - Data)")),
+        Fun("single", "set Connector", union(rel["single"], "(Connector - Connector)")),
+        Fun("service", "set Connector", union(rel["service"], "(Connector - Connector)")),
     )
 
 
@@ -653,7 +674,8 @@ def _architecture_data(system: System, scope: _Scope, names: dict[str, Meaning] 
     atoms["Nothing"] = ("Nothing",)
     atoms.pop("Data")
     fixed = _fixed_relations(parts, rates)
-    atoms["envg"] = tuple(d for (d,) in fixed.pop("envg"))
+    for subset in ("envg", "single", "service"):
+        atoms[subset] = tuple(d for (d,) in fixed.pop(subset))
     return parts, atoms, {name: tuple(tuples) for name, tuples in fixed.items()}
 
 
@@ -667,15 +689,24 @@ def describe_instance_data(system: System, config: Configuration, focus: Iterabl
     comps, degraded, roles = _configuration_tuples(parts, scope)
     atoms.update(comps=tuple(comps), degraded=tuple(degraded))
     fields["roles"] = tuple(roles)
+    _attached_types(fields, {p for _, p in roles})
     return InstanceData(system.name, atoms, fields, parts.names)
+
+
+def _attached_types(fields: dict[str, tuple[tuple[str, ...], ...]], attached: set[str]) -> None:
+    """Only the attached ports' message types: the one rule that reads them (`typed_ok`) reads
+    those alone, and an instance is read faster without the others."""
+    fields["ptype"] = tuple(t for t in fields["ptype"] if t[0] in attached)
 
 
 def describe_plan_data(system: System, configs: Sequence[Configuration], serving: Sequence[tuple[str, str]] = (),
                        stable: Sequence[str] = (), protocols: Sequence[tuple[str, str]] = (),
-                       handover: Sequence[tuple[str, str]] = ()) -> InstanceData:
+                       handover: Sequence[tuple[str, str]] = (),
+                       actions: Sequence[Action | None] | None = None) -> InstanceData:
     """A plan's configurations (see `render_plan`) as an instance of the plan evaluation
     module (`render_plan_evaluation_module`): states S0, S1, ..., their attachments through
-    Role atoms, and a Step atom per step with its action's arguments."""
+    Role atoms, and a Step atom per step with its action's arguments (the plan's `actions`,
+    one per step, when given; a step given as None is no action's)."""
     scope = _whole(system, configs)
     states = [f"S{i}" for i in range(len(scope.configs))]
     parts, atoms, fields = _architecture_data(system, scope, {s: ("state", str(i)) for i, s in enumerate(states)})
@@ -691,21 +722,27 @@ def describe_plan_data(system: System, configs: Sequence[Configuration], serving
     fields.update(comps=tuple(comps), degraded=tuple(degraded), sroles=tuple(sroles),
                   role_conn=tuple((a, k) for (k, _), a in roles.items()),
                   role_port=tuple((a, p) for (_, p), a in roles.items()))
-    _plan_step_data(scope.configs, states, parts, atoms, fields)
+    _attached_types(fields, {p for _, p in roles})
+    _plan_step_data(scope.configs, states, parts, atoms, fields, actions)
     _serving_data(parts, list(serving), list(stable), list(protocols), list(handover), atoms, fields)
     return InstanceData(system.name, atoms, fields, parts.names)
 
 
 def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Parts,
-                    atoms: dict[str, tuple[str, ...]], fields: dict[str, tuple[tuple[str, ...], ...]]) -> None:
-    """A Step atom per step: the states around it, and where the difference between them is
-    one action, that action's arguments (one field per kind: its `params`) and its
-    `<action>_steps`."""
+                    atoms: dict[str, tuple[str, ...]], fields: dict[str, tuple[tuple[str, ...], ...]],
+                    actions: Sequence[Action | None] | None = None) -> None:
+    """A Step atom per step: the states around it, and the action it is with its arguments
+    (one field per kind: its `params`) and its `<action>_steps`: the plan's own `actions`
+    when given, else the one action the difference between the two states is, if any. A
+    step whose arguments the module does not show is no action's."""
     params = {k.name: k.params for k in ACTION_KINDS}
     names = [f"t{i}" for i in range(len(configs) - 1)]
     rel: dict[str, list[tuple[str, ...]]] = {"pre": [], "post": []}
     kinds: dict[str, list[str]] = {kind: [] for kind in params}
-    for t, step in zip(names, _steps(configs, states, {meaning: atom for atom, meaning in parts.names.items()})):
+    by_meaning = {meaning: atom for atom, meaning in parts.names.items()}
+    steps = (_steps(configs, states, by_meaning) if actions is None
+             else tuple(_declared(a, states[i], states[i + 1], by_meaning) for i, a in enumerate(actions)))
+    for t, step in zip(names, steps):
         if step is None:
             continue
         kinds[step.action].append(t)
@@ -716,6 +753,16 @@ def _plan_step_data(configs: list[Configuration], states: list[str], parts: _Par
     atoms["Step"] = tuple(names)
     atoms.update({f"{kind}_steps": tuple(members) for kind, members in kinds.items()})
     fields.update({name: tuple(tuples) for name, tuples in rel.items()})
+
+
+def _declared(action: Action | None, before: str, after: str, atoms: Mapping[Meaning, str]) -> Step | None:
+    """A plan's own step, or None when there is none or the module does not show its arguments."""
+    if action is None:
+        return None
+    args = kind_of(action).alloy_args(action)
+    if any(m not in atoms for m in args):
+        return None
+    return Step(action.kind, before, after, tuple(atoms[m] for m in args))
 
 
 def _serving_data(parts: _Parts, serving: list[tuple[str, str]], stable: list[str], protocols: list[tuple[str, str]],

@@ -66,6 +66,7 @@ class InstanceModule:
     system_name: str
     architecture: Architecture
     configuration: tuple[Fun, ...]
+    valid: bool = True          # the expectation its `check Valid` states (the caller's verdict)
 
 
 @dataclass(frozen=True)
@@ -91,13 +92,15 @@ _ARCHITECTURE_SIGS = (
     EvaluationSig("Data", abstract=True),
     EvaluationSig("Nothing", "Data", one=True),
     EvaluationSig("Msg", "Data", fields=(("mtype", "MType"), ("rate", "Rate"))),
-    EvaluationSig("Port", abstract=True),
+    EvaluationSig("Port", abstract=True, fields=(("ptype", "MType"),)),
     EvaluationSig("Input", "Port", fields=(("iasm", "Data"),)),
     EvaluationSig("Output", "Port"),
     EvaluationSig("Functionality", fields=(("assoc_in", "Input"), ("assoc_out", "Output"), ("nasms", "Data"))),
     EvaluationSig("Guar", fields=(("gfunc", "Functionality"), ("gout", "Output"), ("gn", "Data"), ("gd", "Data"))),
     EvaluationSig("envg", "Data", subset=True),
 )
+# the `single` topics and the services
+_CONNECTOR_KINDS = (EvaluationSig("single", "Connector", subset=True), EvaluationSig("service", "Connector", subset=True))
 _COMPONENT_FIELDS = (("inputs", "Input"), ("outputs", "Output"), ("funcs", "Functionality"))
 
 # The evaluation module's sigs (codegen/templates/alloy/evaluate.als.j2): an architecture in
@@ -106,6 +109,7 @@ _COMPONENT_FIELDS = (("inputs", "Input"), ("outputs", "Output"), ("funcs", "Func
 EVALUATION_SIGS = _ARCHITECTURE_SIGS + (
     EvaluationSig("Component", fields=_COMPONENT_FIELDS),
     EvaluationSig("Connector", fields=(("cguar", "Data"), ("roles", "Port"))),
+    *_CONNECTOR_KINDS,
     EvaluationSig("comps", "Component", subset=True),
     EvaluationSig("degraded", "Functionality", subset=True),
 )
@@ -119,6 +123,7 @@ def plan_evaluation_sigs(action_kinds: tuple[str, ...]) -> tuple[EvaluationSig, 
     return _ARCHITECTURE_SIGS + (
         EvaluationSig("Component", fields=_COMPONENT_FIELDS + (("protocols", "Component"),)),
         EvaluationSig("Connector", fields=(("cguar", "Data"),)),
+        *_CONNECTOR_KINDS,
         EvaluationSig("Role", fields=(("role_conn", "Connector"), ("role_port", "Port"))),
         EvaluationSig("System", fields=(("comps", "Component"), ("degraded", "Functionality"), ("sroles", "Role"))),
         EvaluationSig("Step", fields=(("pre", "System"), ("post", "System"), ("a_component", "Component"),
@@ -213,7 +218,6 @@ class PlannerModule:
     system_name: str
     architecture: Architecture
     actions: str            # the actions over the current and the next state
-    single: str             # the connectors that take one publisher
     crit: str               # Functionality -> Int
     bound: Optional[int]    # on disruption
     start_weight: int

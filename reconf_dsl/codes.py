@@ -85,6 +85,18 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC303", "alloy-too-large", "warning: the system is too large for Alloy (atom capacity or heap); with "
                                  "`--engine both` the verdict is the Python engine's alone, and says so; an error "
                                  "(exit 2) when a plan cannot be verified in Alloy for that reason"),
+    ("RC304", "plan-step-refused", "`plan verify`: a step's precondition does not hold in the configuration before "
+                                   "it (the rule is named: `attach.single`, `detach.output`, …)"),
+    ("RC305", "plan-step-effect", "`plan verify`: the configuration after a step is not that step's effect"),
+    ("RC306", "plan-state-ill-formed", "`plan verify`: a configuration of the plan is not well formed (two "
+                                       "publishers on a `single` topic, two servers of a service, an attachment of "
+                                       "the wrong type or of an absent component)"),
+    ("RC307", "plan-state-unsafe", "`plan verify`: a configuration of the plan is not valid (an assumption does not "
+                                   "hold)"),
+    ("RC308", "plan-document-invalid", "`plan verify`: the plan document is not JSON, or not of the shape of "
+                                       "docs/executor.md (format 1 or 2)"),
+    ("RC309", "plan-name-unknown", "`plan verify`: the plan names a component, port, connector or functionality the "
+                                   "architecture does not declare"),
     ("RC401", "ftm-ill-formed", "a fault-tolerance mechanism expression is not well formed"),
     ("RC402", "ftm-fault-not-covered", "the attached mechanism does not tolerate a declared fault"),
     ("RC403", "ftm-application-mismatch", "the mechanism needs an application characteristic the component lacks "

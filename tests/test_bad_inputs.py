@@ -136,6 +136,8 @@ NOT_FROM_A_FILE: dict[str, str] = {
     "RC013": "`-o` contradicting `--format`: a command's options",
     "RC014": "a device, FIFO or socket: not a file with a text (tests/test_hostile_inputs.py)",
     "RC015": "128 MiB of files in one load (tests/test_hostile_inputs.py, with the budget lowered)",
+    **{code: "`plan verify`: a plan document, not an architecture file (tests/test_plan_verify.py)"
+       for code in ("RC304", "RC305", "RC306", "RC307", "RC308", "RC309")},
     "RC408": "`ftm expand` of a component without an FTM: a command's argument (tests/ftm/)",
     "RC409": "`ftm expand` into a name that is taken: the command's output, not the input (tests/ftm/)",
 }

@@ -35,6 +35,8 @@ COMMANDS: dict[str, list[str]] = {
     "plan migrate": ["plan", "migrate", "{f}", "{g}", "--no-alloy"],
     "plan add": ["plan", "add", "logger", "--from", "{g}", "-f", "{f}", "--no-alloy"],
     "plan transition": ["plan", "transition", "server", "PBR", "-f", "{f}", "--no-alloy"],
+    "plan verify": ["plan", "verify", os.path.join(ROOT, "examples", "plans", "replace_talker.json"), "-f", "{f}",
+                    "--engine", "python"],
     "gate": ["gate", "--base", "{f}", "--head", "{g}"],
     "ftm expand": ["ftm", "expand", "{f}"],
     "ftm select": ["ftm", "select", "server", "-f", "{f}", "--no-alloy"],
@@ -42,7 +44,7 @@ COMMANDS: dict[str, list[str]] = {
     "down": ["down", "{f}", "--no-alloy", "--dry-run"],
     "modes export": ["modes", "export", "{f}"],
 }
-JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "ftm select", "up",
+JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "plan verify", "ftm select", "up",
         "down"}
 # commands that take no architecture: only the failures that apply to them
 OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"],

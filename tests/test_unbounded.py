@@ -58,6 +58,8 @@ BUGS = [
     ("upgrade.assumptions", "SafeUpgrade", "upgrade"),
     ("modes.rule_iii", "SafeUpgrade", "upgrade"),
     ("upgrade.present", "AbsentDegraded", "upgrade"),
+    ("attach.single", "KeepsSingle", "attach"),
+    ("attach.service", "KeepsOneServer", "attach"),
 ]
 
 
@@ -69,6 +71,8 @@ def test_a_planted_bug_is_a_counterexample(weakening: str, assertion: str, actio
     assert cex is not None and cex["action"].startswith(action + " ")
     if assertion.startswith("Safe"):    # read again over the model's finite universes
         assert cex["pre"]["unsatisfied"] == [] and cex["post"]["unsatisfied"], cex
+    elif assertion.startswith("Keeps"):  # a second publisher attached
+        assert cex["action"].startswith("attach ") and cex["pre"]["roles"] != cex["post"]["roles"], cex
     else:                               # a functionality of an absent component is normal after
         owner = {f: d["component"] for f, d in cex["static"]["functionalities"].items()}
         post = cex["post"]
@@ -84,6 +88,20 @@ def test_every_planted_bug_names_a_weakening() -> None:
 def test_attach_is_safe_whatever_it_requires() -> None:
     """Attaching only adds satisfaction: its preconditions serve well-typed connections."""
     assert prove("SafeAttach", [w for w in WEAKENINGS if w.startswith("attach.")]).result == "proved"
+
+
+@pytest.mark.parametrize("assertion, kind", [("KeepsSingle", "single"), ("KeepsOneServer", "service")])
+def test_a_single_topic_and_a_service_are_reached(assertion: str, kind: str) -> None:
+    """The one-publisher proofs are not vacuous: a valid configuration can attach the first
+    publisher of a `single` topic or the first server of a service."""
+    import z3
+
+    from checker.model import unbounded as u
+    _, v, pre, acts = u._setup(frozenset())
+    solver = z3.Solver()
+    solver.add(v.facts(frozenset()) + [pre.valid(), acts["attach"].precondition(frozenset(), z3),
+                                       z3.Not(z3.Bool("p_is_input")), getattr(v, kind)(z3.Const("k", v.Connector))])
+    assert solver.check() == z3.sat
 
 
 def test_a_solver_that_gives_up_is_unknown_not_proved() -> None:
@@ -167,6 +185,8 @@ class _Structure:
                                     if pid[0] == fid[0] and pid[1] in f.ports])
         self.relation(v.nasms, [(F[fid], d(a)) for fid, f in funcs.items() for a in f.normal.assumptions])
         self.relation(v.envg, [(d(e),) for e in cat.env])
+        self.relation(v.single, [(K[k],) for k, conn in cat.conns.items() if conn.single and conn.kind != "service"])
+        self.relation(v.service, [(K[k],) for k, conn in cat.conns.items() if conn.kind == "service"])
         self.relation(v.sat, [(D[p], D[q]) for p in datum for q in datum if satisfies(datum[p], datum[q])])
         self.relation(pre.comps, [(C[c],) for c in config.components if c in C])
         self.relation(pre.degraded, [(F[fid],) for fid in funcs
@@ -229,9 +249,9 @@ def _candidates(system: System, config: Configuration) -> list[Action]:
 
 
 # What checker.model.actions asks beyond the encoding's preconditions (each makes it safer still):
-# one publisher on a `single` connector, a present component for a detached port, and for an
-# upgrade that rule (iii) holds, which the DSL already checks. None weakens what is proved.
-EXTRAS = ("takes a single publisher", "is not in the system", "rule iii")
+# a present component for a detached port, and for an upgrade that rule (iii) holds, which the
+# DSL already checks. Neither weakens what is proved.
+EXTRAS = ("is not in the system", "rule iii")
 
 
 @pytest.mark.parametrize("name", ["chatter", "chatter_slow", "robot", "redundant", "cycle"])

@@ -1,7 +1,10 @@
-"""The Alloy bridge: the Alloy 6 jar driven through JPype.
+"""The Alloy backend: the Alloy 6 jar driven through JPype, reached through one factory.
 
-    from checker.alloy import AlloyBridge
-    outcomes = AlloyBridge.get().run({"main.als": text}, "main.als")
+    from checker.alloy import get_backend
+    outcomes = get_backend().run({"main.als": text}, "main.als")
+
+`get_backend()` returns a `Backend` (the protocol every caller uses) or raises
+AlloyUnavailable saying what to install.
 """
 from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
 from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable

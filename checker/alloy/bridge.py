@@ -208,20 +208,51 @@ def atom_name(label: str) -> str:
 
 
 class Backend(Protocol):
-    """What reconf needs of an Alloy backend."""
+    """Everything reconf asks of an Alloy backend: every caller holds one of these (from
+    `get_backend`), never a class of its own. `name` says which backend it is; `lock` is held
+    while the analyzer is used from more than one thread (evaluation shares it)."""
 
     name: str
+    lock: threading.RLock
 
     def run(self, modules: Mapping[str, str], main: str, command: str | None = None,
-            solver: str = DEFAULT_SOLVER) -> list[CommandOutcome]: ...
+            solver: str = DEFAULT_SOLVER, progress: Callable[[CommandOutcome], None] | None = None,
+            constants: bool = False) -> list[CommandOutcome]:
+        """Run `command` (every command when None) of module `main`; each outcome."""
+        ...
 
-    def commands(self, modules: Mapping[str, str], main: str) -> list[str]: ...
+    def commands(self, modules: Mapping[str, str], main: str) -> list[str]:
+        """The labels of `main`'s commands, in order."""
+        ...
+
+    def solve_module(self, text: str, main: str, exprs: tuple[str, ...] = (), command: str | int = 0,
+                     solver: str = DEFAULT_SOLVER) -> Trace:
+        """One command of one module, and `exprs` evaluated in every state of its instance."""
+        ...
+
+    def bounds(self, modules: Mapping[str, str], main: str) -> dict[str, dict[str, tuple[int, bool]]]:
+        """Per command, the most atoms each signature gets, and whether exactly."""
+        ...
+
+    def outcomes_of(self, modules: Mapping[str, str], main: str, judged: Mapping[str, tuple[bool, float]],
+                    solver: str) -> list[CommandOutcome]:
+        """The outcomes of commands judged elsewhere, without solutions."""
+        ...
+
+    def usable_solver(self, name: str) -> str:
+        """The analyzer's id of the solver that runs when `name` is asked for."""
+        ...
+
+    def solver_used(self, name: str) -> str:
+        """The table's name of that solver."""
+        ...
 
 
 class AlloyBridge:
     """The in-process backend: the Alloy jar through JPype. Use `AlloyBridge.get()`."""
 
     name = "alloy-jpype"
+    lock: threading.RLock
     _instance: "AlloyBridge | None" = None
     _instance_lock = threading.Lock()
 
@@ -248,7 +279,7 @@ class AlloyBridge:
         self._A4Options = A4Options
         self._Translate = TranslateAlloyToKodkod
         self._usable: dict[str, bool] = {}
-        self._lock = threading.RLock()
+        self._lock = self.lock = threading.RLock()
         self._skeletons: dict[tuple[str, str, tuple[str, ...]], _Skeleton] = {}
 
     # -- solvers -------------------------------------------------------------------
@@ -527,7 +558,9 @@ class AlloyBridge:
 
 
 def get_backend() -> Backend:
-    """The default backend; raises AlloyUnavailable with what to install."""
+    """The Alloy backend, the one way every caller reaches the analyzer: the jar through JPype,
+    started on first use. Raises AlloyUnavailable, which says what to install (Java, the jar)
+    and that `--engine python` judges without it."""
     return AlloyBridge.get()
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
@@ -16,6 +17,29 @@ from reconf_dsl.ir import System
 from reconf_dsl.span import Span
 
 Failing = tuple[tuple[str, str, int], ...]
+
+
+class Engine(str, Enum):
+    """Which engines judge: the Python engine, Alloy, or both (which must then agree). The one
+    name of the choice every `--engine` option makes and every judgement reads."""
+
+    PYTHON = "python"
+    ALLOY = "alloy"
+    BOTH = "both"
+
+    @property
+    def python(self) -> bool:
+        """Whether the Python engine judges."""
+        return self is not Engine.ALLOY
+
+    @property
+    def alloy(self) -> bool:
+        """Whether Alloy judges."""
+        return self is not Engine.PYTHON
+
+    def says(self) -> str:
+        """How a progress line says where the judging happens."""
+        return " in the Alloy Analyzer" if self.alloy else ""
 
 # A connector with more publishers than this is shown in a slice by one witness that
 # satisfies it (checker.model.semantics.witnesses): the hub of a 20,000-component fan-in reads
@@ -74,27 +98,27 @@ def python_failing(ev: Evaluation) -> Failing:
     return tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
 
 
-def judge(system: System, config: Configuration, engine: str = "both") -> Judgement:
+def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH) -> Judgement:
     started = time.perf_counter()
     ev = evaluate(system, config)
     engines: dict[str, Any] = {}
-    if engine in ("both", "python"):
+    if engine.python:
         engines["python"] = {"verdict": "safe" if ev.valid else "unsafe",
                              "seconds": round(time.perf_counter() - started, 4),
                              "unsatisfied": [list(x) for x in python_failing(ev)]}
-    if engine == "python":
+    if not engine.alloy:
         return Judgement(ev, ev.valid, engines)
     try:
         valid, failing, info = alloy_judgement(system, config)
     except AlloyTooLarge as e:
-        if engine != "both":
+        if engine is not Engine.BOTH:
             raise
         # Both engines were asked for, the Python one has answered: say plainly that this answer
         # has no Alloy proof behind it, rather than refuse to answer.
         engines["alloy"] = {"verdict": "not run", "reason": e.diagnostic.message}
         return Judgement(ev, ev.valid, engines, [e.diagnostic])
     engines["alloy"] = info
-    if engine == "both" and (valid != ev.valid or failing != python_failing(ev)):
+    if engine is Engine.BOTH and (valid != ev.valid or failing != python_failing(ev)):
         raise EnginesDisagree(Diagnostic(
             "RC300", Severity.ERROR,
             f"the engines disagree: Python says {'safe' if ev.valid else 'unsafe'}, "

@@ -14,7 +14,7 @@ import threading
 import time
 from typing import Any, Callable, NamedTuple
 
-from checker.alloy.bridge import AlloyBridge
+from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.errors import AlloyError
 from codegen.alloy import render_evaluation_module, render_plan_evaluation_module
 
@@ -50,12 +50,12 @@ class Instance:
 class Evaluator:
     """An evaluation module parsed by one bridge, its expressions `exprs`, and instances of it."""
 
-    def __init__(self, bridge: AlloyBridge, main: str, text: str, exprs: tuple[str, ...]) -> None:
+    def __init__(self, bridge: Backend, main: str, text: str, exprs: tuple[str, ...]) -> None:
         from edu.mit.csail.sdg.alloy4 import A4Reporter, Err  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.parser import CompUtil  # type: ignore[import-not-found]
         from edu.mit.csail.sdg.translator import A4SolutionReader  # type: ignore[import-not-found]
 
-        self.main, self.lock = main, bridge._lock
+        self.main, self.lock = main, bridge.lock
         self._Err, self._reader = Err, A4SolutionReader
         try:
             module = CompUtil.parseEverything_fromString(A4Reporter(), text)
@@ -80,26 +80,31 @@ class Evaluator:
                                  self.main) from None
 
     def judge(self, xml: str) -> Evaluated:
-        """`valid` in the configuration `xml`, and when it does not hold, which assumptions fail."""
+        """`valid` and `well_formed` in the configuration `xml`, and when it is not valid, which
+        assumptions fail (an ill-formed configuration with every assumption holding is not
+        valid either, with none failing)."""
         clock = time.perf_counter()
         instance = self.read(xml)
         read = time.perf_counter() - clock
         clock = time.perf_counter()
-        valid = instance.holds("valid")
+        valid = instance.holds(JUDGED)
         failing = () if valid else tuple((f, d) for f, d in instance.value("unsatisfied"))
         return Evaluated(valid, failing, read, time.perf_counter() - clock)
 
 
+# what a configuration must be, evaluated as one formula (one pass of the evaluator)
+JUDGED = "valid and well_formed"
 _MODULES: dict[str, tuple[Callable[[], str], tuple[str, ...]]] = {
-    "evaluate.als": (render_evaluation_module, ("valid", "unsatisfied")),
+    "evaluate.als": (render_evaluation_module, (JUDGED, "unsatisfied")),
     "plan_evaluate.als": (render_plan_evaluation_module,
-                          ("plan_safe", "valid_states", "ok_steps", "lossless_states", "stable_states")),
+                          ("plan_safe", "valid_states", "formed_states", "ok_steps", "lossless_states",
+                           "stable_states")),
 }
 _evaluators: dict[tuple[int, str], Evaluator] = {}
 _lock = threading.Lock()
 
 
-def evaluator(bridge: AlloyBridge, main: str = "evaluate.als") -> Evaluator:
+def evaluator(bridge: Backend, main: str = "evaluate.als") -> Evaluator:
     """The bridge's evaluator of the evaluation module `main` (evaluate.als, a configuration;
     plan_evaluate.als, a plan), parsing the module on first use."""
     with _lock:
@@ -131,8 +136,8 @@ def start_early() -> None:
 
     def start() -> None:
         try:
-            evaluator(AlloyBridge.get())
-        except Exception:  # noqa: BLE001 - the next AlloyBridge.get() raises it, in its place
+            evaluator(get_backend())
+        except Exception:  # noqa: BLE001 - the next get_backend() raises it, in its place
             return
         # A thread the JVM knows as a user thread holds the JVM's shutdown at exit until it
         # is detached, and this one ends here: detached, the process ends when it is done.

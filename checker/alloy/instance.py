@@ -6,10 +6,10 @@ import time
 from dataclasses import dataclass
 from typing import Collection, Iterable, Mapping, Sequence
 
-from checker.alloy.bridge import AlloyBridge
+from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.cancel import checkpoint
 from checker.alloy.evaluate import evaluator
-from checker.model.actions import KINDS
+from checker.model.actions import KINDS, Action
 from checker.model.config import Configuration
 from codegen.alloy import PLAN_EVALUATION_SIGS, describe_instance_data, describe_plan_data, slice_index
 from codegen.alloy_module import InstanceData, Meaning
@@ -68,7 +68,7 @@ def slices(system: System, config: Configuration, size: int = SLICE, only: Itera
     return [set(present[i:i + size]) for i in range(0, len(present), size)]
 
 
-def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | None = None,
+def alloy_verdict(system: System, config: Configuration, bridge: Backend | None = None,
                   slice_size: int = SLICE, only: Iterable[str] | None = None,
                   keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> AlloyVerdict:
     """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
@@ -80,7 +80,7 @@ def alloy_verdict(system: System, config: Configuration, bridge: AlloyBridge | N
     parts = slices(system, config, slice_size, only)
     focuses: list[set[str] | None] = list(parts) if parts else [None]
     clock = time.perf_counter()
-    judge = evaluator(bridge or AlloyBridge.get())
+    judge = evaluator(bridge or get_backend())
     start = time.perf_counter() - clock
     index = slice_index(system, config) if parts else None
     texts: list[str] = []
@@ -152,16 +152,20 @@ class AlloyPlanVerdict:
     lossless: tuple[bool, ...] = ()
     # per configuration: every `stable` connector satisfied (all True when none is named)
     stable: tuple[bool, ...] = ()
+    # per configuration: well formed (one publisher on a `single` topic, one server on a
+    # service, every attachment typed and of a present component)
+    formed: tuple[bool, ...] = ()
 
     @property
     def ok(self) -> bool:
-        return all(self.valid) and all(self.steps) and all(self.lossless) and all(self.stable)
+        return all(self.valid) and all(self.formed) and all(self.steps) and all(self.lossless) and all(self.stable)
 
 
-def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge: AlloyBridge | None = None,
+def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge: Backend | None = None,
                        serving: Iterable[tuple[str, str]] = (), stable: Iterable[str] = (),
                        protocols: Iterable[tuple[str, str]] = (),
-                       handover: Iterable[tuple[str, str]] = ()) -> AlloyPlanVerdict:
+                       handover: Iterable[tuple[str, str]] = (),
+                       actions: Sequence[Action | None] | None = None) -> AlloyPlanVerdict:
     """Judge a plan (its successive configurations, initial first) in Alloy, by evaluating
     the plan evaluation module's `plan_safe` in it as an instance (checker.alloy.evaluate):
     each configuration valid, each step one of the six actions with its preconditions met,
@@ -169,17 +173,21 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
     `protocols`, each proxy's requests reaching one of them; with `handover` ((connector,
     proxy) pairs of servers losing their FTM), each such proxy normal with its requests
     reaching a protocol while it still publishes on the connector), and with `stable`
-    (connector names), each configuration satisfying them. `text` is the instance read."""
-    data = describe_plan_data(system, configs, list(serving), list(stable), list(protocols), list(handover))
+    (connector names), each configuration satisfying them. Each configuration must be well
+    formed too. With `actions` (one per step), each step is judged as the action the plan
+    says it is; without, as the one action the difference between its configurations is.
+    `text` is the instance read."""
+    data = describe_plan_data(system, configs, list(serving), list(stable), list(protocols), list(handover),
+                              actions)
     text = instance_xml(data, PLAN_EVALUATION_SIGS)
-    judge = evaluator(bridge or AlloyBridge.get(), PLAN_MODULE)
+    judge = evaluator(bridge or get_backend(), PLAN_MODULE)
     clock = time.perf_counter()
     instance = judge.read(text)
     n = len(configs)
     if instance.holds("plan_safe"):
         every = tuple(True for _ in range(n))
         return AlloyPlanVerdict(every, tuple(_planned_actions(data)), time.perf_counter() - clock,
-                                text, every, every)
+                                text, every, every, every)
     states = [f"S{i}" for i in range(n)]
 
     def per_state(expr: str) -> tuple[bool, ...]:
@@ -189,4 +197,4 @@ def alloy_plan_verdict(system: System, configs: Sequence[Configuration], bridge:
     ok = {t for (t,) in instance.value("ok_steps")}
     steps = tuple(action if f"t{i}" in ok else () for i, action in enumerate(_planned_actions(data)))
     return AlloyPlanVerdict(per_state("valid_states"), steps, time.perf_counter() - clock, text,
-                            per_state("lossless_states"), per_state("stable_states"))
+                            per_state("lossless_states"), per_state("stable_states"), per_state("formed_states"))

@@ -19,7 +19,7 @@ import queue
 import time
 from typing import Any, Callable, NamedTuple, Optional
 
-from checker.alloy.bridge import AlloyBridge
+from checker.alloy.bridge import get_backend
 
 # below this many modules in a batch the helper's start-up (about 1.5 s) is not paid back
 MIN_MODULES = 24
@@ -74,7 +74,7 @@ def _claim(batch: Any, counter: Any, mine: int, size: int) -> int:
 def _serve(jobs: Any, results: Any, batch: Any, counter: Any, solver: str) -> None:
     """The helper: start an analyzer, then judge modules of each batch it is sent."""
     try:
-        bridge = AlloyBridge.get()
+        bridge = get_backend()
     except BaseException:  # noqa: BLE001 - the main process judges what the helper does not
         return
     while True:
@@ -176,7 +176,7 @@ def judge_many(work: list[Job], solver: str, bridge: Any = None,
     many modules the helper took. `on_error(i, err)` gives the exception to raise for an
     error in module i."""
     helper = helper_for(len(work), solver, minimum) if bridge is None else None
-    bridge = bridge or AlloyBridge.get()
+    bridge = bridge or get_backend()
 
     def mine(i: int) -> Judged:
         try:

@@ -6,7 +6,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
-from checker.alloy import AlloyBridge, CommandOutcome, metamodel_modules, parallel
+from checker.alloy import CommandOutcome, get_backend, metamodel_modules, parallel
 from checker.alloy.bridge import DEFAULT_SOLVER
 from checker.alloy.metamodel import MAIN
 
@@ -146,7 +146,7 @@ def verify_model(scope: int = 5, solver: str = DEFAULT_SOLVER,
     are two cores (`checker.alloy.parallel`); raises AlloyUnavailable."""
 
     started = time.perf_counter()
-    bridge = AlloyBridge.get()
+    bridge = get_backend()
     modules = modules or metamodel_modules(scope)
     labels = bridge.commands(modules, MAIN)
     used = bridge.usable_solver(solver)

@@ -9,7 +9,7 @@ import multiprocessing as mp
 import queue
 from typing import Any, Mapping, Sequence
 
-from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, CommandOutcome
+from checker.alloy.bridge import DEFAULT_SOLVER, CommandOutcome, get_backend
 from checker.alloy.errors import AlloyError, AlloyTimeout, AlloyUnavailable
 
 
@@ -17,7 +17,7 @@ def _work(out: Any, modules: dict[str, str], main: str, command: str | None, sol
           evals: Sequence[str]) -> None:
     try:
 
-        outcomes = AlloyBridge.get().run(modules, main, command, solver)
+        outcomes = get_backend().run(modules, main, command, solver)
         for o in outcomes:
             if o.satisfiable:
                 for expr in evals:
@@ -35,7 +35,7 @@ def _work(out: Any, modules: dict[str, str], main: str, command: str | None, sol
 def run_with_timeout(modules: Mapping[str, str], main: str, command: str | None = None,
                      solver: str = DEFAULT_SOLVER, timeout: float = 60.0,
                      evals: Sequence[str] = ()) -> list[CommandOutcome]:
-    """Like `AlloyBridge.run`, in a worker process killed after `timeout` seconds
+    """Like `Backend.run`, in a worker process killed after `timeout` seconds
     (raising AlloyTimeout). `evals` are expressions evaluated in each solution before
     the worker exits; `outcome.eval` answers only those."""
     ctx = mp.get_context("spawn")

@@ -7,6 +7,7 @@ from typing import Optional
 import click
 
 from checker.cli.common import console, files_argument, guarded, write_atomically
+from checker.model.actions import is_valid
 from checker.model.config import Configuration
 from checker.reports.report import OutputFormat
 from codegen.alloy import render_instance
@@ -22,7 +23,8 @@ def alloy_cmd(files: tuple[str, ...], output: Optional[str], sources: Sources,
     """Write the Alloy instance module of FILES' deployed configuration (open it in the Alloy GUI)."""
 
     system = load(list(files), sources)
-    text, _ = render_instance(system, Configuration.initial(system))
+    config = Configuration.initial(system)
+    text, _ = render_instance(system, config, valid=is_valid(system, config))
     if output:
         write_atomically(output, text)
         console().print(f"wrote {output}: `run Verdict` shows the configuration and what fails")

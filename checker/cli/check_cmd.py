@@ -8,6 +8,7 @@ from typing import Optional
 
 import click
 
+from checker.alloy.engines import Engine
 from checker.alloy.evaluate import start_early
 from checker.cli.bag_options import bag_options, judge_bag, refuse_bag_options_alone
 from checker.cli.common import (
@@ -39,7 +40,7 @@ from reconf_dsl.parser import parse_text
 @solver_option_unused
 @bag_options
 @guarded("check")
-def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: str, solver: str,
+def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: ReportFormat, engine: Engine, solver: str,
           bag: Optional[str], window: float, tolerance: float, sources: Sources) -> None:
     """Prove that every functionality's assumptions hold in PATHs (one system; includes followed;
     a directory stands for the .arch files under it).
@@ -56,11 +57,11 @@ def check(files: tuple[str, ...], exclude: tuple[str, ...], output_format: Repor
     served = warm.start_up()       # in a warm analyzer: the client's start-up, and which analyzer
     age = served[0] if served else process_age()     # the interpreter's start-up and imports
     started = time.perf_counter() - age
-    if engine != "python":
+    if engine.alloy:
         start_early()              # the analyzer starts while the files are parsed
     system = load(expand(files, exclude) or nothing_left(files), sources, parse=warm.shared_parse() or parse_text)
     parsed = time.perf_counter() - started - age
-    with status(f"checking {system.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
+    with status(f"checking {system.name}{engine.says()}…"):
         outcome = check_system(system, engine)
     outcome.recording = judge_bag(system, bag, window, tolerance)
     judging, details = outcome.timing_parts()

@@ -14,7 +14,7 @@ import click
 from rich.console import Console
 
 from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES  # the one table of solvers
-from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.engines import Engine, EnginesDisagree, EngineUnavailable
 from checker.alloy.errors import AlloyUnavailable
 from checker.ftm.expand import FtmRuleBroken
 from checker.planning.plan import BadRequest
@@ -128,7 +128,8 @@ format_option = click.option("--output-format", "output_format", type=click.Choi
 files_argument = click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 
 
-engine_option = click.option("--engine", type=click.Choice(["both", "alloy", "python"]), default="both",
+engine_option = click.option("--engine", type=click.Choice([e.value for e in Engine]), default=Engine.BOTH.value,
+                             callback=lambda c, p, v: Engine(v),
                              show_default=True,
                              help="both: Alloy proves, Python explains, and they must agree")
 

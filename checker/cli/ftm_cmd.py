@@ -20,7 +20,7 @@ from checker.ftm.alloy_rules import alloy_profiles
 from checker.ftm.expand import expand, to_text
 from checker.ftm.library import compose
 from checker.ftm.select import Candidate, profile, select
-from checker.ftm.transition import parse_ftm, plan_transition
+from checker.ftm.transition import parse_ftm, plan_transition, refuse_invalid_ftm, with_ftm
 from checker.reports.pictures import picture
 from checker.reports.report import OutputFormat
 from codegen.graph import to_dot
@@ -182,12 +182,17 @@ def _expand_format(given: Optional[str], output: Optional[str]) -> str:
 @click.argument("component")
 @click.argument("new_ftm")
 @click.option("--on", "hosts", help="hosts of the new FTM's replicas, comma-separated (default: as now)")
+@click.option("--allow-invalid-ftm", is_flag=True,
+              help="plan the transition even to an FTM the component's faults, characteristics or resources rule "
+                   "out (the FTM rules, RC401-RC407, are then warnings on the plan)")
 @with_common
 @guarded("plan")
-def transition_cmd(component: str, new_ftm: str, hosts: Optional[str], sources: Sources, **opts: Any) -> None:
+def transition_cmd(component: str, new_ftm: str, hosts: Optional[str], allow_invalid_ftm: bool, sources: Sources,
+                   **opts: Any) -> None:
     """Change COMPONENT's FTM to NEW_FTM (`LFR`, `PBR(TR)`, `SEC(PBR(TR))`, `none`): a verified plan
     that keeps the nodes both graphs share, suspends each protocol while its neighbourhood is
-    substituted and resumes it after; clients are never left unserved."""
+    substituted and resumes it after; clients are never left unserved. An FTM the FTM rules rule out
+    for COMPONENT is refused (exit 1, the rules named) unless --allow-invalid-ftm."""
 
     system = load(_files(opts["files"]), sources)
     expr = None if new_ftm.lower() == "none" else parse_ftm(new_ftm)
@@ -195,6 +200,8 @@ def transition_cmd(component: str, new_ftm: str, hosts: Optional[str], sources: 
     comp = system.component(component)
     old = str(comp.ftm.expr) if comp is not None and comp.ftm is not None else "none"
     holder: dict[str, Any] = {}
+    if comp is not None and not allow_invalid_ftm:    # before planning: refused as `check` would judge it
+        refuse_invalid_ftm(with_ftm(system, component, expr, on), component, expr)
 
     def make() -> Any:
         t = plan_transition(system, component, expr, on, opts["strategy"])

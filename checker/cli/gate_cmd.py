@@ -11,7 +11,7 @@ from typing import Callable, Optional
 
 import click
 
-from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.engines import Engine, EnginesDisagree, EngineUnavailable
 from checker.cli.common import (
     EXIT_CHANGES,
     EXIT_OK,
@@ -93,6 +93,9 @@ def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic
 @click.option("--allow-unsafe-base", is_flag=True,
               help="when OLD is not safe (no plan from it exists), pass a safe NEW alone, with a warning: the fix "
                    "must be deployed by other means")
+@click.option("--allow-invalid-ftm", is_flag=True,
+              help="judge NEW without the FTM rules (RC402-RC407: an FTM its component's faults, characteristics or "
+                   "resources rule out), which become warnings, as `plan transition --allow-invalid-ftm` does")
 @click.option("--detailed-exitcode", is_flag=True,
               help="exit 0 when there is nothing to do, 3 when the change is safe and has steps (1 fail, 2 bad input)")
 @click.option("--report", "reports", multiple=True, metavar="FORMAT=FILE", callback=parse_reports,
@@ -102,8 +105,9 @@ def write_failure_reports(reports: list[tuple[str, str]], diags: list[Diagnostic
 @engine_option
 @solver_option_unused
 @guarded("gate")
-def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str, solver: str,
+def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, allow_invalid_ftm: bool,
+             detailed_exitcode: bool,
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: Engine, solver: str,
              sources: Sources) -> None:
     """Pass when NEW is safe and a verified migration plan from OLD to NEW exists within the policy.
 
@@ -121,7 +125,7 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     del solver     # no effect on a gate (solver_option_unused)
     try:
         run_gate(base, head, policy_file, allow_unsafe_base, detailed_exitcode, reports, output_format, engine,
-                 sources)
+                 sources, allow_invalid_ftm)
     except ReportsNotWritten:
         raise                           # the reports that were written hold the verdict: keep them
     except (DiagnosticError, Failure) as e:
@@ -148,8 +152,8 @@ def gate_policy(policy_file: Optional[str], revs: Revisions, sources: Sources) -
 
 
 def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base: bool, detailed_exitcode: bool,
-             reports: list[tuple[str, str]], output_format: ReportFormat, engine: str,
-             sources: Sources) -> None:
+             reports: list[tuple[str, str]], output_format: ReportFormat, engine: Engine,
+             sources: Sources, allow_invalid_ftm: bool = False) -> None:
     with revisions() as revs:
         try:
             policy = gate_policy(policy_file, revs, sources)
@@ -162,7 +166,7 @@ def run_gate(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
             rename_sources(sources, revs)
             raise DiagnosticError([revs.diagnostic(d) for d in e.diagnostics]) from None
         rename_sources(sources, revs)
-        out = judge_change(old, new, policy, engine, allow_unsafe_base)
+        out = judge_change(old, new, policy, engine, allow_unsafe_base, allow_invalid_ftm)
         out.diagnostics = [revs.diagnostic(d) for d in out.diagnostics]
         out.cases = [replace(c, span=revs.span(c.span)) if c.span else c for c in out.cases]
     verdict = "pass" if out.passed else "fail"

@@ -20,6 +20,7 @@ from typing import Optional
 
 import click
 
+from checker.alloy.engines import Engine
 from checker.cli.common import EXIT_BAD_INPUT, EXIT_OK, EXIT_UNSAFE, console, engine_option, solver_option
 from checker.cli.main import main as reconf
 from reconf_dsl import ir
@@ -130,7 +131,7 @@ def hooks() -> None:
 @click.argument("files", nargs=-1)
 @engine_option
 @solver_option
-def check_hook(files: tuple[str, ...], engine: str, solver: str) -> None:
+def check_hook(files: tuple[str, ...], engine: Engine, solver: str) -> None:
     """Check every system the staged FILES belong to."""
     staged = [f for f in files if f.endswith(".arch")]
     roots, alone = roots_of(staged, repository_files(os.getcwd()))
@@ -141,7 +142,7 @@ def check_hook(files: tuple[str, ...], engine: str, solver: str) -> None:
     for root in roots:
         if len(roots) > 1:
             console().print(f"[bold]reconf check {root}[/]")
-        code = _run(["check", "--engine", engine, "--solver", solver, root])
+        code = _run(["check", "--engine", engine.value, "--solver", solver, root])
         worst = max(worst, code) if code in (EXIT_OK, EXIT_UNSAFE, EXIT_BAD_INPUT) else EXIT_BAD_INPUT
     sys.exit(worst)
 

@@ -1,4 +1,5 @@
-"""`reconf plan replace|remove|add|migrate`: plan, verify, show like `terraform plan`, emit a ROS 2 script.
+"""`reconf plan replace|remove|add|migrate`: plan, verify, show like `terraform plan`, emit a ROS 2 script;
+`reconf plan verify`: verify a plan document from anywhere in both engines.
 
 Every plan shown has been checked step by step by the Python engine; with Alloy available
 (the default) it is also checked as a whole by the Alloy Analyzer before it is shown. A
@@ -17,20 +18,34 @@ from typing import Any, Callable, Optional, Sequence
 import click
 from rich.markup import escape
 
-from checker.cli.common import EXIT_CHANGES, EXIT_OK, EXIT_UNSAFE, Failure, console, guarded, plural, write_atomically
+from checker.alloy.engines import Engine
+from checker.cli.common import (
+    EXIT_CHANGES,
+    EXIT_OK,
+    EXIT_UNSAFE,
+    Failure,
+    console,
+    engine_option,
+    guarded,
+    plural,
+    write_atomically,
+)
 from checker.cli.plan_options import with_common, with_plan_options
 from checker.ftm.plan_change import has_ftm, plan_change, planned_on
+from checker.gate.plan_verify import PlanJudgement, verify_plan
 from checker.planning import Attempt, NoPlanFound, NoSafePlan, Plan, plan_add, plan_remove, plan_replace
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import BadRequest, degradation, unknown
 from checker.planning.verified import plan_verified
+from checker.reports import report
 from checker.reports.plan_document import plan_document, with_model
+from checker.reports.plan_reader import read_plan
 from checker.reports.progress import status
 from checker.reports.report import OutputFormat
 from codegen.ros2 import FORMAT_VERSION, render_plan_script
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import System
-from reconf_dsl.loader import Sources, load
+from reconf_dsl.loader import Sources, display_path, load, read_source
 from reconf_dsl.span import Span
 from reconf_dsl.words import agree
 
@@ -128,9 +143,69 @@ def migrate_cmd(old: str, new: str, sources: Sources, **opts: Any) -> None:
         chain=not has_ftm(a, b), **opts)
 
 
+@plan.command("verify")
+@click.argument("plan_file", metavar="PLAN.json", type=click.Path(dir_okay=False))
+@click.option("-f", "--file", "files", multiple=True, type=click.Path(dir_okay=False),
+              help="the architecture the plan is on (repeatable; default: the one *.arch here, or $RECONF_ARCH)")
+@engine_option
+@click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
+              default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v))
+@guarded("plan")
+def verify_cmd(plan_file: str, files: tuple[str, ...], engine: Engine, output_format: OutputFormat,
+               sources: Sources) -> None:
+    """Verify the plan in PLAN.json (format 1 or 2 of docs/executor.md, from reconf, by hand or from
+    another tool) on the architecture: every configuration well formed and valid, every step's
+    preconditions met and the next configuration its effect, judged by the Python engine and by
+    Alloy on their own. The first rule broken is shown where the document breaks it."""
+    system = load(list(files) or default_files(), sources)
+    doc = read_plan(display_path(plan_file), read_source(plan_file, sources), system)
+    with status(f"verifying {plural(len(doc.steps), 'step')}{engine.says()}…"):
+        judged = verify_plan(system, doc, engine)
+    alloy = judged.engines.get("alloy", {})
+    if alloy.get("verdict") == "not run":
+        raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan: {alloy.get('reason')}",
+                                  Span.unknown("<alloy>"), notes=("`--engine python` relies on the Python engine "
+                                                                  "alone",))])
+    verdicts = {name: e["valid"] for name, e in judged.engines.items()}
+    if len(set(verdicts.values())) > 1:
+        raise Failure([Diagnostic("RC300", Severity.ERROR, "the engines disagree on the plan: " + ", ".join(
+            f"{name} says {'safe' if ok else 'unsafe'}" for name, ok in verdicts.items()), doc.step_spans[0]
+            if doc.step_spans else Span.unknown(doc.file), notes=tuple(
+                f"{name}: {e.get('reason') or 'every rule holds'}" for name, e in judged.engines.items()) + (
+                "this is a bug in reconf: please report it with the plan and the .arch file",))])
+    _show_verified(judged, output_format, sources)
+    sys.exit(EXIT_OK if judged.safe else EXIT_UNSAFE)
+
+
+def _show_verified(judged: PlanJudgement, fmt: OutputFormat, sources: Sources) -> None:
+    doc = judged.plan
+    if fmt is OutputFormat.JSON:
+        click.echo(json.dumps({"format_version": FORMAT_VERSION, "tool": "reconf", "command": "plan verify",
+                               "file": doc.file, "verdict": "safe" if judged.safe else "unsafe",
+                               "steps": len(doc.steps), "states": len(doc.states), "engines": judged.engines,
+                               "diagnostics": [report.diagnostic_json(d) for d in judged.diagnostics]}, indent=2))
+        return
+    report.render_text(judged.diagnostics, sources, sys.stderr)
+    out = console()
+    what = f"{doc.file}: {plural(len(doc.steps), 'step')}, {plural(len(doc.states), 'state')}"
+    if judged.safe:
+        out.print(f"[bold green]✓ verified[/]: {escape(what)}; every configuration well formed and valid, every step's "
+                  f"preconditions hold and the next configuration is its effect ({_by(judged)})")
+        return
+    out.print(f"[bold red]✗ refused[/]: {escape(what)} ({_by(judged)})")
+    alloy = judged.engines.get("alloy")
+    if alloy:
+        out.print(f"  Alloy: {escape(str(alloy.get('reason')))}")
+
+
+def _by(judged: PlanJudgement) -> str:
+    names = {"python": "the Python engine", "alloy": "Alloy"}
+    return "judged by " + " and ".join(names[n] for n in judged.engines)
+
+
 def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
-        target: Optional[System] = None, engine: str = "python", max_steps: int = 12,
+        target: Optional[System] = None, engine: Engine = Engine.PYTHON, max_steps: int = 12,
         detailed_exitcode: bool = False, chain: bool = False,
         apply: Optional[Callable[[dict[str, Any]], int]] = None) -> None:
     """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
@@ -147,7 +222,7 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
 
         try:
             verified = plan_verified(make, use_alloy=use_alloy, chain=chain, judge=judge,
-                                     alloy_planner=engine == "alloy", max_steps=max_steps, progress=say)
+                                     alloy_planner=engine is Engine.ALLOY, max_steps=max_steps, progress=say)
         except NoPlanFound as e:
             return no_plan(label, e.reasons, fmt, attempts=e.attempts)
         except NoSafePlan as e:

@@ -8,6 +8,7 @@ from typing import Any, Callable
 
 import click
 
+from checker.alloy.engines import Engine
 from checker.planning.strategies import REGISTRY, STRATEGIES
 from checker.reports.report import OutputFormat
 
@@ -21,7 +22,8 @@ plan_options: list[Callable[[Any], Any]] = [
                  + "; when one finds no plan, the next plans"),
     click.option("--alloy/--no-alloy", "use_alloy", default=True, show_default=True,
                  help="also verify the whole plan in the Alloy Analyzer"),
-    click.option("--engine", type=click.Choice(["python", "alloy"]), default="python", show_default=True,
+    click.option("--engine", type=click.Choice([Engine.PYTHON.value, Engine.ALLOY.value]), default=Engine.PYTHON.value,
+                 show_default=True, callback=lambda c, p, v: Engine(v),
                  help="alloy: ask Alloy 6 for a least-disruptive plan of at most --max-steps steps (small systems)"),
     click.option("--max-steps", type=click.IntRange(1, 64), default=12, show_default=True,
                  help="with --engine alloy: the longest plan considered"),

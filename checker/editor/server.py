@@ -25,7 +25,7 @@ from lsprotocol import types as lsp
 from pygls.lsp.server import LanguageServer
 
 from checker.alloy.cancel import Cancelled, cancellable
-from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.engines import Engine, EnginesDisagree, EngineUnavailable
 from checker.alloy.errors import AlloyUnavailable
 from checker.alloy.evaluate import start_early
 from checker.editor import convert, features
@@ -193,7 +193,7 @@ class Session:
         started = time.perf_counter()
         try:
             with cancellable(lambda: proof.cancelled):
-                outcome = check_system(system, "both")
+                outcome = check_system(system, Engine.BOTH)
         except Cancelled:
             proof.cancelled = True
             return

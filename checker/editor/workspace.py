@@ -21,6 +21,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Optional
 
+from checker.alloy.engines import Engine
 from checker.gate.check import CheckOutcome, check_system
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
@@ -183,7 +184,7 @@ class Workspace:
             analysis.files |= set(documents)
             try:
                 analysis.system = resolve(docs)
-                analysis.outcome = check_system(analysis.system, "python")
+                analysis.outcome = check_system(analysis.system, Engine.PYTHON)
                 analysis.diagnostics = analysis.outcome.diagnostics
             except DiagnosticError as e:
                 analysis.diagnostics = list(e.diagnostics)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from importlib.resources import files
 from typing import Optional
 
-from checker.alloy import AlloyBridge
+from checker.alloy import get_backend
 from checker.alloy.bridge import atom_name as atom
 from checker.ftm.library import LIBRARY, Composition, all_compositions, compose, layers
 from checker.ftm.select import Profile, profile
@@ -101,7 +101,7 @@ def alloy_profiles(profiles: dict[str, Profile], attached: dict[str, Optional[Co
     text, cands = instance_text([profiles[n] for n in names], [attached.get(n) for n in names],
                                 [(written or {}).get(n, []) for n in names],
                                 [(hosts or {}).get(n, MAX_INT) for n in names])
-    (out,) = AlloyBridge.get().run({"ftm.als": ftm_rules_text(), MAIN: text}, MAIN, "Verdict")
+    (out,) = get_backend().run({"ftm.als": ftm_rules_text(), MAIN: text}, MAIN, "Verdict")
 
     valid: dict[str, set[str]] = {n: set() for n in names}
     for k, c in out.eval("valid"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable
-from checker.alloy.engines import EnginesDisagree, EngineUnavailable
+from checker.alloy.engines import Engine, EnginesDisagree, EngineUnavailable
 from checker.ftm.alloy_rules import alloy_ftm_verdict
 from checker.ftm.diagnose import ftm_findings, in_order
 from reconf_dsl.diagnostics import Diagnostic, Severity
@@ -13,14 +13,14 @@ from reconf_dsl.ir import System
 from reconf_dsl.span import Span
 
 
-def judge_ftm(system: System, engine: str = "both") -> tuple[list[Diagnostic], Optional[dict[str, Any]]]:
+def judge_ftm(system: System, engine: Engine = Engine.BOTH) -> tuple[list[Diagnostic], Optional[dict[str, Any]]]:
     """The FTM rules (RC401–RC407) on every component with an FTM: the Python engine's
-    diagnostics and, unless `engine` is "python", Alloy's judgement of the same rules
+    diagnostics and, when `engine` has Alloy judge, Alloy's judgement of the same rules
     (alloy_model/ftm.als: which attached FTMs contradict (F, A, R), which are written in the
     wrong order, which duplexes lack two hosts), which must agree with them."""
     findings = ftm_findings(system)
     diags = in_order(d for _, d in findings)
-    if engine == "python" or not any(c.ftm is not None for c in system.components):
+    if not engine.alloy or not any(c.ftm is not None for c in system.components):
         return diags, None
     try:
         v = alloy_ftm_verdict(system)

@@ -12,7 +12,7 @@ from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
 from checker.ftm.diagnose import ftm_diagnostics
-from checker.ftm.expand import ExpansionInfo, expand
+from checker.ftm.expand import ExpansionInfo, FtmRuleBroken, expand
 from checker.ftm.library import LAYER_ORDER
 from checker.model.actions import (
     Action,
@@ -419,13 +419,28 @@ def _request_path(system: ir.System, start: Configuration, old_infos: list[Expan
 
 
 def plan_transition(system: ir.System, component: str, new_ftm: Union[str, ir.FtmExpr, None],
-                    hosts: Optional[tuple[str, ...]] = None, strategy: str = "default") -> Transition:
-    """Plan the change of `component`'s FTM to `new_ftm` (None: remove it) in `system`."""
+                    hosts: Optional[tuple[str, ...]] = None, strategy: str = "default",
+                    allow_invalid: bool = True) -> Transition:
+    """Plan the change of `component`'s FTM to `new_ftm` (None: remove it) in `system`. Unless
+    `allow_invalid`, a new FTM that the component's (F, A, R) rules out (an FTM rule the target
+    breaks, RC401-RC407, as `reconf check` judges it) is refused: FtmRuleBroken, with the rules."""
     expr = parse_ftm(new_ftm) if isinstance(new_ftm, str) else new_ftm
     target = with_ftm(system, component, expr, hosts)
+    if not allow_invalid:
+        refuse_invalid_ftm(target, component, expr)
     old, old_infos = expand(system)
     new, new_infos = expand(target)
     return _with_rule_notes(_plan(old, new, old_infos, new_infos, strategy), target, {component})
+
+
+def refuse_invalid_ftm(target: ir.System, component: str, expr: Optional[ir.FtmExpr]) -> None:
+    """Raise FtmRuleBroken when `target` breaks an FTM rule on `component` (its errors, named)."""
+    # RC401 (an ill-formed expression) is the user's typing, bad input: not judged here
+    broken = [d for d in ftm_diagnostics(target, {component}) if d.is_error and d.code != "RC401"]
+    if broken:
+        note = (f"the FTM rules rule {expr if expr is not None else 'none'} out for {component}; "
+                "--allow-invalid-ftm plans the transition anyway")
+        raise FtmRuleBroken([dc_replace(d, notes=d.notes + (note,)) for d in broken])
 
 
 def plan_ftm_migrate(old_system: ir.System, new_system: ir.System, strategy: str = "default") -> Transition:

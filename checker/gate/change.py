@@ -8,11 +8,11 @@ a fix through; with `--allow-unsafe-base` (or `allow-unsafe-base = true`) a safe
 alone, with a warning (RC510) that it must be deployed by other means."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Optional
 
 from checker.alloy import AlloyError, AlloyUnavailable
-from checker.alloy.engines import EngineUnavailable
+from checker.alloy.engines import Engine, EngineUnavailable
 from checker.ftm.plan_change import plan_change, planned_on
 from checker.gate.check import check_system
 from checker.gate.policy import Policy, coverage, covered, ftm_names
@@ -25,7 +25,7 @@ from checker.planning.verified import plan_verified
 from checker.reports import formats
 from checker.reports.plan_document import plan_document
 from checker.reports.progress import status
-from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, error, warning
+from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, Severity, error, warning
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
 from reconf_dsl.words import agree, plural
@@ -195,12 +195,18 @@ def unsafe_base_findings(old: System, new: System, failing: list[tuple[str, str,
     out.ok("gate.policy", f"{new.name} is safe alone (the base is not; {allowed})", new.span)
 
 
-def judge_change(old: System, new: System, policy: Policy, engine: str,
-                 allow_unsafe_base: bool = False) -> Outcome:
+def judge_change(old: System, new: System, policy: Policy, engine: Engine,
+                 allow_unsafe_base: bool = False, allow_invalid_ftm: bool = False) -> Outcome:
+    """The gate's judgement of the change from `old` to `new`. The head is judged as `reconf
+    check` judges it: an FTM the FTM rules rule out makes it unsafe, unless `allow_invalid_ftm`
+    (those findings are then warnings)."""
     out = Outcome()
     ftm_findings(old, new, policy, out)
-    with status(f"checking {new.name}" + (" in the Alloy Analyzer" if engine != "python" else "") + "…"):
+    with status(f"checking {new.name}{engine.says()}…"):
         head = check_system(new, engine)        # the head is judged as `reconf check` judges it
+    if allow_invalid_ftm:
+        head.ftm = [replace(d, severity=Severity.WARNING, notes=d.notes + ("allowed by --allow-invalid-ftm",))
+                    if d.is_error and d.code != "RC401" else d for d in head.ftm]
     broken = [d for d in head.ftm if d.is_error]
     out.safe, out.engines = head.safe, head.engines
     out.cases[:0] = head.cases()
@@ -222,5 +228,5 @@ def judge_change(old: System, new: System, policy: Policy, engine: str,
                    f"allow-unsafe-base = true in {policy.where}" if policy.allow_unsafe_base else None)
         unsafe_base_findings(old, new, base_failing, allowed, out)
         return out
-    plan_findings(old, new, policy, engine != "python", out)
+    plan_findings(old, new, policy, engine.alloy, out)
     return out

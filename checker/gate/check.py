@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from checker.alloy.engines import Judgement, judge
+from checker.alloy.engines import Engine, Judgement, judge
 from checker.ftm.judge import judge_ftm
 from checker.model.config import Configuration
 from checker.reality.recording import RecordingVerdict
@@ -74,7 +74,7 @@ class CheckOutcome:
         return f"{s.name} — {counts}, {held}{self.judged.how()}{ftm_note}{recorded}; {timing}"
 
 
-def check_system(system: System, engine: str = "both",
+def check_system(system: System, engine: Engine = Engine.BOTH,
                  recording: Optional[RecordingVerdict] = None) -> CheckOutcome:
     """Judge `system`'s deployed configuration; raises EngineUnavailable or EnginesDisagree."""
     judged = judge(system, Configuration.initial(system), engine)

@@ -15,6 +15,7 @@ from checker.model.config import Configuration, FuncId, Role
 
 if TYPE_CHECKING:
     from checker.model.actions import Action, ActionBase, Snapshot, _Catalogue
+    from checker.model.rules import Refusal
 
 __all__ = ["ActionKind", "Change", "Kind", "Meaning"]
 
@@ -73,7 +74,7 @@ class Kind(Protocol):
 
     def make(self, values: dict[str, str]) -> "ActionBase": ...
 
-    def preconditions(self, st: "Snapshot", action: "Action") -> list[str]: ...
+    def preconditions(self, st: "Snapshot", action: "Action") -> list["Refusal"]: ...
 
     def after(self, cat: "_Catalogue", config: Configuration, action: "Action") -> Configuration: ...
 
@@ -87,13 +88,14 @@ class Kind(Protocol):
 @dataclass(frozen=True)
 class ActionKind(Generic[A]):
     """One action: its class (fields, `kind`, `symbol`, `describe`), `precondition` (the
-    failing preconditions in words, [] when it may run), `effect` (the configuration after
+    failing preconditions, each with its rule's name (`checker.model.rules`), [] when it may
+    run; the action's names are declared), `effect` (the configuration after
     it, preconditions not checked), `recognise` (the actions of this kind a `Change` is made
     of) and `args` (its arguments as the Alloy atoms' meanings, in the order of the Alloy
     predicate's parameters after the two configurations), whose kinds are `params`."""
 
     cls: type[A]
-    precondition: Callable[["Snapshot", A], list[str]]
+    precondition: Callable[["Snapshot", A], list["Refusal"]]
     effect: Callable[["_Catalogue", Configuration, A], Configuration]
     recognised: Callable[[Change], Iterable["Action"]]
     args: Callable[[A], tuple[Meaning, ...]]
@@ -123,7 +125,7 @@ class ActionKind(Generic[A]):
             raise TypeError(f"{action!r} is not a {self.name} action")
         return action
 
-    def preconditions(self, st: "Snapshot", action: "Action") -> list[str]:
+    def preconditions(self, st: "Snapshot", action: "Action") -> list["Refusal"]:
         return self.precondition(st, self._own(action))
 
     def after(self, cat: "_Catalogue", config: Configuration, action: "Action") -> Configuration:

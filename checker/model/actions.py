@@ -27,16 +27,19 @@ connector, which can only happen when rule (iii) on modes is violated.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import ClassVar, Iterable, Optional, TypeVar, Union, cast
+from typing import Any, ClassVar, Iterable, Optional, TypeVar, Union, cast
 
 from checker.model.action_kinds import ActionKind, Change, Kind, Meaning
 from checker.model.config import Configuration, FuncId, Role
+from checker.model.rules import BY_NAME as RULE_NAMES
+from checker.model.rules import Refusal
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
 from reconf_dsl.ir import satisfies as _satisfies
 
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
            "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",
-           "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "kind_of", "changes", "recognise"]
+           "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "refusals", "unknown_name", "step_refusals",
+           "state_refusals", "kind_of", "changes", "recognise"]
 
 
 @dataclass(frozen=True)
@@ -379,6 +382,36 @@ def failing_assumptions(system: System, config: Configuration) -> list[tuple[str
     return Snapshot(cat, config).unsafe(c for c in config.components if c in cat.comps)
 
 
+def state_refusals(system: System, config: Configuration) -> list[Refusal]:
+    """The rules about a configuration (`checker.model.rules`, `state.*`) that `config`
+    breaks: well-formedness (one publisher on a `single` topic, one server on a service,
+    each attachment well typed and of a present component) and validity. Raises ValueError
+    when an attachment names what the architecture does not declare."""
+    cat = catalogue(system)
+    out: list[Refusal] = []
+    pubs: dict[str, list[str]] = {}
+    for conn, comp, port in sorted(config.roles):
+        k, p = cat.conns.get(conn), cat.ports.get((comp, port))
+        if k is None or p is None:
+            raise ValueError(f"{comp}.{port} on {conn}: " + ("no such connector" if k is None else "no such port"))
+        who = f"{comp}.{port}"
+        if comp not in config.components:
+            out.append(_no("state.owned", f"{who} is attached to {conn}, but {comp} is not in the system"))
+        if k.guarantee.message is not None and p.message != k.guarantee.message:
+            out.append(_no("state.typed", f"{who} carries {p.message}, but {conn} carries {k.guarantee.message}"))
+        if p.kind == "output":
+            pubs.setdefault(conn, []).append(who)
+    for conn, names in sorted(pubs.items()):
+        k = cat.conns[conn]
+        if len(names) > 1 and k.kind == "service":
+            out.append(_no("state.service", f"{conn} is a service with {len(names)} servers: {', '.join(names)}"))
+        elif len(names) > 1 and k.single:
+            out.append(_no("state.single", f"{conn} takes a single publisher and has {len(names)}: "
+                                           f"{', '.join(names)}"))
+    out += [_no("state.valid", f"{c}.{f} assumes {a}, which does not hold") for c, f, a in failing_assumptions(system, config)]
+    return out
+
+
 def is_valid(system: System, config: Configuration) -> bool:
     """The safety property (same verdict as `semantics.evaluate(...).valid`, faster)."""
     return not failing_assumptions(system, config)
@@ -392,131 +425,190 @@ def preconditions(system: System, config: Configuration, action: Action) -> list
 
 
 def check(st: Snapshot, action: Action) -> list[str]:
-    """`preconditions` on a snapshot, so one snapshot serves many candidate actions."""
-    return kind_of(action).preconditions(st, action)
+    """`preconditions` on a snapshot, so one snapshot serves many candidate actions. An
+    action naming what the architecture does not declare is refused for that alone."""
+    unknown = unknown_name(st.cat, action)
+    if unknown is not None:
+        return [unknown]
+    return [r.text for r in kind_of(action).preconditions(st, action)]
 
 
-def _remove(st: Snapshot, a: Remove) -> list[str]:
+def refusals(system: System, config: Configuration, action: Action) -> list[Refusal]:
+    """The preconditions of `action` that fail in `config`, each with its rule's name
+    (`checker.model.rules`). Raises ValueError when the action names what the architecture
+    does not declare (`unknown_name`): that is no rule of a step, but a step that is not one."""
+    cat = catalogue(system)
+    unknown = unknown_name(cat, action)
+    if unknown is not None:
+        raise ValueError(unknown)
+    return kind_of(action).preconditions(Snapshot(cat, config), action)
+
+
+def step_refusals(system: System, before: Configuration, action: Action, after: Configuration) -> list[Refusal]:
+    """The rules (`checker.model.rules`) a step from `before` by `action` to `after` breaks:
+    its preconditions in `before`, and `<action>.effect` when `after` is not the action's
+    effect (the modes of absent components aside: neither engine reads them). Raises
+    ValueError as `refusals` does."""
+    out = refusals(system, before, action)
+    expected = _settled(effect(system, before, action))
+    got = _settled(after)
+    if got != expected:
+        diff = [f"{'has' if extra else 'lacks'} {what}" for part, (want, have) in zip(("component", "degraded", "role"),
+                                                                                     zip(expected, got))
+                for extra, items in ((True, have - want), (False, want - have)) for what in
+                (f"{part} {'.'.join(x) if isinstance(x, tuple) else x}" for x in sorted(items, key=str))]
+        out.append(_no(f"{action.kind}.effect", f"the configuration after {action.describe()} is not its effect: "
+                                                f"it {', '.join(diff[:4])}{', …' if len(diff) > 4 else ''}"))
+    return out
+
+
+def _settled(c: Configuration) -> tuple[frozenset[Any], frozenset[Any], frozenset[Any]]:
+    """What both engines read of a configuration: the modes of present components only."""
+    return c.components, frozenset(d for d in c.degraded if d[0] in c.components), c.roles
+
+
+def unknown_name(cat: _Catalogue, action: Action) -> Optional[str]:
+    """What `action` names that the architecture does not declare, in words, or None."""
+    comp = cat.comps.get(action.component)
+    if comp is None:
+        return f"no component {action.component} is declared"
+    if isinstance(action, (Attach, Detach)):
+        if action.connector not in cat.conns:
+            return f"{action.connector} is not a connector of the system"
+        if comp.port(action.port) is None:
+            return f"{action.component} has no port {action.port}"
+    if isinstance(action, (Degrade, Upgrade)) and (action.component, action.functionality) not in cat.funcs:
+        return f"{action.component} has no functionality {action.functionality}"
+    return None
+
+
+def _no(rule: str, text: str) -> Refusal:
+    assert rule in RULE_NAMES, rule
+    return Refusal(rule, text)
+
+
+def _remove(st: Snapshot, a: Remove) -> list[Refusal]:
     if a.component not in st.config.components:
-        return [f"{a.component} is not in the system"]
-    return [f"{a.component} is not isolated: {a.component}.{p} is attached to {conn}"
+        return [_no("remove.present", f"{a.component} is not in the system")]
+    return [_no("remove.isolated", f"{a.component} is not isolated: {a.component}.{p} is attached to {conn}")
             for conn, comp, p in sorted(st.config.roles) if comp == a.component]
 
 
-def _create(st: Snapshot, a: Create) -> list[str]:
-    c = st.cat.comps.get(a.component)
-    if c is None:
-        return [f"no component {a.component} is declared"]
+def _create(st: Snapshot, a: Create) -> list[Refusal]:
+    c = st.cat.comps[a.component]
     if a.component in st.config.components:
-        return [f"{a.component} is already in the system"]
-    return [f"{a.component}.{f.name} has no degraded mode, so {a.component} cannot be created degraded"
-            for f in c.functionalities if f.degraded is None]
+        return [_no("create.absent", f"{a.component} is already in the system")]
+    return [_no("create.degraded", f"{a.component}.{f.name} has no degraded mode, so {a.component} cannot be "
+                                   "created degraded") for f in c.functionalities if f.degraded is None]
 
 
-def _port_problems(st: Snapshot, a: Union[Detach, Attach]) -> list[str]:
-    if a.connector not in st.cat.conns:
-        return [f"{a.connector} is not a connector of the system"]
-    if a.component not in st.config.components:
-        return [f"{a.component}.{a.port} is not a port of a present component ({a.component} is not in the system)"]
-    if st.cat.comps[a.component].port(a.port) is None:
-        return [f"{a.component} has no port {a.port}"]
+def _port_problems(st: Snapshot, a: Union[Detach, Attach]) -> list[Refusal]:
     attached = (a.connector, a.component, a.port) in st.config.roles
     if isinstance(a, Detach) and not attached:
-        return [f"{a.component}.{a.port} is not attached to {a.connector}"]
+        return [_no("detach.attached", f"{a.component}.{a.port} is not attached to {a.connector}")]
     if isinstance(a, Attach) and attached:
-        return [f"{a.component}.{a.port} is already attached to {a.connector}"]
+        return [_no("attach.detached", f"{a.component}.{a.port} is already attached to {a.connector}")]
+    if a.component not in st.config.components:
+        return [_no(f"{a.kind}.present", f"{a.component}.{a.port} is not a port of a present component "
+                                         f"({a.component} is not in the system)")]
     return []
 
 
-def _detach(st: Snapshot, a: Detach) -> list[str]:
+def _detach(st: Snapshot, a: Detach) -> list[Refusal]:
     where = _port_problems(st, a)
     if where:
         return where
     who = f"{a.component}.{a.port}"
     if not st.is_output(a.component, a.port):
-        return [f"{c}.{f} is not safe without input {who}: it assumes {asm}, which no other satisfied input "
-                f"or environment guarantee provides (safe_no_input)"
+        return [_no("detach.input", f"{c}.{f} is not safe without input {who}: it assumes {asm}, which no other "
+                                    "satisfied input or environment guarantee provides (safe_no_input)")
                 for c, f, asm in st.unsafe([a.component], dead_role=(a.connector, a.component, a.port))]
     if st.conn_sat(a.connector, [(a.component, a.port)]):
         return []
-    return [f"no other output satisfies {a.connector} without {who}, and {c}.{f} is not safe without the "
-            f"inputs of {a.connector}: it assumes {asm} (safe_no_input)"
+    return [_no("detach.output", f"no other output satisfies {a.connector} without {who}, and {c}.{f} is not safe "
+                                 f"without the inputs of {a.connector}: it assumes {asm} (safe_no_input)")
             for c, f, asm in st.unsafe(st.readers([a.connector]), dead=frozenset([a.connector]))]
 
 
-def _attach(st: Snapshot, a: Attach) -> list[str]:
+def _attach(st: Snapshot, a: Attach) -> list[Refusal]:
     where = _port_problems(st, a)
     if where:
         return where
     conn = st.cat.conns[a.connector]
-    port = st.cat.comps[a.component].port(a.port)
-    assert port is not None
+    port = st.cat.ports[(a.component, a.port)]
     who = f"{a.component}.{a.port}"
     if port.kind == "input":
         assert port.assumption is not None
         if satisfies(conn.guarantee, port.assumption):
             return []
-        return [f"{a.connector} guarantees {conn.guarantee}, which does not satisfy the assumption "
-                f"{port.assumption} of input {who}"]
+        return [_no("attach.input", f"{a.connector} guarantees {conn.guarantee}, which does not satisfy the "
+                                    f"assumption {port.assumption} of input {who}")]
     problems = []
     if not st.output_satisfies(a.component, a.port, conn.guarantee):
         now = [str(_mode(f, a.component, st.config).guarantee(a.port))
                for f in st.cat.comps[a.component].functionalities if a.port in f.ports] or ["nothing"]
-        problems.append(f"the current guarantee of {who} ({', '.join(now)}) does not satisfy the guarantee "
-                        f"{conn.guarantee} of {a.connector}")
-    if conn.single_publisher:
-        others = [f"{c}.{p}" for c, p in sorted(st.pubs.get(a.connector, []))]
-        if others:
-            problems.append(f"{a.connector} takes a single publisher and already has {', '.join(others)}")
+        problems.append(_no("attach.output", f"the current guarantee of {who} ({', '.join(now)}) does not satisfy "
+                                             f"the guarantee {conn.guarantee} of {a.connector}"))
+    others = [f"{c}.{p}" for c, p in sorted(st.pubs.get(a.connector, []))]
+    if others and conn.kind == "service":
+        problems.append(_no("attach.service", f"{a.connector} is a service and already has a server: "
+                                              f"{', '.join(others)}"))
+    elif others and conn.single:
+        problems.append(_no("attach.single", f"{a.connector} takes a single publisher and already has "
+                                             f"{', '.join(others)}"))
     return problems
 
 
-def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> tuple[list[str], Optional[Functionality]]:
-    """Whether `a` names a functionality of a present component: the problems, else the functionality."""
+def _functionality(st: Snapshot, a: Union[Degrade, Upgrade]) -> tuple[list[Refusal], Functionality]:
+    """The functionality `a` names, and whether its component is present."""
+    f = st.cat.funcs[(a.component, a.functionality)]
     if a.component not in st.config.components:
-        return [f"{a.component} is not in the system"], None
-    f = st.cat.funcs.get((a.component, a.functionality))
-    if f is None:
-        return [f"{a.component} has no functionality {a.functionality}"], None
+        return [_no(f"{a.kind}.present", f"{a.component} is not in the system")], f
     return [], f
 
 
-def _degrade(st: Snapshot, a: Degrade) -> list[str]:
+def _degrade(st: Snapshot, a: Degrade) -> list[Refusal]:
     problems, f = _functionality(st, a)
-    if f is None:
+    if problems:
         return problems
     fid = (a.component, a.functionality)
     who = f"{a.component}.{a.functionality}"
     if fid in st.config.degraded:
-        return [f"{who} is already degraded"]
+        return [_no("degrade.normal", f"{who} is already degraded")]
     dead = frozenset(affected_connectors(st, a.component, f))
-    return [f"degrading {who} leaves {', '.join(sorted(dead))} unsatisfied, and {c}.{g} is not safe without "
-            f"their inputs: it assumes {asm} (safe_no_input)"
+    return [_no("degrade.safe", f"degrading {who} leaves {', '.join(sorted(dead))} unsatisfied, and {c}.{g} is not "
+                                f"safe without their inputs: it assumes {asm} (safe_no_input)")
             for c, g, asm in st.unsafe(st.readers(dead), dead=dead, exempt=fid)]
 
 
-def _upgrade(st: Snapshot, a: Upgrade) -> list[str]:
+def _upgrade(st: Snapshot, a: Upgrade) -> list[Refusal]:
     problems, f = _functionality(st, a)
-    if f is None:
+    if problems:
         return problems
     fid = (a.component, a.functionality)
     who = f"{a.component}.{a.functionality}"
     if fid not in st.config.degraded:
-        return [f"{who} is not degraded"]
+        return [_no("upgrade.degraded", f"{who} is not degraded")]
     assert f.normal is not None
-    problems = [f"the normal mode of {who} assumes {asm}, which does not hold now"
+    problems = [_no("upgrade.assumptions", f"the normal mode of {who} assumes {asm}, which does not hold now")
                 for asm in f.normal.assumptions if not st.holds(a.component, f, asm)]
-    for comp, port, conn in sorted((a.component, port, conn) for port in f.ports
-                                   for conn in st.by_port.get((a.component, port), [])):
+    return problems + _upgrade_connectors(st, a.component, f)
+
+
+def _upgrade_connectors(st: Snapshot, comp: str, f: Functionality) -> list[Refusal]:
+    """The connectors upgrading f would break: satisfied now, and by no other output, nor
+    by this one once f is normal (another functionality of the port may still satisfy it)."""
+    assert f.normal is not None
+    problems = []
+    for port, conn in sorted((port, conn) for port in f.ports for conn in st.by_port.get((comp, port), [])):
         if st.is_output(comp, port):
             want = st.cat.conns[conn].guarantee
-            # broken: satisfied now, and by no other output, nor by this one once f is normal
-            # (another functionality of the port may still satisfy it)
             after = [satisfies(_mode(g, comp, st.config).guarantee(port) if g is not f else f.normal.guarantee(port),
                                want) for g in st.cat.comps[comp].functionalities if port in g.ports]
             if not any(after) and st.conn_sat(conn) and not st.conn_sat(conn, [(comp, port)]):
-                problems.append(f"the normal guarantee of {comp}.{port} does not satisfy {conn}, which only its "
-                                f"degraded guarantee satisfies (rule iii on modes is violated)")
+                problems.append(_no("upgrade.connectors", f"the normal guarantee of {comp}.{port} does not satisfy "
+                                                          f"{conn}, which only its degraded guarantee satisfies (rule "
+                                                          "iii on modes is violated)"))
     return problems
 
 

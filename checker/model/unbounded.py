@@ -15,7 +15,9 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Callable, Iterable
 
 ASSERTIONS = ("SafeRemove", "SafeCreate", "SafeDetach", "SafeAttach", "SafeDegrade", "SafeUpgrade",
-              "AbsentDegraded")
+              "AbsentDegraded", "KeepsSingle", "KeepsOneServer")
+# The invariants of all six actions together (whether or not Pre is valid), by the property kept.
+INVARIANTS = ("AbsentDegraded", "KeepsSingle", "KeepsOneServer")
 TIMEOUT_MS = 120_000   # per assertion; past it z3 answers unknown ("timeout"), never a proof
 
 # Each precondition (named as the meta-model's `--@pre` labels) or rule can be left out; the
@@ -32,6 +34,8 @@ WEAKENINGS: dict[str, str] = {
     "attach.detached": "attach does not ask p to be detached from k",
     "attach.output": "attaching an output does not ask its guarantee to satisfy k's",
     "attach.input": "attaching an input does not ask k's guarantee to satisfy its assumption",
+    "attach.single": "attaching an output does not ask a `single` topic to have no publisher",
+    "attach.service": "attaching an output does not ask a service to have no server",
     "degrade.present": "degrade does not ask f to be present",
     "degrade.normal": "degrade does not ask f to be in its normal mode",
     "degrade.safe": "degrade does not ask the readers of the connectors it leaves unsatisfied to be safe",
@@ -108,6 +112,8 @@ class _Vocabulary:
         self.cguar = fn("cguar", self.Connector, D)
         self.envg = fn("envg", D, B)
         self.sat = fn("sat", D, D, B)                    # p satisfies q: any relation at all
+        self.single = fn("single", self.Connector, B)    # the `single` topics
+        self.service = fn("service", self.Connector, B)  # the services
         self._n = 0
 
     def var(self, sort: Any, name: str) -> Any:
@@ -190,6 +196,12 @@ class _State:
         k, i = v.var(v.Connector, "k"), v.var(v.Input, "i")
         return z3.Exists([k, i], z3.And(conns(k), self.rin(k, i), v.iowner(i) == c))
 
+    def one_publisher(self, kind: Pred1) -> Any:
+        """Every connector `kind` holds of has at most one attached output."""
+        v, z3 = self.v, self.v.z3
+        k, o1, o2 = v.var(v.Connector, "k"), v.var(v.Output, "o"), v.var(v.Output, "o")
+        return z3.ForAll([k, o1, o2], z3.Implies(z3.And(kind(k), self.rout(k, o1), self.rout(k, o2)), o1 == o2))
+
     def absent_degraded(self) -> Any:
         v, z3 = self.v, self.v.z3
         f = v.var(v.Functionality, "f")
@@ -261,13 +273,15 @@ def _detach(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Act
 def _attach(v: _Vocabulary, s: _State, x: _Args, weaken: frozenset[str]) -> _Action:
     z3, k, pi, po, is_in = v.z3, x.k, x.p_in, x.p_out, x.is_input
     And, Or, Not, If, Implies = z3.And, z3.Or, z3.Not, z3.If, z3.Implies
-    h = v.var(v.Functionality, "h")
+    h, o1, o2 = v.var(v.Functionality, "h"), v.var(v.Output, "o"), v.var(v.Output, "o")
     return _Action("attach", x.port, [
         ("attach.present", If(is_in, s.comps(v.iowner(pi)), s.comps(v.oowner(po)))),
         ("attach.detached", If(is_in, Not(s.rin(k, pi)), Not(s.rout(k, po)))),
         ("attach.output", Implies(Not(is_in), z3.Exists([h], And(s.present(h), v.assoc_out(h, po),
                                                                  v.sat(s.cur(h, po), v.cguar(k)))))),
         ("attach.input", Implies(is_in, v.sat(v.cguar(k), v.iasm(pi)))),
+        ("attach.single", Implies(And(Not(is_in), v.single(k)), Not(z3.Exists([o1], s.rout(k, o1))))),
+        ("attach.service", Implies(And(Not(is_in), v.service(k)), Not(z3.Exists([o2], s.rout(k, o2))))),
     ], s.but(rin=lambda k2, i2: Or(s.rin(k2, i2), And(is_in, k2 == k, i2 == pi)),
              rout=lambda k2, o2: Or(s.rout(k2, o2), And(Not(is_in), k2 == k, o2 == po))))
 
@@ -346,12 +360,13 @@ def prove(assertion: str, weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_
         raise ValueError(f"unknown assertion or weakening: {assertion}, {sorted(unknown)}")
     started = time.perf_counter()
     z3, v, pre, acts = _setup(weakened)
-    act = None if assertion == "AbsentDegraded" else acts[assertion[len("Safe"):].lower()]
+    act = None if assertion in INVARIANTS else acts[assertion[len("Safe"):].lower()]
     solver = _solver(z3, timeout_ms, rlimit)
     solver.add(v.facts(weakened))
+    kept = _invariant(v, assertion)
     if act is None:   # an invariant of every action, whether or not Pre is valid
-        solver.add(pre.absent_degraded(), z3.Or([z3.And(a.precondition(weakened, z3), z3.Not(a.post.absent_degraded()))
-                                                 for a in acts.values()]))
+        solver.add(kept(pre), z3.Or([z3.And(a.precondition(weakened, z3), z3.Not(kept(a.post)))
+                                     for a in acts.values()]))
     else:
         solver.add(pre.valid(), act.precondition(weakened, z3), z3.Not(act.post.valid()))
     answer = solver.check()
@@ -361,9 +376,18 @@ def prove(assertion: str, weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_
     if answer == z3.sat:
         cex = (_describe(solver.model(), v, pre, weakened, [act], lambda s: z3.Not(s.valid())) if act is not None
                else _describe(solver.model(), v, pre, weakened, list(acts.values()),
-                              lambda s: z3.Not(s.absent_degraded())))
+                              lambda s: z3.Not(kept(s))))
         return Proof(assertion, "counterexample", seconds, counterexample=cex)
     return Proof(assertion, "unknown", seconds, reason=solver.reason_unknown())
+
+
+def _invariant(v: _Vocabulary, assertion: str) -> Callable[[_State], Any]:
+    """What an invariant assertion keeps, of a configuration."""
+    if assertion == "KeepsSingle":
+        return lambda s: s.one_publisher(v.single)
+    if assertion == "KeepsOneServer":
+        return lambda s: s.one_publisher(v.service)
+    return lambda s: s.absent_degraded()
 
 
 def satisfiable(action: str, weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_MS) -> str:

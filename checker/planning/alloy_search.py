@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Optional
 
 import codegen.alloy as gen
-from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, atom_name
+from checker.alloy.bridge import DEFAULT_SOLVER, Backend, atom_name, get_backend
 from checker.alloy.errors import AlloyError
 from checker.model.actions import Action, catalogue, changes
 from checker.model.config import Configuration
@@ -101,7 +101,6 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
         return gen.union([f"{atom['connector', k]} -> {atom['port', c, p]}" for k, c, p in sorted(rs)],
                          "(Connector -> Port - Connector -> Port)")
 
-    single = gen.union([atom["connector", k.name] for k in system.connectors if k.single_publisher], "none")
     all_funcs = [(c.name, f.name) for c in _all_components(system) for f in c.functionalities]
     crit = gen.union([f"{atom['functionality', c, f]} -> {cat.funcs[c, f].criticality}" for c, f in all_funcs],
                      "(Functionality -> Int - Functionality -> Int)")
@@ -112,7 +111,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
     # with overflow forbidden the analyzer discards it; decoded plans are re-costed.
     bitwidth = _bitwidth((bound or 0) + start_weight + total) if bound is not None else 4
     module = PlannerModule(
-        module_name, system.name, arch, _two_state_actions(), single, crit, bound, start_weight, bitwidth,
+        module_name, system.name, arch, _two_state_actions(), crit, bound, start_weight, bitwidth,
         states=max_steps + 1, min_states=min(min_steps, max_steps) + 1,
         start=StateTerms(comps(start.components), roles(start.roles),
                          funcs(_alloy_degraded(system, start.components, start.degraded))),
@@ -123,7 +122,7 @@ def render_planner(problem: Problem, max_steps: int = 12, bound: Optional[int] =
 # -- Solving and decoding -----------------------------------------------------------------
 
 def _solve(text: str, names: dict[str, tuple[str, ...]], solver: str,
-           bridge: AlloyBridge) -> tuple[Optional[list[Configuration]], float]:
+           bridge: Backend) -> tuple[Optional[list[Configuration]], float]:
     """Run the module's one command; the trace's configurations (up to its loop), or None
     when there is no plan; and the solving time."""
     trace = bridge.solve_module(text, MAIN, ("System.comps", "System.degraded", "System.roles"), 0, solver)
@@ -207,14 +206,14 @@ def _fewest_steps(problem: Problem) -> int:
 
 
 def alloy_search(problem: Problem, max_steps: int = 12, solver: str = DEFAULT_SOLVER,
-                 bridge: Optional[AlloyBridge] = None, minimise: bool = True) -> AlloySearch:
+                 bridge: Optional[Backend] = None, minimise: bool = True) -> AlloySearch:
     """Plan `problem` (its goal settled, see `plan_with_alloy`) in Alloy; see the module
     docstring. Raises NoSafePlan when no plan of at most `max_steps` steps exists."""
 
     system, start, goal = problem.system, problem.start, problem.goal
     if goal.reached(start):
         return AlloySearch([], 0, max_steps, True)
-    bridge = bridge or AlloyBridge.get()
+    bridge = bridge or get_backend()
     solves: list[Solve] = []
     best: Optional[list[Action]] = None
     best_cost = 0

@@ -57,7 +57,7 @@ class PlanVerdicts:
 
 
 def alloy_evidence(plan: Plan, slice_: bool = True,
-                   progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+                   progress: Callable[[str], None] | None = None, given: bool = False) -> dict[str, Any]:
     """Evidence for the plan document; `valid` is False (with a `reason`) when Alloy refutes it.
 
     With `slice_` (the default), the plan is verified in *windows* of consecutive steps, each
@@ -65,10 +65,12 @@ def alloy_evidence(plan: Plan, slice_: bool = True,
     lean is refuted; the components no window judges are judged once, in the first
     configuration. Why that suffices: docs/soundness.md, "Verifying a plan in windows".
     `progress` is told how many windows there are, then which steps each window judged one at
-    a time holds. Raises the bridge's AlloyUnavailable when Java or the jar is missing."""
+    a time holds. With `given`, the plan's states are given (a plan document), not made by
+    its steps: every component that changes between two of them is sliced as acted on.
+    Raises the bridge's AlloyUnavailable when Java or the jar is missing."""
     if not slice_ or not plan.steps:
         return _whole(plan)
-    tally, slicer = _Tally(), PlanSlicer(plan)
+    tally, slicer = _Tally(), PlanSlicer(plan, given)
     try:
         k, width = _at_once(plan, slicer, tally, progress)
         reason = _one_at_a_time(plan, slicer, tally, k, width, progress)
@@ -297,7 +299,7 @@ def _too_big(target: Plan) -> str:
 
 def _verdict(target: Plan) -> "AlloyPlanVerdict":
     return alloy_plan_verdict(target.system, target.states, serving=target.serving, stable=target.stable,
-                              protocols=target.protocols, handover=target.handover)
+                              protocols=target.protocols, handover=target.handover, actions=target.steps)
 
 
 def _judge(plan: Plan, target: Plan, offset: int = 0) -> tuple[str, float, str]:
@@ -310,19 +312,27 @@ def _judge(plan: Plan, target: Plan, offset: int = 0) -> tuple[str, float, str]:
         n = offset + i
         return "the initial configuration" if n == 0 else f"the state after step {n} ({plan.steps[n - 1].describe()})"
 
-    for i, ok in enumerate(verdict.valid):
-        if not ok:
-            return f"{after(i)} is not valid", verdict.seconds, verdict.text
-    for i, (action, did) in enumerate(zip(plan.steps[offset:], verdict.steps), offset + 1):
-        if action.kind not in did:
-            return (f"step {i} ({action.describe()}) is not an instance of {action.kind}: "
-                    + ("its preconditions fail" if not did else f"Alloy sees {', '.join(did)}")), \
-                verdict.seconds, verdict.text
-    for i, ok in enumerate(verdict.lossless):
-        if not ok:
-            return (f"a client request could be lost in {after(i)}: a proxy is absent "
-                    "or its requests reach no protocol"), verdict.seconds, verdict.text
-    for i, ok in enumerate(verdict.stable):
-        if not ok:
-            return (f"a connector the slice relies on is unsatisfied in {after(i)}"), verdict.seconds, verdict.text
+    for i in range(len(verdict.valid)):
+        why = _state_refused(verdict, i, after(i))
+        if not why and i < len(verdict.steps):
+            n = offset + i + 1
+            action, did = plan.steps[n - 1], verdict.steps[i]
+            if action.kind not in did:
+                why = (f"step {n} ({action.describe()}) is not an instance of {action.kind}: "
+                       + ("its preconditions or its effect fail" if not did else f"Alloy sees {', '.join(did)}"))
+        if why:
+            return why, verdict.seconds, verdict.text
     return "", verdict.seconds, verdict.text
+
+
+def _state_refused(verdict: "AlloyPlanVerdict", i: int, name: str) -> str:
+    """Why Alloy refuses configuration i of a verdict ("" when it does not), named `name`."""
+    if not verdict.formed[i]:
+        return f"{name} is not well formed"
+    if not verdict.valid[i]:
+        return f"{name} is not valid"
+    if not verdict.lossless[i]:
+        return f"a client request could be lost in {name}: a proxy is absent or its requests reach no protocol"
+    if not verdict.stable[i]:
+        return f"a connector the slice relies on is unsatisfied in {name}"
+    return ""

@@ -22,7 +22,7 @@ class _Attachments:
     plan this one is a window of), only the connectors whose attachments the window lacks
     are read again."""
 
-    def __init__(self, plan: Plan, whole: _Attachments | None = None) -> None:
+    def __init__(self, plan: Plan, whole: _Attachments | None = None, changed: bool = False) -> None:
         # consecutive states share their roles unless a step attaches or detaches
         distinct = {id(s.roles): s.roles for s in plan.states}
         self.roles: set[tuple[str, str, str]] = set().union(*distinct.values())
@@ -50,6 +50,23 @@ class _Attachments:
                     else:
                         table.pop(conn, None)
         self.touched = {getattr(a, "component") for a in plan.steps}
+        # states given rather than made by the steps (a plan document): whatever changes
+        # between two of them is acted on, named by a step or not
+        self.changed: set[str] = _changed(plan) if changed else whole.changed if whole is not None else set()
+        self.touched |= self.changed
+
+
+def _changed(plan: Plan) -> set[str]:
+    """The components whose presence, modes or attachments differ between consecutive states."""
+    out: set[str] = set()
+    for a, b in zip(plan.states, plan.states[1:]):
+        if a.components is not b.components:
+            out |= a.components ^ b.components
+        if a.degraded is not b.degraded:
+            out |= {c for c, _ in a.degraded ^ b.degraded}
+        if a.roles is not b.roles:
+            out |= {c for _, c, _ in a.roles ^ b.roles}
+    return out
 
 
 def stable_connectors(plan: Plan, att: _Attachments | None = None) -> set[str]:
@@ -109,8 +126,9 @@ class PlanSlicer:
     """Slices of windows of one plan (runs of its steps, `Plan` values over some of its
     states), sharing what is read once from the whole plan."""
 
-    def __init__(self, plan: Plan) -> None:
-        self.whole = _Attachments(plan)
+    def __init__(self, plan: Plan, given: bool = False) -> None:
+        """With `given`, the plan's states are given rather than made by its steps (see `_changed`)."""
+        self.whole = _Attachments(plan, changed=given)
 
     def slice(self, window: Plan, lean: bool = False) -> tuple[Plan, set[str]]:
         """`slice_plan(window, lean)` and its core: the components whose assumptions it judges."""
@@ -131,9 +149,14 @@ def _slice(plan: Plan, lean: bool, att: _Attachments) -> tuple[Plan, set[str]]:
     cat = catalogue(system)
     st = Snapshot(cat, plan.states[0]) if lean and plan.states else None
     needed = {conn for conn, rs in reads.items() if rs & core} | stable
-    for conn in sorted(needed):
+    # a `single` topic or a service T publishes on: its other publishers, for its one-publisher rule
+    single = {conn for conn, ps in pubs.items() if ps & att.touched and (k := cat.conns.get(conn)) is not None
+              and k.single_publisher}
+    for conn in sorted(needed | single):
         others = sorted(pubs.get(conn, set()) - core)
-        if st is not None:
+        if conn in single:
+            others = others[:1] if st is not None else others      # one more is enough to break the rule
+        elif st is not None:
             # one witness: the first untouched publisher whose output satisfies the connector
             k = cat.conns.get(conn)
             witnesses = {c for c, p in st.pubs.get(conn, ()) if k is not None and st.output_satisfies(c, p, k.guarantee)}

@@ -148,3 +148,30 @@ def test_solve_module_evaluates_every_state_of_a_trace(bridge: AlloyBridge) -> N
     with pytest.raises(AlloyError) as err:
         bridge.solve_module("sig A {\n", "broken.als")
     assert err.value.module == "broken.als" and err.value.line > 0
+
+
+def test_one_backend_protocol_reached_through_one_factory() -> None:
+    """Every caller holds a `Backend` from `get_backend()`; the bridge class is named only where
+    it is defined and exported, and it offers every method of the protocol, alike."""
+    import inspect
+    import pathlib
+
+    from checker.alloy.bridge import AlloyBridge, Backend
+
+    root = pathlib.Path(__file__).resolve().parents[2]
+    named = [str(p.relative_to(root)) for d in ("checker", "codegen", "bench") for p in (root / d).rglob("*.py")
+             if "AlloyBridge" in p.read_text(encoding="utf-8")]
+    assert sorted(named) == ["checker/alloy/__init__.py", "checker/alloy/bridge.py"]
+    for name, member in inspect.getmembers(Backend, inspect.isfunction):
+        if not name.startswith("_"):
+            assert inspect.signature(getattr(AlloyBridge, name)) == inspect.signature(member), name
+
+
+def test_the_factory_says_what_is_missing() -> None:
+    import subprocess
+    import sys
+    code = ("from checker.alloy import AlloyUnavailable, get_backend\n"
+            "try:\n    get_backend()\nexcept AlloyUnavailable as e:\n    print('unavailable:', e)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env={**__import__("os").environ, "RECONF_ALLOY_JAR": "/nonexistent/alloy.jar"})
+    assert out.stdout.startswith("unavailable: Alloy jar not found at /nonexistent/alloy.jar"), out

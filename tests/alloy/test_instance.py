@@ -210,3 +210,22 @@ def test_a_wide_connector_is_shown_by_its_witness(bridge: AlloyBridge, tmp_path)
     assert not lean.valid and (lean.valid, lean.unsatisfied) == (full.valid, full.unsatisfied) \
         == python_verdict(system, cut)
     assert any(u[0] == "hub" for u in lean.unsatisfied)
+
+
+@pytest.mark.parametrize("name, valid", [("chatter.arch", True), ("chatter_slow.arch", False)])
+def test_reconf_alloy_expects_what_the_configuration_is(bridge: AlloyBridge, tmp_path, name: str,  # type: ignore[no-untyped-def]
+                                                        valid: bool) -> None:
+    """`reconf alloy` of an unsafe configuration expects the counterexample (`expect 1`), says
+    so in a comment, and the analyzer finds it: the GUI shows no unexpected outcome."""
+    from click.testing import CliRunner
+
+    from checker.cli.main import main
+    from tests.examples_table import ROOT
+    out = tmp_path / "system.als"
+    r = CliRunner().invoke(main, ["alloy", f"{ROOT}/examples/{name}", "-o", str(out)])
+    assert r.exit_code == 0, r.stderr
+    text = out.read_text(encoding="utf-8")
+    assert f"check Valid {{ valid }} expect {0 if valid else 1}" in text
+    assert ("no counterexample is expected" if valid else "a counterexample is expected") in text
+    (outcome,) = bridge.run({"instance.als": text}, "instance.als", "Valid", constants=True)
+    assert outcome.satisfiable is not valid

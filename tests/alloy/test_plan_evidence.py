@@ -46,7 +46,8 @@ def test_swapped_steps_are_refused(bridge: AlloyBridge) -> None:
     steps = [plan.steps[1], plan.steps[0], *plan.steps[2:]]
     evidence = alloy_evidence(_corrupted(plan, steps))
     assert not evidence["valid"]
-    assert evidence["reason"].startswith(f"the state after step 1 ({steps[0].describe()})")
+    # the plan's own first step is judged: its preconditions fail in the first state
+    assert evidence["reason"].startswith(f"step 1 ({steps[0].describe()}) is not an instance of {steps[0].kind}")
 
 
 def test_dropped_degrade_is_refused(bridge: AlloyBridge) -> None:

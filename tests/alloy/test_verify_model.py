@@ -43,8 +43,10 @@ def test_counterexample_is_two_configurations(tmp_path: Path) -> None:
     modules = {MAIN: _mutated(tmp_path).read_text(encoding="utf-8")}
     report = verify_model(3, modules=modules)
     assert not report.ok
-    (row,) = [r for r in report.rows if r.as_expected is False]
-    assert row.command == "SafeRemove" and row.counterexample is not None
+    # removing an attached component loses validity, and leaves its attachments dangling
+    assert [r.command for r in report.rows if r.as_expected is False] == ["SafeRemove", "KeepsOwned"]
+    (row,) = [r for r in report.rows if r.command == "SafeRemove"]
+    assert row.counterexample is not None
     cex = row.counterexample
     assert cex.action.startswith("remove Component$")
     removed = cex.action.split()[1]
@@ -104,10 +106,15 @@ def test_one_process_and_two_agree(monkeypatch: object) -> None:
 NOTHING_SATISFIES_NOTHING = ("fact satisfaction {\n  Sem.sat = {p, q: Msg |",
                              "fact satisfaction {\n  Sem.sat = Nothing -> Nothing + {p, q: Msg |")
 PLANTED = [
+    # (and attaching an input that assumes nothing to a connector that guarantees nothing
+    # would then be allowed whatever the types)
     (NOTHING_SATISFIES_NOTHING, {"SilentDegraded", "TalkerListener", "RatelessConnectorBroken",
-                                 "SatEncodingsAgree", "SatisfactionRule"}),
+                                 "SatEncodingsAgree", "SatisfactionRule", "KeepsTyped"}),
+    # no `single` topic and no service: KeepsSingle and KeepsOneServer pass vacuously
+    (("-- Configurations ---", "fact { no Kinds.singles + Kinds.services }\n-- Configurations ---"),
+     {"SingleTopicPublisher", "ServiceServer", "SecondPublisherRefused"}),
     (("-- Configurations ---", "fact { all f: Functionality | no f.nasms }\n-- Configurations ---"),
-     {"TalkerListener", "PortOnTwoConnectors"}),
+     {"TalkerListener", "PortOnTwoConnectors", "SingleTopicPublisher"}),
 ]
 
 
@@ -119,4 +126,4 @@ def test_planted_facts_fail_the_non_vacuity_runs() -> None:
         assert not report.ok
         assert {r.command for r in report.rows if r.as_expected is False} == failing
         # the six Safe checks pass all the same: they are what a vacuous fact hides from
-        assert all(r.as_expected for r in report.rows if r.command.startswith("Safe"))
+        assert all(r.as_expected for r in report.rows if r.command.startswith(("Safe", "KeepsSingle", "KeepsOne")))

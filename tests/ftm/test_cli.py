@@ -73,10 +73,11 @@ def test_plan_transition_among_services_is_verified_in_alloy_on_its_slice_and_lo
     assert r.exit_code == 0 and "client side kept" in r.output
 
 
-def test_transition_to_an_ftm_the_component_rules_out_warns() -> None:
+def test_transition_to_an_ftm_the_component_rules_out_warns_when_allowed() -> None:
     """TR needs a deterministic application: moving the non-deterministic server of
-    client_server_pbr.arch to PBR(TR) is planned, with the rule it breaks as a warning."""
-    args = ["server", "PBR(TR)", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy"]
+    client_server_pbr.arch to PBR(TR) is planned with --allow-invalid-ftm, with the rule it
+    breaks as a warning."""
+    args = ["server", "PBR(TR)", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy", "--allow-invalid-ftm"]
     r = CliRunner().invoke(transition_cmd, args)
     assert r.exit_code == 0, r.output
     assert "warning: the target breaks an FTM rule: RC403" in r.output
@@ -87,3 +88,25 @@ def test_transition_to_an_ftm_the_component_rules_out_warns() -> None:
     fine = CliRunner().invoke(transition_cmd, ["server", "LFR", "-f", f"{EXAMPLES}/deterministic_pbr.arch",
                                                "--no-alloy"])
     assert fine.exit_code == 0 and "FTM rule" not in fine.output, fine.output
+
+
+def test_plan_transition_to_an_ftm_the_rules_rule_out_is_refused_unless_allowed() -> None:
+    """The server is not deterministic: LFR is ruled out (RC403), as `reconf check` would say."""
+    argv = ["server", "LFR", "-f", f"{EXAMPLES}/client_server_pbr.arch", "--no-alloy"]
+    r = CliRunner().invoke(transition_cmd, argv)
+    assert r.exit_code == 1 and "RC403" in r.stderr and "--allow-invalid-ftm" in r.stderr, r.output
+    r = CliRunner().invoke(transition_cmd, argv + ["--allow-invalid-ftm", "--output-format", "json"])
+    assert r.exit_code == 0, r.output
+    assert any("RC403" in n for n in json.loads(r.stdout)["plan"]["notes"])
+
+
+def test_the_gate_refuses_an_ftm_the_rules_rule_out_unless_allowed(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from checker.cli.main import main
+    head = tmp_path / "lfr.arch"
+    head.write_text(open(f"{EXAMPLES}/client_server_pbr.arch", encoding="utf-8").read()
+                    .replace("ftm PBR on master, slave", "ftm LFR on master, slave"), encoding="utf-8")
+    argv = ["gate", "--base", f"{EXAMPLES}/client_server_pbr.arch", "--head", str(head), "--engine", "python"]
+    r = CliRunner().invoke(main, argv)
+    assert r.exit_code == 1 and "RC403" in r.stderr, r.output
+    r = CliRunner().invoke(main, argv + ["--allow-invalid-ftm"])
+    assert r.exit_code == 0 and "RC403" in r.stderr, r.output
