@@ -9,7 +9,7 @@ Alloy modules (codegen.alloy) and the Alloy planner all read the actions through
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Callable, Generic, Iterable, Protocol, TypeVar
+from typing import TYPE_CHECKING, Callable, Generic, Iterable, Protocol, TypeVar, cast
 
 from checker.model.config import Configuration, FuncId, Role
 
@@ -22,6 +22,12 @@ __all__ = ["ActionKind", "Change", "Kind", "Meaning"]
 # An Alloy atom by what it stands for, as codegen.alloy's name map says it:
 # ("component", c), ("connector", k), ("port", c, p), ("functionality", c, f).
 Meaning = tuple[str, ...]
+# The fields of an action that name each kind of its Alloy arguments (a port or a
+# functionality is its component's).
+ARGUMENT_FIELDS: dict[str, tuple[str, ...]] = {
+    "component": ("component",), "connector": ("connector",),
+    "port": ("component", "port"), "functionality": ("component", "functionality"),
+}
 
 
 @dataclass(frozen=True)
@@ -89,16 +95,16 @@ class Kind(Protocol):
 class ActionKind(Generic[A]):
     """One action: its class (fields, `kind`, `symbol`, `describe`), `precondition` (the
     failing preconditions, each with its rule's name (`checker.model.rules`), [] when it may
-    run; the action's names are declared), `effect` (the configuration after
-    it, preconditions not checked), `recognise` (the actions of this kind a `Change` is made
-    of) and `args` (its arguments as the Alloy atoms' meanings, in the order of the Alloy
-    predicate's parameters after the two configurations), whose kinds are `params`."""
+    run; the action's names are declared), `effect` (the configuration after it,
+    preconditions not checked), `change_field` (the field of a `Change` whose elements are the
+    actions of this kind a change is made of) and `params` (the kinds of its Alloy arguments,
+    in the order of the Alloy predicate's parameters after the two configurations; each
+    argument's meaning is read off the action's fields by `ARGUMENT_FIELDS`)."""
 
     cls: type[A]
     precondition: Callable[["Snapshot", A], list["Refusal"]]
     effect: Callable[["_Catalogue", Configuration, A], Configuration]
-    recognised: Callable[[Change], Iterable["Action"]]
-    args: Callable[[A], tuple[Meaning, ...]]
+    change_field: str
     params: tuple[str, ...]
 
     @property
@@ -132,11 +138,13 @@ class ActionKind(Generic[A]):
         return self.effect(cat, config, self._own(action))
 
     def found(self, change: Change) -> list["Action"]:
-        return list(self.recognised(change))
+        make = cast("Callable[..., Action]", self.cls)     # every kind's class is one of the Action union
+        return [make(*x) if isinstance(x, tuple) else make(x) for x in getattr(change, self.change_field)]
 
     def recognise(self, before: Configuration, after: Configuration) -> list["Action"]:
         """The actions of this kind the difference from `before` to `after` is made of."""
         return self.found(Change.between(before, after))
 
     def alloy_args(self, action: "Action") -> tuple[Meaning, ...]:
-        return self.args(self._own(action))
+        own = self._own(action)
+        return tuple((p, *(getattr(own, f) for f in ARGUMENT_FIELDS[p])) for p in self.params)

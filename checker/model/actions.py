@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar, Iterable, Optional, TypeVar, Union, cast
 
-from checker.model.action_kinds import ActionKind, Change, Kind, Meaning
+from checker.model.action_kinds import ActionKind, Change, Kind
 from checker.model.config import Configuration, FuncId, Role
 from checker.model.rules import BY_NAME as RULE_NAMES
 from checker.model.rules import Refusal
@@ -678,23 +678,19 @@ def apply(system: System, config: Configuration, action: Action) -> Configuratio
 
 # --- the registry ----------------------------------------------------------------------
 
-def _component(c: str) -> Meaning:
-    return ("component", c)
-
-
 KINDS: tuple[Kind, ...] = (
-    ActionKind[Remove](Remove, _remove, _after_remove, lambda ch: [Remove(c) for c in ch.removed],
-               lambda a: (_component(a.component),), ("component",)),
-    ActionKind[Create](Create, _create, _after_create, lambda ch: [Create(c) for c in ch.created],
-               lambda a: (_component(a.component),), ("component",)),
-    ActionKind[Detach](Detach, _detach, _after_detach, lambda ch: [Detach(*r) for r in ch.detached],
-               lambda a: (("connector", a.connector), ("port", a.component, a.port)), ("connector", "port")),
-    ActionKind[Attach](Attach, _attach, _after_attach, lambda ch: [Attach(*r) for r in ch.attached],
-               lambda a: (("connector", a.connector), ("port", a.component, a.port)), ("connector", "port")),
-    ActionKind[Degrade](Degrade, _degrade, _after_degrade, lambda ch: [Degrade(*f) for f in ch.degraded],
-               lambda a: (("functionality", a.component, a.functionality),), ("functionality",)),
-    ActionKind[Upgrade](Upgrade, _upgrade, _after_upgrade, lambda ch: [Upgrade(*f) for f in ch.upgraded],
-               lambda a: (("functionality", a.component, a.functionality),), ("functionality",)),
+    ActionKind[Remove](cls=Remove, precondition=_remove, effect=_after_remove, change_field="removed",
+                       params=("component",)),
+    ActionKind[Create](cls=Create, precondition=_create, effect=_after_create, change_field="created",
+                       params=("component",)),
+    ActionKind[Detach](cls=Detach, precondition=_detach, effect=_after_detach, change_field="detached",
+                       params=("connector", "port")),
+    ActionKind[Attach](cls=Attach, precondition=_attach, effect=_after_attach, change_field="attached",
+                       params=("connector", "port")),
+    ActionKind[Degrade](cls=Degrade, precondition=_degrade, effect=_after_degrade, change_field="degraded",
+                        params=("functionality",)),
+    ActionKind[Upgrade](cls=Upgrade, precondition=_upgrade, effect=_after_upgrade, change_field="upgraded",
+                        params=("functionality",)),
 )
 """Every action, in the order the Alloy modules declare them."""
 
