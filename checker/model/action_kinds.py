@@ -9,7 +9,7 @@ Alloy modules (codegen.alloy) and the Alloy planner all read the actions through
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Callable, Generic, Iterable, Protocol, TypeVar, cast
+from typing import TYPE_CHECKING, Callable, Generic, Protocol, TypeVar, cast
 
 from checker.model.config import Configuration, FuncId, Role
 
