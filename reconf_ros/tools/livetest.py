@@ -97,14 +97,20 @@ class LiveSystem:
         path.write_text(to_text(out))
         return str(path)
 
-    def with_ftm(self, arch: str, ftm: str, name: str = "start.arch") -> str:
-        """`arch`'s text with its server's mechanism declared as `ftm` (the line `ftm X on ...`),
-        written to the system's directory: an architecture a transition is planned from."""
+    def with_ftm(self, arch: str, ftm: str, name: str = "start.arch", faults: Optional[str] = None) -> str:
+        """`arch`'s text with its server's mechanism declared as `ftm` (the line `ftm X on ...`)
+        and, given `faults`, its fault model as `faults` (the line `faults ...`), written to the
+        system's directory: an architecture a transition is planned from."""
         text = Path(arch).read_text(encoding="utf-8")
         changed, n = re.subn(r"^(\s*ftm )[^\n]*?( on )", lambda m: f"{m.group(1)}{ftm}{m.group(2)}", text,
                              count=1, flags=re.M)
         if n != 1:
             raise ValueError(f"{arch} declares no `ftm ... on ...`")
+        if faults is not None:
+            changed, n = re.subn(r"^(\s*faults )[^\n]*", lambda m: f"{m.group(1)}{faults}", changed,
+                                 count=1, flags=re.M)
+            if n != 1:
+                raise ValueError(f"{arch} declares no `faults ...`")
         path = self.dir / name
         path.write_text(changed, encoding="utf-8")
         return str(path)
