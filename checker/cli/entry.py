@@ -2,9 +2,15 @@
 daemon` or `reconf lsp`, checker.editor.warm), as `dmypy run` is, with its arguments as they
 were typed; when none answers, or for any other command, the command line (`checker.cli.main`)
 runs here. Only the standard library and checker.editor.warm are imported before that, so a warm
-check does not pay for loading reconf."""
+check does not pay for loading reconf.
+
+A check that runs here with the Alloy proof starts the JVM first, on a thread of its own
+(`checker.alloy.jvm.start_soon`), so that the JVM starts while the rest of reconf is imported;
+as a process that judges once and ends, its JVM stops at C1 unless the input is large
+(`jvm.QUICK_INPUT_BYTES`)."""
 from __future__ import annotations
 
+import os
 import sys
 
 GLOBAL_FLAGS = ("--allow-includes-outside",)
@@ -13,6 +19,53 @@ GLOBAL_FLAGS = ("--allow-includes-outside",)
 def _is_check(argv: list[str]) -> bool:
     rest = [a for a in argv if a not in GLOBAL_FLAGS]
     return bool(rest) and rest[0] == "check" and "-" not in rest[1:] and not {"-h", "--help"} & set(rest)
+
+
+def _engine(argv: list[str]) -> str:
+    """The value of the last --engine option (click's rule), "both" without one."""
+    engine = "both"
+    for i, arg in enumerate(argv):
+        if arg == "--engine" and i + 1 < len(argv):
+            engine = argv[i + 1]
+        elif arg.startswith("--engine="):
+            engine = arg.split("=", 1)[1]
+    return engine
+
+
+def _input_bytes(argv: list[str]) -> int:
+    """About how large the check's input is: the files named, and the .arch files under the
+    directories named (the arguments that are neither options nor their values)."""
+    total = 0
+    for arg in argv:
+        try:
+            if os.path.isfile(arg):
+                total += os.path.getsize(arg)
+            elif os.path.isdir(arg):
+                for directory, _, files in os.walk(arg):
+                    total += sum(os.path.getsize(os.path.join(directory, f)) for f in files if f.endswith(".arch"))
+        except OSError:
+            continue
+    return total
+
+
+def _start_analyzer(argv: list[str]) -> None:
+    """Start the JVM now, for a check the Alloy Analyzer judges."""
+    if _engine(argv) == "python":
+        return
+    from checker.alloy import jvm
+
+    jvm.prefer_quick(_input_bytes(argv[1:]) < jvm.QUICK_INPUT_BYTES)
+    jvm.start_soon(then=_evaluation_module)
+
+
+def _evaluation_module() -> None:
+    """Parse the evaluation module, on the JVM's thread once it has started (the modules this
+    imports are imported by this thread and the main one at once: the project has no import
+    cycle, so each waits for the other where they meet)."""
+    from checker.alloy.bridge import get_backend
+    from checker.alloy.evaluate import evaluator
+
+    evaluator(get_backend())
 
 
 def main() -> None:
@@ -29,6 +82,7 @@ def main() -> None:
                 sys.stderr.write(answer.stderr)
                 sys.stderr.flush()
                 sys.exit(answer.exit)
+        _start_analyzer([a for a in argv if a not in GLOBAL_FLAGS])
     from checker.cli.main import main as reconf  # the whole command line, when no warm analyzer answered
 
     reconf()
