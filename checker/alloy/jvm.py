@@ -20,14 +20,14 @@ _INSTALL_HINT = "install it with: pip install PythonAlloyClient==0.1.4 (or set R
 _JAVA_HINT = "install Java 17+ (e.g. apt-get install openjdk-17-jre-headless), set JAVA_HOME, or pip install 'reconf[jre]'"
 
 # A JVM's just-in-time compilers: "full" is the JVM's default (C1, then C2 for what runs hot);
-# "quick" stops at C1. A process that judges once and ends (a cold `reconf check`) spends most
-# of the analyzer's time in code run a few times: C2's compiler threads then compete with it
-# for the cores and rarely pay back. Measured on a 2-core machine (load 2): a cold check of
-# 1,000 components, the JVM's start and the evaluation module 0.51 s -> 0.41 s, its 16
-# instances 0.59 s -> 0.52 s; of 10,000 components (157 instances) C2 wins by about 1 s.
-# Long-lived processes (the language server, the daemon) and large inputs keep "full".
+# "quick" stops at C1. A process that judges once and ends (a cold `reconf check`) spends the
+# analyzer's time in code that runs a few hundred times: C2's compiler threads then take the
+# cores from the threads that judge and from Python, and rarely pay back. Measured on a
+# 2-core machine, cold checks with the instances judged on two threads (bench/README.md):
+# 1,000 components 1.48 s with "full", 1.18 s with "quick" (load 2.5-2.8); 10,000 components
+# 7.15 s and 6.67 s (load 2.2-2.8), each the median of runs taken in turn.
+# Long-lived processes (the language server, the daemon, the test suite) keep "full".
 QUICK_JIT = ("-XX:TieredStopAtLevel=1",)
-QUICK_INPUT_BYTES = 3_000_000      # a one-shot process with inputs below this size: quick
 
 _lock = threading.Lock()
 _preferred = {"quick": False}

@@ -6,11 +6,9 @@ check does not pay for loading reconf.
 
 A check that runs here with the Alloy proof starts the JVM first, on a thread of its own
 (`checker.alloy.jvm.start_soon`), so that the JVM starts while the rest of reconf is imported;
-as a process that judges once and ends, its JVM stops at C1 unless the input is large
-(`jvm.QUICK_INPUT_BYTES`)."""
+as a process that judges once and ends, its JVM stops at C1 (`jvm.QUICK_JIT`)."""
 from __future__ import annotations
 
-import os
 import sys
 
 GLOBAL_FLAGS = ("--allow-includes-outside",)
@@ -32,29 +30,13 @@ def _engine(argv: list[str]) -> str:
     return engine
 
 
-def _input_bytes(argv: list[str]) -> int:
-    """About how large the check's input is: the files named, and the .arch files under the
-    directories named (the arguments that are neither options nor their values)."""
-    total = 0
-    for arg in argv:
-        try:
-            if os.path.isfile(arg):
-                total += os.path.getsize(arg)
-            elif os.path.isdir(arg):
-                for directory, _, files in os.walk(arg):
-                    total += sum(os.path.getsize(os.path.join(directory, f)) for f in files if f.endswith(".arch"))
-        except OSError:
-            continue
-    return total
-
-
 def _start_analyzer(argv: list[str]) -> None:
     """Start the JVM now, for a check the Alloy Analyzer judges."""
     if _engine(argv) == "python":
         return
     from checker.alloy import jvm
 
-    jvm.prefer_quick(_input_bytes(argv[1:]) < jvm.QUICK_INPUT_BYTES)
+    jvm.prefer_quick(True)
     jvm.start_soon(then=_evaluation_module)
 
 
