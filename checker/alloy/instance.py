@@ -15,7 +15,7 @@ from checker.model.config import Configuration
 from codegen.alloy import PLAN_EVALUATION_SIGS, describe_instance_data, describe_plan_data, slice_index
 from codegen.alloy_module import InstanceData, Meaning
 from codegen.alloy_xml import instance_xml
-from reconf_dsl.ir import Predicate, System
+from reconf_dsl.ir import Component, Predicate, System
 
 PLAN_MODULE = "plan_evaluate.als"
 
@@ -150,24 +150,33 @@ class PendingVerdict:
 
     def _verdict(self, verdicts: Mapping[Any, Evaluated], again: list[int], start: float,
                  judging: float) -> AlloyVerdict:
+        """The verdict of the instances judged; reading which assumptions fail off them counts
+        in `judging`."""
+        clock = time.perf_counter()
         failing: set[tuple[str, str, int]] = set()
+        components: dict[str, Component] = {}
+        for c in self.system.components + self.system.versions:
+            components.setdefault(c.name, c)         # the first of a name, as System.component finds it
         for i in range(len(self.focuses)):
             last = verdicts[i, self.lean and i not in again]
             if not last.valid:
-                failing |= _failing(self.system, last.unsatisfied, self.names[i]) or {("", "", -1)}
+                failing |= _failing(self.system, last.unsatisfied, self.names[i], components) or {("", "", -1)}
         judged = verdicts.values()
+        judging += time.perf_counter() - clock
         return AlloyVerdict(not failing, tuple(sorted(failing)), sum(v.evaluate for v in judged), tuple(self.texts),
                             start, self.render, sum(v.read for v in judged), judging, self.judging.threads)
 
 
-def _failing(system: System, pairs: Iterable[tuple[str, str]], names: Mapping[str, Meaning]) -> set[tuple[str, str, int]]:
+def _failing(system: System, pairs: Iterable[tuple[str, str]], names: Mapping[str, Meaning],
+             components: Mapping[str, Component] | None = None) -> set[tuple[str, str, int]]:
     """Each (functionality atom, datum atom) that does not hold, as (component,
-    functionality, assumption index) of every assumption of that datum."""
+    functionality, assumption index) of every assumption of that datum. `components`: the
+    system's by name, when the caller has them."""
     atoms = {meaning: atom for atom, meaning in names.items()}
     failing: set[tuple[str, str, int]] = set()
     for f_atom, d_atom in pairs:
         _, comp, func = names[f_atom]
-        component = system.component(comp)
+        component = components.get(comp) if components is not None else system.component(comp)
         assert component is not None, "the instance's components are the system's"
         functionality = next(f for f in component.functionalities if f.name == func)
         assert functionality.normal is not None, "resolved IR has both modes"
