@@ -9,6 +9,7 @@ A check that runs here with the Alloy proof starts the JVM first, on a thread of
 as a process that judges once and ends, its JVM stops at C1 (`jvm.QUICK_JIT`)."""
 from __future__ import annotations
 
+import gc
 import sys
 
 GLOBAL_FLAGS = ("--allow-includes-outside",)
@@ -64,6 +65,11 @@ def main() -> None:
                 sys.stderr.write(answer.stderr)
                 sys.stderr.flush()
                 sys.exit(answer.exit)
+        # A check that runs here ends once it has judged: Python's cyclic collector would walk
+        # the architecture's hundreds of thousands of objects again and again to free cycles
+        # that hardly exist (10,000 components: 0.6 s of 6.6; peak memory the same). Reference
+        # counting frees objects as usual.
+        gc.disable()
         _start_analyzer([a for a in argv if a not in GLOBAL_FLAGS])
     from checker.cli.main import main as reconf  # the whole command line, when no warm analyzer answered
 
