@@ -102,9 +102,12 @@ def python_failing(ev: Evaluation) -> Failing:
     return tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
 
 
-def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH) -> Judgement:
+def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH,
+          python: Optional[Evaluation] = None) -> Judgement:
     """Judge `config` of `system` by `engine`: with Alloy, its instances are written first and
-    judged on the analyzer's threads while the Python engine runs."""
+    judged on the analyzer's threads while the Python engine runs. `python`: the Python
+    engine's evaluation of this very configuration, made before (the language server's, as
+    the user typed), used instead of evaluating again."""
     pending: Optional[PendingVerdict] = None
     too_large: Optional[AlloyTooLarge] = None
     try:
@@ -113,7 +116,8 @@ def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH) -
         too_large = e
     try:
         started = time.perf_counter()
-        ev = evaluate(system, config)
+        ev = python if python is not None and python.system is system and python.config == config \
+            else evaluate(system, config)
         seconds = time.perf_counter() - started
         outcome = _alloy(system, lambda: _alloy_outcome(pending.result())) if pending is not None else None
     except AlloyTooLarge as e:
