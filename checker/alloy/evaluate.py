@@ -22,6 +22,8 @@ from checker.alloy.cancel import Cancelled, current_test
 from checker.alloy.errors import AlloyError
 from checker.alloy.jvm import detach_thread, java_class
 from codegen.alloy import render_evaluation_module, render_plan_evaluation_module
+from codegen.alloy_module import InstanceData
+from codegen.alloy_xml import instance_xml
 
 Tuples = tuple[tuple[str, ...], ...]
 
@@ -134,6 +136,14 @@ def forget() -> None:
     render_plan_evaluation_module.cache_clear()
 
 
+def prepare(bridge: Backend) -> None:
+    """Parse the evaluation module and judge an empty configuration in it, so that the analyzer
+    has loaded, and run once, the code every instance needs before the first one comes (in a
+    cold JVM that first instance took 0.16-0.2 s, the next ones 0.04 s). For a thread that
+    starts the analyzer while the caller has no instance to give it yet."""
+    evaluator(bridge).judge(instance_xml(InstanceData("", {}, {}, {})))
+
+
 _early: list[threading.Thread] = []
 
 
@@ -146,7 +156,7 @@ def start_early() -> None:
 
     def start() -> None:
         try:
-            evaluator(get_backend())
+            prepare(get_backend())
         except Exception:  # noqa: BLE001 - the next get_backend() raises it, in its place
             return
         detach_thread()       # this thread ends here: see jvm.detach_thread

@@ -42,13 +42,14 @@ def _start_analyzer(argv: list[str]) -> None:
 
 
 def _evaluation_module() -> None:
-    """Parse the evaluation module, on the JVM's thread once it has started (the modules this
-    imports are imported by this thread and the main one at once: the project has no import
-    cycle, so each waits for the other where they meet)."""
+    """Parse the evaluation module and run the analyzer once (`evaluate.prepare`), on the
+    JVM's thread once it has started (the modules this imports are imported by this thread and
+    the main one at once: the project has no import cycle, so each waits for the other where
+    they meet)."""
     from checker.alloy.bridge import get_backend
-    from checker.alloy.evaluate import evaluator
+    from checker.alloy.evaluate import prepare
 
-    evaluator(get_backend())
+    prepare(get_backend())
 
 
 def main() -> None:
