@@ -6,14 +6,13 @@
 `get_backend()` returns a `Backend` (the protocol every caller uses) or raises
 AlloyUnavailable saying what to install.
 
-The names below are loaded on first use (PEP 562), so that importing one submodule (a cold
-`reconf check` starts the JVM from `checker.alloy.jvm` before anything else is imported) does
-not import them all.
+The names below are loaded on first use (`checker.exports.lazy`).
 """
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from checker.exports import lazy
 
 if TYPE_CHECKING:
     from checker.alloy.bridge import DEFAULT_SOLVER, AlloyBridge, Backend, CommandOutcome, get_backend
@@ -23,23 +22,11 @@ if TYPE_CHECKING:
     from checker.alloy.metamodel import metamodel_modules
     from checker.alloy.worker import run_with_timeout
 
-_WHERE = {
+__all__, __getattr__ = lazy(__name__, {
     "bridge": ("DEFAULT_SOLVER", "AlloyBridge", "Backend", "CommandOutcome", "get_backend"),
     "errors": ("AlloyError", "AlloyTimeout", "AlloyUnavailable"),
     "instance": ("AlloyPlanVerdict", "AlloyVerdict", "alloy_plan_verdict", "alloy_verdict"),
     "jvm": ("find_jar", "find_jvm"),
     "metamodel": ("metamodel_modules",),
     "worker": ("run_with_timeout",),
-}
-_MODULE_OF = {name: module for module, names in _WHERE.items() for name in names}
-
-__all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str) -> Any:
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'checker.alloy' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"checker.alloy.{module}"), name)
-    globals()[name] = value
-    return value
+})
