@@ -354,18 +354,26 @@ class _Data:
     atoms: dict[tuple[str, Fraction | None], str] = field(default_factory=dict)
     messages: dict[str, str] = field(default_factory=dict)
     rates: set[Fraction] = field(default_factory=set)
+    _quick: dict[tuple[str, int | None, int | None], str] = field(default_factory=dict, repr=False)
 
     def atom(self, pred: Predicate | None) -> str:
         if pred is None or pred.message is None:
             return "Nothing"
-        key = (pred.message, pred.hz)
+        hz = pred.hz
+        # looked up by the rate's numerator and denominator: hashing a Fraction is slow Python
+        quick = (pred.message, None, None) if hz is None else (pred.message, hz.numerator, hz.denominator)
+        found = self._quick.get(quick)
+        if found is not None:
+            return found
+        key = (pred.message, hz)
         if key not in self.atoms:
             atom = f"d_{len(self.atoms)}"
             self.atoms[key] = atom
-            self.names[atom] = ("data", pred.message, "" if pred.hz is None else str(pred.hz))
+            self.names[atom] = ("data", pred.message, "" if hz is None else str(hz))
             self.mtype(pred.message)
-            if pred.hz is not None:
-                self.rates.add(pred.hz)
+            if hz is not None:
+                self.rates.add(hz)
+        self._quick[quick] = self.atoms[key]
         return self.atoms[key]
 
     def mtype(self, message: str) -> str:
@@ -455,28 +463,30 @@ def _declare_ports(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
 
 def _declare_functionalities(parts: _Parts, scope: _Scope, c: Component, ca: str) -> None:
     judged = scope.judged(c.name)
+    ports, rel, atom, name = parts.ports, parts.rel, parts.data.atom, c.name
+    kinds = {p.name: p.kind for p in c.ports}
     for f in c.functionalities:
-        if not judged and not any((c.name, pname) in parts.ports for pname in f.ports):
+        if not judged and not any((name, pname) in ports for pname in f.ports):
             continue
-        fa = parts.funcs[c.name, f.name] = parts.name(mangle("functionality", c.name, f.name),
-                                                      ("functionality", c.name, f.name))
-        parts.rel["funcs"].append((ca, fa))
+        fa = parts.funcs[name, f.name] = parts.name(mangle("functionality", name, f.name),
+                                                    ("functionality", name, f.name))
+        rel["funcs"].append((ca, fa))
         for pname in f.ports:
-            port = c.port(pname)
-            if port is None or (c.name, pname) not in parts.ports:
+            pa = ports.get((name, pname))
+            if pa is None or pname not in kinds:
                 continue
-            pa = parts.ports[c.name, pname]
-            if port.kind == "input":
-                parts.rel["assoc_in"].append((fa, pa))
+            if kinds[pname] == "input":
+                rel["assoc_in"].append((fa, pa))
                 continue
-            parts.rel["assoc_out"].append((fa, pa))
+            rel["assoc_out"].append((fa, pa))
             # written once the encoding is chosen (see `_guarantee_atoms`)
-            normal, degraded = (parts.data.atom(m.guarantee(pname) if m is not None else None)
-                                for m in (f.normal, f.degraded))
-            parts.guarantees.append((fa, pa, ("guarantee", c.name, f.name, pname), normal, degraded))
+            normal = atom(f.normal.guarantee(pname)) if f.normal is not None else "Nothing"
+            degraded = atom(f.degraded.guarantee(pname)) if f.degraded is not None else "Nothing"
+            parts.guarantees.append((fa, pa, ("guarantee", name, f.name, pname), normal, degraded))
         if f.normal is not None and judged:
+            nasms = rel["nasms"]
             for a in f.normal.assumptions:
-                parts.rel["nasms"].append((fa, parts.data.atom(a)))
+                nasms.append((fa, atom(a)))
 
 
 def _collect(system: System, scope: _Scope, names: dict[str, Meaning]) -> _Parts:

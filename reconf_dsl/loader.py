@@ -53,12 +53,16 @@ class Sources:
     """The text of every file read, for caret snippets."""
 
     texts: dict[str, str] = field(default_factory=dict)
+    _lines: dict[str, tuple[str, list[str]]] = field(default_factory=dict, repr=False, compare=False)
 
     def line(self, file: str, line: int) -> Optional[str]:
         text = self.texts.get(file)
         if text is None:
             return None
-        lines = text.split("\n")
+        kept = self._lines.get(file)
+        if kept is None or kept[0] is not text:       # split once per text: a report asks once per diagnostic
+            kept = self._lines[file] = (text, text.split("\n"))
+        lines = kept[1]
         return lines[line - 1] if 0 < line <= len(lines) else None
 
 

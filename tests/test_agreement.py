@@ -48,3 +48,28 @@ def test_slices_give_the_whole_modules_verdict(case: tuple[ir.System, Configurat
         assert sliced.valid == whole.valid
         assert sliced.unsatisfied == whole.unsatisfied
     assert tuple(sorted(whole.unsatisfied)) == python_failing(evaluate(system, config))
+
+
+def test_one_thread_or_three_the_same_verdict(monkeypatch: pytest.MonkeyPatch, tmp_path: "object") -> None:
+    """The slices of a large configuration judged on one thread or on three at once (lean
+    slices, judged again with every publisher when not valid): the same verdict and failing
+    assumptions, the Python engine's."""
+    import pathlib
+
+    from bench.gen import generate, hub_component
+    from checker.model.semantics import witnesses
+
+    path = pathlib.Path(str(tmp_path)) / "fanin.arch"
+    path.write_text(generate("fanin", 400, 5), encoding="utf-8")
+    system = load([str(path)])
+    initial = Configuration.initial(system)
+    gone = {c.name for i, c in enumerate(system.components) if i % 9 == 4} | {hub_component("fanin", 400)}
+    config = Configuration(initial.components - gone, initial.degraded,
+                           frozenset(r for r in initial.roles if r[1] not in gone))
+    expected = python_failing(evaluate(system, config))
+    assert expected
+    for threads in ("1", "3"):
+        monkeypatch.setenv("RECONF_ALLOY_THREADS", threads)
+        verdict = alloy_verdict(system, config, keep=witnesses(system, config, 16))
+        assert (verdict.valid, verdict.unsatisfied) == (False, expected), threads
+        assert verdict.threads == int(threads) and len(verdict.texts) > 3

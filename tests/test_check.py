@@ -141,7 +141,7 @@ def test_too_large_for_alloy_falls_back_to_python_with_a_warning(monkeypatch: "o
         # what the analyzer says when a module's atoms exceed what it can index
         raise AlloyError("Translation capacity exceeded. In this scope, universe contains 50000 atoms")
 
-    monkeypatch.setattr(checker.alloy.engines, "alloy_verdict", too_large)
+    monkeypatch.setattr(checker.alloy.engines, "PendingVerdict", too_large)
     path = path_of("chatter")
     result = CliRunner().invoke(main, ["check", path, "--output-format", "json"])
     assert result.exit_code == 0, result.output
@@ -162,8 +162,8 @@ def test_the_summary_says_where_the_time_went() -> None:
     assert all(v >= 0 for v in timing.values())
     assert sum(parts.values()) <= timing["wall"] + 1e-3
     text = CliRunner().invoke(main, ["check", path_of("chatter")]).output
-    assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d \(cold\), parsing \d+\.\d\d, Python engine \d+\.\d\d, "
-                     r"Alloy start \d+\.\d\d, rendering \d+\.\d\d, Alloy \d+\.\d\d \(1 instance, read \d+\.\d\d s, "
+    assert re.search(r"; in \d+\.\d\d s: start-up \d+\.\d\d \(cold\), parsing \d+\.\d\d, rendering \d+\.\d\d, "
+                     r"Python engine \d+\.\d\d, Alloy start \d+\.\d\d, Alloy \d+\.\d\d \(1 instance, read \d+\.\d\d s, "
                      r"evaluated \d+\.\d\d s\)", text), text
 
 

@@ -17,7 +17,9 @@ from tests.examples_table import BY_NAME, ROOT
 def solver_options(group: click.Group, prefix: str = "") -> dict[str, click.Option]:
     """Every command's --solver option, by the command's full name."""
     out: dict[str, click.Option] = {}
-    for name, cmd in group.commands.items():
+    for name in group.list_commands(click.Context(group)):
+        cmd = group.get_command(click.Context(group), name)
+        assert cmd is not None, name
         full = f"{prefix}{name}"
         if isinstance(cmd, click.Group):
             out.update(solver_options(cmd, full + " "))

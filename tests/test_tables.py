@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 import pytest
 
-from checker.cli.main import main
+from checker.cli.main import command
 from checker.ftm.library import LIBRARY
 from checker.gate.policy import parse_policy
 from checker.model.actions import KINDS
@@ -78,10 +78,7 @@ def test_every_report_format_has_its_renderer() -> None:
 
 
 def _choices(path: list[str], option: str) -> list[str]:
-    cmd: click.Command = main
-    for name in path:
-        assert isinstance(cmd, click.Group)
-        cmd = cmd.commands[name]
+    cmd = command(" ".join(path))
     (param,) = [p for p in cmd.params if p.name == option]
     assert isinstance(param.type, click.Choice)
     return list(param.type.choices)

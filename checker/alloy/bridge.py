@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, NamedTuple, Protocol
 
 from checker.alloy.errors import AlloyError, AlloyUnavailable
-from checker.alloy.jvm import ensure_jvm
+from checker.alloy.jvm import ensure_jvm, java_class
 from checker.alloy.split import Split, skeleton_key, split_module
 
 VFS = "/alloyvfs/"
@@ -266,18 +266,13 @@ class AlloyBridge:
             return cls._instance
 
     def __init__(self) -> None:
-        from edu.mit.csail.sdg.alloy4 import A4Reporter, Err  # type: ignore[import-not-found]
-        from edu.mit.csail.sdg.parser import CompUtil  # type: ignore[import-not-found]
-        from edu.mit.csail.sdg.translator import (  # type: ignore[import-not-found]
-            A4Options,
-            TranslateAlloyToKodkod,
-        )
-
-        self._A4Reporter = A4Reporter
-        self._Err = Err
-        self._CompUtil = CompUtil
-        self._A4Options = A4Options
-        self._Translate = TranslateAlloyToKodkod
+        # by name (jvm.java_class), not `from edu... import`: a cold check, whose start waits
+        # for this, does not have JPype index the class path
+        self._A4Reporter = java_class("edu.mit.csail.sdg.alloy4.A4Reporter")
+        self._Err = java_class("edu.mit.csail.sdg.alloy4.Err")
+        self._CompUtil = java_class("edu.mit.csail.sdg.parser.CompUtil")
+        self._A4Options = java_class("edu.mit.csail.sdg.translator.A4Options")
+        self._Translate = java_class("edu.mit.csail.sdg.translator.TranslateAlloyToKodkod")
         self._usable: dict[str, bool] = {}
         self._lock = self.lock = threading.RLock()
         self._skeletons: dict[tuple[str, str, tuple[str, ...]], _Skeleton] = {}

@@ -31,3 +31,9 @@ def checkpoint() -> None:
     test = getattr(_local, "test", None)
     if test is not None and test():
         raise Cancelled()
+
+
+def current_test() -> Callable[[], bool] | None:
+    """The test of the `cancellable` block this thread is in (None outside one), for threads
+    that work for it."""
+    return getattr(_local, "test", None)

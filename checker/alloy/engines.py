@@ -7,9 +7,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, Optional
+from typing import Any, Callable, Optional, TypeVar
 
-from checker.alloy import AlloyError, AlloyUnavailable, alloy_verdict
+from checker.alloy.errors import AlloyError, AlloyUnavailable
+from checker.alloy.instance import AlloyVerdict, PendingVerdict
 from checker.model.config import Configuration
 from checker.model.semantics import Evaluation, evaluate, witnesses
 from reconf_dsl.diagnostics import Diagnostic, Severity
@@ -79,18 +80,21 @@ class Judgement:
         return " (proved by Alloy's evaluator; explained by the Python engine)"
 
     def timing(self) -> tuple[list[tuple[str, float]], dict[str, str]]:
-        """Where the judgement's wall time went, in order (the Python engine, Alloy's start,
-        writing the instances, the analyzer reading them and evaluating in them), and what
-        the analyzer's part was made of (see `report.timing_note`)."""
-        out: list[tuple[str, float]] = []
-        if "python" in self.engines:
-            out.append(("Python engine", self.engines["python"]["seconds"]))
+        """Where the judgement's wall time went, in the order it went there: writing the
+        instances for Alloy (its threads judge each as soon as it is written), the Python
+        engine (meanwhile, Alloy judges), then waiting for Alloy's start (the JVM and the
+        evaluation module, if not done by then) and for its last instances; and what the
+        analyzer's part was made of: its threads' time reading the instances and evaluating in
+        them, summed (see `report.timing_note`)."""
         al = self.engines.get("alloy", {}).get("timing")
+        python = [("Python engine", self.engines["python"]["seconds"])] if "python" in self.engines else []
         if not al:
-            return out, {}
-        out += [("Alloy start", al["start"]), ("rendering", al["render"]), ("Alloy", al["judging"])]
-        n = al["instances"]
-        detail = f"{n} instance{'s' if n != 1 else ''}, read {al['read']:.2f} s, evaluated {al['evaluate']:.2f} s"
+            return python, {}
+        out = [("rendering", al["render"]), *python, ("Alloy start", al["start"]), ("Alloy", al["judging"])]
+        n, threads = al["instances"], al.get("threads", 1)
+        on = f" on {threads} threads" if threads > 1 else ""
+        detail = (f"{n} instance{'s' if n != 1 else ''}{on}, read {al['read']:.2f} s, "
+                  f"evaluated {al['evaluate']:.2f} s")
         return out, {"Alloy": detail}
 
 
@@ -98,26 +102,43 @@ def python_failing(ev: Evaluation) -> Failing:
     return tuple(sorted((r.component, r.functionality, r.index) for r in ev.unsatisfied))
 
 
-def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH) -> Judgement:
-    started = time.perf_counter()
-    ev = evaluate(system, config)
+def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH,
+          python: Optional[Evaluation] = None) -> Judgement:
+    """Judge `config` of `system` by `engine`: with Alloy, its instances are written first and
+    judged on the analyzer's threads while the Python engine runs. `python`: the Python
+    engine's evaluation of this very configuration, made before (the language server's, as
+    the user typed), used instead of evaluating again."""
+    pending: Optional[PendingVerdict] = None
+    too_large: Optional[AlloyTooLarge] = None
+    try:
+        pending = _alloy(system, lambda: _start_alloy(system, config)) if engine.alloy else None
+    except AlloyTooLarge as e:
+        too_large = e
+    try:
+        started = time.perf_counter()
+        ev = python if python is not None and python.system is system and python.config == config \
+            else evaluate(system, config)
+        seconds = time.perf_counter() - started
+        outcome = _alloy(system, lambda: _alloy_outcome(pending.result())) if pending is not None else None
+    except AlloyTooLarge as e:
+        too_large = e
+    finally:
+        if pending is not None:
+            pending.close()
     engines: dict[str, Any] = {}
     if engine.python:
-        engines["python"] = {"verdict": "safe" if ev.valid else "unsafe",
-                             "seconds": round(time.perf_counter() - started, 4),
+        engines["python"] = {"verdict": "safe" if ev.valid else "unsafe", "seconds": round(seconds, 4),
                              "unsatisfied": [list(x) for x in python_failing(ev)]}
-    if not engine.alloy:
-        return Judgement(ev, ev.valid, engines)
-    try:
-        valid, failing, info = alloy_judgement(system, config)
-    except AlloyTooLarge as e:
+    if too_large is not None:
         if engine is not Engine.BOTH:
-            raise
+            raise too_large
         # Both engines were asked for, the Python one has answered: say plainly that this answer
         # has no Alloy proof behind it, rather than refuse to answer.
-        engines["alloy"] = {"verdict": "not run", "reason": e.diagnostic.message}
-        return Judgement(ev, ev.valid, engines, [e.diagnostic])
-    engines["alloy"] = info
+        engines["alloy"] = {"verdict": "not run", "reason": too_large.diagnostic.message}
+        return Judgement(ev, ev.valid, engines, [too_large.diagnostic])
+    if outcome is None:
+        return Judgement(ev, ev.valid, engines)
+    valid, failing, engines["alloy"] = outcome
     if engine is Engine.BOTH and (valid != ev.valid or failing != python_failing(ev)):
         raise EnginesDisagree(Diagnostic(
             "RC300", Severity.ERROR,
@@ -129,9 +150,29 @@ def judge(system: System, config: Configuration, engine: Engine = Engine.BOTH) -
     return Judgement(ev, valid, engines)
 
 
-def alloy_judgement(system: System, config: Configuration) -> tuple[bool, Failing, dict[str, Any]]:
+def _start_alloy(system: System, config: Configuration) -> PendingVerdict:
+    clock = time.perf_counter()
+    keep = witnesses(system, config, WIDE)
+    pending = PendingVerdict(system, config, keep=keep)
+    pending.render += time.perf_counter() - clock - pending.render   # the witnesses are part of the writing
+    return pending
+
+
+def _alloy_outcome(v: AlloyVerdict) -> tuple[bool, Failing, dict[str, Any]]:
+    return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
+                                                    "seconds": round(v.seconds, 4), "method": "evaluation",
+                                                    "timing": v.timing(),
+                                                    "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
+
+
+_T = TypeVar("_T")
+
+
+def _alloy(system: System, work: Callable[[], _T]) -> _T:
+    """`work()`, with what the analyzer raises said as reconf's diagnostics: no Java or jar
+    (RC301), a module it rejects (RC302), a system too large for it (RC303)."""
     try:
-        v = alloy_verdict(system, config, keep=witnesses(system, config, WIDE))
+        return work()
     except AlloyUnavailable as e:
         raise EngineUnavailable(Diagnostic("RC301", Severity.ERROR, str(e), Span.unknown("<alloy>"),
                                            notes=("or use --engine python",))) from None
@@ -148,10 +189,6 @@ def alloy_judgement(system: System, config: Configuration) -> tuple[bool, Failin
             f"{system.name} is too large for the Alloy Analyzer here ({_first_line(e)}); "
             "its safety rests on the Python engine alone", Span.unknown("<alloy>"),
             notes=("RECONF_ALLOY_XMX raises the heap; Alloy's atom capacity is fixed",))) from None
-    return v.valid, tuple(sorted(v.unsatisfied)), {"verdict": "safe" if v.valid else "unsafe",
-                                                    "seconds": round(v.seconds, 4), "method": "evaluation",
-                                                    "timing": v.timing(),
-                                                    "unsatisfied": [list(x) for x in sorted(v.unsatisfied)]}
 
 
 def _too_large(e: BaseException) -> bool:

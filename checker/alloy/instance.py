@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Collection, Iterable, Mapping, Sequence
+from typing import Any, Collection, Iterable, Mapping, Sequence
 
 from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.cancel import checkpoint
-from checker.alloy.evaluate import evaluator
+from checker.alloy.evaluate import Evaluated, Judging, evaluator, judging_threads
+from checker.alloy.jvm import usable
 from checker.model.actions import KINDS, Action
 from checker.model.config import Configuration
 from codegen.alloy import PLAN_EVALUATION_SIGS, describe_instance_data, describe_plan_data, slice_index
 from codegen.alloy_module import InstanceData, Meaning
 from codegen.alloy_xml import instance_xml
-from reconf_dsl.ir import Predicate, System
+from reconf_dsl.ir import Component, Predicate, System
 
 PLAN_MODULE = "plan_evaluate.als"
 
@@ -37,18 +38,21 @@ class AlloyVerdict:
     unsatisfied: tuple[tuple[str, str, int], ...]
     seconds: float
     texts: tuple[str, ...]
-    # where the rest of the time went: starting the analyzer (the JVM, and parsing the
-    # evaluation module, once per process), writing the instances, and the analyzer reading
-    # them; `seconds` is evaluating in them
+    # Where the caller's time went while it waited for this verdict (see `PendingVerdict`):
+    # writing the instances, then waiting for the analyzer's start (the JVM, and parsing the
+    # evaluation module, once per process) and for the instances still being judged. The
+    # analyzer's threads judge alongside the writing: `read_seconds` (reading the instances)
+    # and `seconds` (evaluating in them) are those threads' time, summed.
     start_seconds: float = 0.0
     render_seconds: float = 0.0
     read_seconds: float = 0.0
     judging_seconds: float = 0.0
+    threads: int = 1
 
     def timing(self) -> dict[str, float]:
         return {"start": round(self.start_seconds, 4), "render": round(self.render_seconds, 4),
                 "judging": round(self.judging_seconds, 4), "instances": len(self.texts),
-                "read": round(self.read_seconds, 4), "evaluate": round(self.seconds, 4)}
+                "read": round(self.read_seconds, 4), "evaluate": round(self.seconds, 4), "threads": self.threads}
 
     @property
     def text(self) -> str:
@@ -77,42 +81,102 @@ def alloy_verdict(system: System, config: Configuration, bridge: Backend | None 
     of those components alone. `keep` (checker.model.semantics.witnesses) lets a slice show a
     wide connector's witness alone; a slice that is not valid so is judged again with every
     publisher."""
-    parts = slices(system, config, slice_size, only)
-    focuses: list[set[str] | None] = list(parts) if parts else [None]
-    clock = time.perf_counter()
-    judge = evaluator(bridge or get_backend())
-    start = time.perf_counter() - clock
-    index = slice_index(system, config) if parts else None
-    texts: list[str] = []
-    failing: set[tuple[str, str, int]] = set()
-    render = read = evaluate = 0.0
-    clock = time.perf_counter()
-    for focus in focuses:
-        checkpoint()    # a caller inside checker.alloy.cancel.cancellable may stop here
-        for lean in ((True, False) if keep and focus is not None else (False,)):
-            tick = time.perf_counter()
-            data = describe_instance_data(system, config, focus, index, keep if lean else None)
-            xml = instance_xml(data)
-            render += time.perf_counter() - tick
-            verdict = judge.judge(xml)
-            read, evaluate = read + verdict.read, evaluate + verdict.evaluate
-            if verdict.valid or not lean:
-                break   # a lean slice that is not valid is judged again with every publisher
-        texts.append(xml)
-        if not verdict.valid:
-            failing |= _failing(system, verdict.unsatisfied, data.names) or {("", "", -1)}
-    judging = time.perf_counter() - clock - render
-    return AlloyVerdict(not failing, tuple(sorted(failing)), evaluate, tuple(texts), start, render, read, judging)
+    return PendingVerdict(system, config, bridge, slice_size, only, keep).result()
 
 
-def _failing(system: System, pairs: Iterable[tuple[str, str]], names: Mapping[str, Meaning]) -> set[tuple[str, str, int]]:
+class PendingVerdict:
+    """`alloy_verdict` in two halves, so that the caller works while the analyzer judges: made,
+    it writes every instance and hands each to the analyzer's threads (`evaluate.Judging`) as
+    soon as it is written; `result()` waits for the verdict. Whatever the caller does in
+    between (the Python engine) runs alongside the judging. `result()` or `close()` must be
+    called (the threads end there)."""
+
+    def __init__(self, system: System, config: Configuration, bridge: Backend | None = None,
+                 slice_size: int = SLICE, only: Iterable[str] | None = None,
+                 keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> None:
+        clock = time.perf_counter()
+        if bridge is None:
+            usable()               # no Java, no jar: said now, before any instance is written
+        self.system, self.config, self.keep = system, config, keep
+        parts = slices(system, config, slice_size, only)
+        self.focuses: list[set[str] | None] = list(parts) if parts else [None]
+        self.index = slice_index(system, config) if parts else None
+        self.lean = bool(keep) and parts is not None       # each slice first with a wide connector's witness alone
+        self.judging = Judging(bridge, judging_threads(len(self.focuses)))
+        self.texts: list[str] = []
+        self.names: list[Mapping[str, Meaning]] = []
+        try:
+            for i, focus in enumerate(self.focuses):
+                checkpoint()    # a caller inside checker.alloy.cancel.cancellable may stop here
+                self._write(i, focus, self.lean)
+        except BaseException:
+            self.judging.close()
+            raise
+        self.render = time.perf_counter() - clock
+
+    def _write(self, i: int, focus: set[str] | None, lean: bool) -> None:
+        data = describe_instance_data(self.system, self.config, focus, self.index, self.keep if lean else None)
+        xml = instance_xml(data)
+        if i < len(self.texts):
+            self.texts[i], self.names[i] = xml, data.names
+        else:
+            self.texts.append(xml)
+            self.names.append(data.names)
+        self.judging.put((i, lean), xml)
+
+    def close(self) -> None:
+        self.judging.close()
+
+    def result(self) -> AlloyVerdict:
+        """The verdict, once every instance is judged (a lean slice that is not valid is
+        written and judged again with every publisher)."""
+        try:
+            began = time.perf_counter()
+            verdicts = self.judging.wait([(i, self.lean) for i in range(len(self.focuses))])
+            first = time.perf_counter()
+            again = [i for i in range(len(self.focuses)) if self.lean and not verdicts[i, True].valid]
+            for i in again:
+                checkpoint()
+                self._write(i, self.focuses[i], False)
+            written = time.perf_counter()
+            verdicts.update(self.judging.wait([(i, False) for i in again]))
+        finally:
+            self.judging.close()
+        self.render += written - first
+        waited = (first - began) + (time.perf_counter() - written)
+        ready = self.judging.ready if self.judging.ready is not None else began
+        start = max(0.0, min(ready, first) - began)      # of the wait, before the analyzer was ready
+        return self._verdict(verdicts, again, start, waited - start)
+
+    def _verdict(self, verdicts: Mapping[Any, Evaluated], again: list[int], start: float,
+                 judging: float) -> AlloyVerdict:
+        """The verdict of the instances judged; reading which assumptions fail off them counts
+        in `judging`."""
+        clock = time.perf_counter()
+        failing: set[tuple[str, str, int]] = set()
+        components: dict[str, Component] = {}
+        for c in self.system.components + self.system.versions:
+            components.setdefault(c.name, c)         # the first of a name, as System.component finds it
+        for i in range(len(self.focuses)):
+            last = verdicts[i, self.lean and i not in again]
+            if not last.valid:
+                failing |= _failing(self.system, last.unsatisfied, self.names[i], components) or {("", "", -1)}
+        judged = verdicts.values()
+        judging += time.perf_counter() - clock
+        return AlloyVerdict(not failing, tuple(sorted(failing)), sum(v.evaluate for v in judged), tuple(self.texts),
+                            start, self.render, sum(v.read for v in judged), judging, self.judging.threads)
+
+
+def _failing(system: System, pairs: Iterable[tuple[str, str]], names: Mapping[str, Meaning],
+             components: Mapping[str, Component] | None = None) -> set[tuple[str, str, int]]:
     """Each (functionality atom, datum atom) that does not hold, as (component,
-    functionality, assumption index) of every assumption of that datum."""
+    functionality, assumption index) of every assumption of that datum. `components`: the
+    system's by name, when the caller has them."""
     atoms = {meaning: atom for atom, meaning in names.items()}
     failing: set[tuple[str, str, int]] = set()
     for f_atom, d_atom in pairs:
         _, comp, func = names[f_atom]
-        component = system.component(comp)
+        component = components.get(comp) if components is not None else system.component(comp)
         assert component is not None, "the instance's components are the system's"
         functionality = next(f for f in component.functionalities if f.name == func)
         assert functionality.normal is not None, "resolved IR has both modes"

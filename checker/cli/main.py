@@ -5,28 +5,66 @@ resource failure or internal error; with `--detailed-exitcode`, `plan` and `gate
 change that has steps (0 then means nothing to do). See docs/exit-codes.md."""
 from __future__ import annotations
 
+import importlib
+from typing import Optional
+
 import click
 
-from checker.cli.alloy_cmd import alloy_cmd
-from checker.cli.bringup_cmd import down_cmd, up_cmd
-from checker.cli.check_cmd import check
-from checker.cli.daemon_cmd import daemon_group
-from checker.cli.discover_cmd import discover_cmd
-from checker.cli.drift_cmd import drift_cmd
-from checker.cli.fmt_cmd import fmt_cmd
-from checker.cli.ftm_cmd import ftm_group, transition_cmd
-from checker.cli.gate_cmd import gate_cmd
-from checker.cli.graph_cmd import graph, graph_plan
-from checker.cli.lsp_cmd import lsp_cmd
-from checker.cli.modes_cmd import modes_group
-from checker.cli.plan_cmd import plan
-from checker.cli.recover_cmd import recover_cmd
-from checker.cli.verify_model_cmd import verify_model_cmd
 from reconf_dsl import loader
 from reconf_dsl.loader import ALLOW_OUTSIDE_ENV
 
+# Every command: its name -> the module and the name it is defined under, and the commands a
+# group takes from other modules. A command's module is imported when the command runs (or
+# help lists it): `reconf check` does not load planning, the runtime's tools or pygls.
+COMMANDS: dict[str, tuple[str, str, tuple[tuple[str, str], ...]]] = {
+    "check": ("checker.cli.check_cmd", "check", ()),
+    "alloy": ("checker.cli.alloy_cmd", "alloy_cmd", ()),
+    "graph": ("checker.cli.graph_cmd", "graph", ()),
+    "graph-plan": ("checker.cli.graph_cmd", "graph_plan", ()),
+    "plan": ("checker.cli.plan_cmd", "plan", (("checker.cli.ftm_cmd", "transition_cmd"),)),
+    "recover": ("checker.cli.recover_cmd", "recover_cmd", ()),
+    "up": ("checker.cli.bringup_cmd", "up_cmd", ()),
+    "down": ("checker.cli.bringup_cmd", "down_cmd", ()),
+    "gate": ("checker.cli.gate_cmd", "gate_cmd", ()),
+    "ftm": ("checker.cli.ftm_cmd", "ftm_group", ()),
+    "fmt": ("checker.cli.fmt_cmd", "fmt_cmd", ()),
+    "modes": ("checker.cli.modes_cmd", "modes_group", ()),
+    "discover": ("checker.cli.discover_cmd", "discover_cmd", ()),
+    "drift": ("checker.cli.drift_cmd", "drift_cmd", ()),
+    "verify-model": ("checker.cli.verify_model_cmd", "verify_model_cmd", ()),
+    "lsp": ("checker.cli.lsp_cmd", "lsp_cmd", ()),
+    "daemon": ("checker.cli.daemon_cmd", "daemon_group", ()),
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+
+def _attribute(module: str, name: str) -> click.Command:
+    found = getattr(importlib.import_module(module), name)
+    assert isinstance(found, click.Command), f"{module}.{name} is not a command"
+    return found
+
+
+class Commands(click.Group):
+    """The group of `COMMANDS`, each loaded on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: Optional[click.Context], cmd_name: str) -> Optional[click.Command]:
+        if cmd_name not in COMMANDS:
+            return None
+        if cmd_name not in self.commands:
+            module, name, extra = COMMANDS[cmd_name]
+            command = _attribute(module, name)
+            if isinstance(command, click.Group):
+                for sub_module, sub_name in extra:
+                    sub = _attribute(sub_module, sub_name)
+                    if sub.name not in command.commands:
+                        command.add_command(sub)
+            self.commands[cmd_name] = command
+        return self.commands[cmd_name]
+
+
+@click.group(cls=Commands, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(package_name="reconf")
 @click.option("--allow-includes-outside", is_flag=True, envvar=ALLOW_OUTSIDE_ENV,
               help="follow includes that lead outside the directory tree of the file named "
@@ -43,8 +81,12 @@ def main(allow_includes_outside: bool) -> None:
     loader.settings.allow_includes_outside = allow_includes_outside
 
 
-plan.add_command(transition_cmd)
-for command in (check, alloy_cmd, graph, graph_plan, plan, recover_cmd, up_cmd, down_cmd, gate_cmd, ftm_group,
-                fmt_cmd, modes_group, discover_cmd, drift_cmd, verify_model_cmd, lsp_cmd,
-                daemon_group):
-    main.add_command(command)
+def command(path: str) -> click.Command:
+    """The command `path` ("plan replace"), its module loaded."""
+    cmd: click.Command = main
+    for name in path.split():
+        assert isinstance(cmd, click.Group), path
+        found = cmd.get_command(None, name)  # type: ignore[arg-type]
+        assert found is not None, path
+        cmd = found
+    return cmd

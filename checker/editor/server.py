@@ -193,7 +193,8 @@ class Session:
         started = time.perf_counter()
         try:
             with cancellable(lambda: proof.cancelled):
-                outcome = check_system(system, Engine.BOTH)
+                outcome = check_system(system, Engine.BOTH,
+                                       python=analysis.outcome.judged.python if analysis.outcome else None)
         except Cancelled:
             proof.cancelled = True
             return

@@ -25,6 +25,7 @@ from checker.alloy.engines import Engine
 from checker.gate.check import CheckOutcome, check_system
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError
+from reconf_dsl.incremental import Incremental
 from reconf_dsl.loader import STDIN, Budget, Sources, display_path, load_documents, read_source
 from reconf_dsl.parser import parse_text
 from reconf_dsl.resolve import resolve
@@ -58,13 +59,16 @@ class Analysis:
 
 class ParseCache:
     """Each (file name, text) parsed once: a Document, or the DiagnosticError it raised; at
-    most `PER_FILE` texts of one file (an undo finds the text before), `size` in all."""
+    most `PER_FILE` texts of one file (an undo finds the text before), `size` in all. A text
+    not parsed before is parsed from the file's last text that parsed, where the edit did not
+    reach it (`reconf_dsl.incremental`)."""
 
     PER_FILE = 2
 
     def __init__(self, size: int = 256) -> None:
         self._items: OrderedDict[tuple[str, str], Any] = OrderedDict()
         self._size = size
+        self._incremental = Incremental(parse_text)
         self.hits = self.misses = 0
 
     def parse(self, text: str, file: str) -> ir.Document:
@@ -73,7 +77,7 @@ class ParseCache:
         if found is None:
             self.misses += 1
             try:
-                found = parse_text(text, file)
+                found = self._incremental.parse(text, file)
             except DiagnosticError as e:
                 found = e
             self._items[key] = found

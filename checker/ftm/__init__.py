@@ -28,11 +28,24 @@ The encoding, in one place:
 
 See docs/ftm.md.
 """
-from checker.ftm.diagnose import ftm_diagnostics
-from checker.ftm.expand import expand, expand_component, to_text
-from checker.ftm.library import LIBRARY, Composition, all_compositions, compose
-from checker.ftm.select import profile, select
-from checker.ftm.transition import plan_ftm_migrate, plan_transition
+from __future__ import annotations
 
-__all__ = ["LIBRARY", "Composition", "all_compositions", "compose", "expand", "expand_component", "to_text",
-           "ftm_diagnostics", "profile", "select", "plan_transition", "plan_ftm_migrate"]
+from typing import TYPE_CHECKING
+
+from checker.exports import lazy
+
+if TYPE_CHECKING:
+    from checker.ftm.diagnose import ftm_diagnostics
+    from checker.ftm.expand import expand, expand_component, to_text
+    from checker.ftm.library import LIBRARY, Composition, all_compositions, compose
+    from checker.ftm.select import profile, select
+    from checker.ftm.transition import plan_ftm_migrate, plan_transition
+
+# loaded on first use (checker.exports.lazy): a check does not import transitions and planning
+__all__, __getattr__ = lazy(__name__, {
+    "diagnose": ("ftm_diagnostics",),
+    "expand": ("expand", "expand_component", "to_text"),
+    "library": ("LIBRARY", "Composition", "all_compositions", "compose"),
+    "select": ("profile", "select"),
+    "transition": ("plan_ftm_migrate", "plan_transition"),
+})

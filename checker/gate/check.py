@@ -9,6 +9,7 @@ from typing import Any, Optional
 from checker.alloy.engines import Engine, Judgement, judge
 from checker.ftm.judge import judge_ftm
 from checker.model.config import Configuration
+from checker.model.semantics import Evaluation
 from checker.reality.recording import RecordingVerdict
 from checker.reports import formats, report
 from reconf_dsl.diagnostics import Diagnostic
@@ -75,9 +76,10 @@ class CheckOutcome:
 
 
 def check_system(system: System, engine: Engine = Engine.BOTH,
-                 recording: Optional[RecordingVerdict] = None) -> CheckOutcome:
-    """Judge `system`'s deployed configuration; raises EngineUnavailable or EnginesDisagree."""
-    judged = judge(system, Configuration.initial(system), engine)
+                 recording: Optional[RecordingVerdict] = None, python: Optional[Evaluation] = None) -> CheckOutcome:
+    """Judge `system`'s deployed configuration; raises EngineUnavailable or EnginesDisagree.
+    `python`: the Python engine's evaluation of it, when one was made (see `judge`)."""
+    judged = judge(system, Configuration.initial(system), engine, python)
     ftm, ftm_alloy = judge_ftm(system, engine)
     if ftm_alloy is not None:
         judged.engines.setdefault("alloy", {})["ftm_rules"] = ftm_alloy
