@@ -308,6 +308,17 @@ class LiveSystem:
         st = self.statuses() if statuses is None else statuses
         return {n: s["message"] for n, s in st.items() if s["values"].get("violations", "0") != "0"}
 
+    def agents(self) -> Path:
+        """Start the per-host agent on every host of the lab (reconf_ros.tools.agent); the hosts
+        file a plan takes (`--hosts`) to start each component on its host."""
+        assert self.lab is not None, "agents need a lab (LiveSystem(hosts=...))"
+        from .netlab import start_agents
+        hosts_file, procs = start_agents(self.lab, self.dir / "agents", base=self.env)
+        for proc in procs.values():
+            self.procs.append(proc)
+            self.pids.add(proc.pid)
+        return hosts_file
+
     # --- faults of hosts and links (a lab's) ---
     def crash(self, host: str) -> list[int]:
         """Host `host` crashes: every process on it killed (SIGKILL); their PIDs."""

@@ -368,6 +368,39 @@ class NetLab:
         return ", ".join(said) or "none"
 
 
+def start_agents(lab: NetLab, directory: Path, base: Optional[dict[str, str]] = None, timeout: float = 30.0,
+                 detach: bool = False) -> tuple[Path, dict[str, "subprocess.Popen[bytes]"]]:
+    """Start the per-host agent (reconf_ros.tools.agent) on every host of `lab`, with a fresh
+    token, logs under `directory`/HOST, and write `directory`/hosts.json naming each; the hosts
+    file and the agents' processes, once each listens. `detach`: the agents outlive this process
+    (a lab `up` made; `down` ends them with the hosts)."""
+    from ..executor.remote import AGENT_PORT
+    directory.mkdir(parents=True, exist_ok=True)
+    token = directory / "agent.token"
+    token.write_text(uuid.uuid4().hex + uuid.uuid4().hex + "\n")
+    token.chmod(0o600)
+    procs: dict[str, subprocess.Popen[bytes]] = {}
+    for name, h in lab.hosts.items():
+        ready = directory / f"agent-{name}.ready"
+        ready.unlink(missing_ok=True)
+        argv = [sys.executable, "-m", "reconf_ros.tools.agent", "--host", name, "--listen",
+                f"{h.address}:{AGENT_PORT}", "--token-file", str(token), "--log-dir", str(directory / name),
+                "--ready-file", str(ready)]
+        with open(directory / f"agent-{name}.log", "ab") as log:
+            procs[name] = lab.popen(name, argv, env=lab.env(name, base), stdin=subprocess.DEVNULL, stdout=log,
+                                    stderr=subprocess.STDOUT, start_new_session=detach)
+    end = time.monotonic() + timeout
+    for name, proc in procs.items():
+        while not (directory / f"agent-{name}.ready").exists():
+            if proc.poll() is not None or time.monotonic() > end:
+                raise LabError(f"the agent of host {name} did not start: see {directory / f'agent-{name}.log'}")
+            time.sleep(0.05)
+    hosts = directory / "hosts.json"
+    hosts.write_text(json.dumps({"hosts": {n: f"{h.address}:{AGENT_PORT}" for n, h in lab.hosts.items()},
+                                 "token_file": token.name}, indent=1) + "\n")
+    return hosts, procs
+
+
 def hosts_of(paths: Sequence[str]) -> list[str]:
     """The hosts an architecture names, in order: declared ones, components' and FTMs' replicas'."""
     from reconf_dsl.loader import load
@@ -380,7 +413,8 @@ def hosts_of(paths: Sequence[str]) -> list[str]:
 
 
 CLI_HELP = """commands (root):
-  up ARCH... | --hosts A,B   make a lab with one host per host the architecture names; it stays until `down`
+  up ARCH... | --hosts A,B   make a lab with one host per host the architecture names; it stays until `down`;
+                             with --agents DIR, an agent on each host and DIR/hosts.json for plans (--hosts)
   down                       remove it (and every process running on its hosts)
   list                       the labs, their hosts, addresses and faults
   run HOST -- CMD...         run CMD on HOST, with the DDS set-up across hosts
@@ -398,6 +432,13 @@ def _cli_up(args: Any) -> int:
     print(f"lab {lab.id}: {len(hosts)} hosts on bridge {lab.record.bridge}")
     for h in lab.record.hosts:
         print(f"  {h.name}: {h.address} (namespace {h.netns})")
+    if args.agents:
+        try:
+            hosts_file, _ = start_agents(lab, Path(args.agents).resolve(), detach=True)
+        except (LabError, OSError):
+            lab.down()
+            raise
+        print(f"an agent on each host; plans start components on their hosts with --hosts {hosts_file}")
     print(f"run a command on a host: python -m reconf_ros.tools.netlab run {hosts[0]} -- COMMAND")
     return 0
 
@@ -443,6 +484,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--lab", default="lab", help="the lab's name (default: lab)")
     ap.add_argument("--hosts", default="", help="up: these hosts (comma-separated) instead of an architecture's")
     ap.add_argument("--drop", action="store_true", help="partition: drop every packet instead of the link down")
+    ap.add_argument("--agents", default="", metavar="DIR", help="up: start an agent on each host, write DIR/hosts.json")
     args, rest = ap.parse_known_args(argv)
     try:
         if args.command == "up":
