@@ -5,6 +5,8 @@ or losing packets (nftables). The FTM of paper 000 survives a crash and a partit
 primary's host, and the old primary, healed, answers nothing: it fenced itself."""
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -45,6 +47,26 @@ def test_two_hosts_talk_over_their_network_and_a_partition_cuts_them(on_hosts: C
     live.heal("robot")
     live.wait_ready(["listener"], timeout=30)
     assert received(live) > before
+
+
+def test_discover_and_drift_on_one_host_read_every_hosts_nodes(on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    arch = example("chatter_hosts.arch")
+    live.deploy_by_host(arch)
+    live.wait_ready(["talker", "listener"], timeout=60)
+
+    def reconf(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(live.on_host("station", [sys.executable, "-m", "checker", *args]), capture_output=True,
+                              text=True, env=live.env, cwd=live.dir, timeout=120)
+    found = reconf("discover", "-o", "found.arch")
+    assert found.returncode == 0, found.stderr
+    assert "wrote found.arch: 2 reconf nodes, 0 placeholders" in found.stderr
+    drift = reconf("drift", arch)
+    assert drift.returncode == 0 and "in sync" in drift.stdout + drift.stderr, drift.stdout + drift.stderr
+    live.partition("robot")         # the talker gone from where the station reads: drift says so
+    time.sleep(25.0)                # Fast DDS forgets a participant it has not heard for 20 s
+    drift = reconf("drift", arch, "--settle", "10")
+    assert drift.returncode == 1 and "RC611" in drift.stdout + drift.stderr, drift.stdout + drift.stderr
 
 
 @pytest.mark.skipif(nft_available() is not None, reason=str(nft_available()))
