@@ -17,7 +17,7 @@ from typing import Iterator
 
 import pytest
 
-from reconf_ros.executor.remote import Agent, HostUnreachable, RemoteProcess, read_hosts
+from reconf_ros.executor.remote import Agent, Hosts, HostUnreachable, RemoteProcess, read_hosts
 
 
 def _free_port() -> int:
@@ -109,3 +109,20 @@ def test_a_hosts_file(tmp_path: Path) -> None:
     (tmp_path / "bad.json").write_text(json.dumps({"hosts": {"a": "10.0.0.1:7411"}}))
     with pytest.raises(ValueError, match="names their token_file"):
         read_hosts(str(tmp_path / "bad.json"))
+
+
+def test_the_hosts_of_a_hosts_file(agent: tuple[str, bytes, Path], tmp_path: Path) -> None:
+    address, token, logs = agent
+    (tmp_path / "t").write_bytes(token)
+    (tmp_path / "hosts.json").write_text(json.dumps({"hosts": {"robot": address, "station": "local"},
+                                                     "token_file": "t"}))
+    hosts = Hosts(str(tmp_path / "hosts.json"), timeout=5)
+    assert hosts.agent(None) is None and hosts.agent("station") is None       # this machine
+    with pytest.raises(OSError, match="host arm is not in the hosts file .*hosts.json \\(it names robot, station\\)"):
+        hosts.agent("arm")
+    robot = hosts.agent("robot")
+    assert robot is not None
+    proc = hosts.start(robot, ["sh", "-c", "echo $ROS_DOMAIN_ID $MARK"], "plan1/n.log", {"MARK": "m"})
+    assert proc.wait(timeout=10) == 0
+    assert proc.tail().split() == [os.environ.get("ROS_DOMAIN_ID", "0"), "m"]
+    hosts.close()

@@ -3,10 +3,14 @@ applies the client's requests in a given order: a clean one is linearizable, and
 is found and named by the state its replies reveal, not by a rule about ids."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any, Optional, Sequence
 
+import pytest
+
 from reconf_ros.demo.ftm import judge_log, step
-from reconf_ros.demo.history import ANOMALIES, check_history
+from reconf_ros.demo.history import ANOMALIES, check_history, main
 
 
 def history(n: int, applied: Sequence[int], answered: Optional[Sequence[int]] = None,
@@ -87,3 +91,14 @@ def test_the_checker_agrees_with_the_clients_own_judgement_on_clean_runs() -> No
     judged = judge_log({"sent": log["sent"], "replies": {i: [dict(r[0], right=True)] for i, r in
                                                          log["replies"].items()}}, until=1e9)
     assert judged["lost"] == check_history(log, until=1e9)["lost"] == [29, 30]
+
+
+def test_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = history(5, [1, 2, 3, 3, 4, 5])
+    lines = [json.dumps({"event": "sent", "id": i, "t": t}) for i, t in log["sent"].items()]
+    lines += [json.dumps({"event": "reply", **r[0]}) for r in log["replies"].values()]
+    (tmp_path / "client.jsonl").write_text("\n".join(lines) + "\n")
+    assert main([str(tmp_path / "client.jsonl")]) == 1
+    out = capsys.readouterr().out
+    assert "applied_twice: 1 request (3)" in out and "NOT linearizable" in out
+    assert main([]) == 2

@@ -21,17 +21,21 @@ applied a second time) may bridge the gap, as Jepsen's indeterminate operations 
   the mechanism promises every request an answer).
 
 `linearizable` is true when nothing but `lost` is found (and the client's order is kept).
+
+    python -m reconf_ros.demo.history client.jsonl     # exit 0: linearizable and nothing lost
 Real time needs no check of its own here: every operation writes and returns the whole state,
 so a reply reflecting a request invoked after it completed would name a state no history
 reaches, and is `wrong`.
 """
 from __future__ import annotations
 
-from typing import Any
+import sys
+import time
+from typing import Any, Optional
 
-from .ftm import MODULUS, step
+from .ftm import MODULUS, read_log, step
 
-__all__ = ["check_history", "ANOMALIES"]
+__all__ = ["check_history", "ANOMALIES", "main"]
 
 ANOMALIES = ("phantom", "duplicated", "conflicting", "applied_twice", "reordered", "wrong", "lost")
 _INV31 = pow(31, -1, MODULUS)
@@ -101,3 +105,25 @@ def check_history(log: dict[str, Any], until: float) -> dict[str, Any]:
     out["completed"] = len(replies)
     out["linearizable"] = not any(out[k] for k in ANOMALIES if k != "lost")
     return out
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    """Judge a client's log (its requests sent more than 2 s ago): print each anomaly found, exit
+    0 when the history is linearizable and nothing is lost, 1 otherwise, 2 for a bad command line."""
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 1:
+        print("usage: python -m reconf_ros.demo.history CLIENT_LOG", file=sys.stderr)
+        return 2
+    found = check_history(read_log(args[0]), until=time.time() - 2.0)
+    bad = {k: found[k] for k in ANOMALIES if found[k]}
+    for kind, ids in bad.items():
+        print(f"{kind}: {len(ids)} request{'s' if len(ids) != 1 else ''} ({', '.join(map(str, ids[:10]))}"
+              f"{', ...' if len(ids) > 10 else ''})")
+    verdict = "linearizable" if found["linearizable"] else "NOT linearizable"
+    print(f"{args[0]}: {found['completed']} requests answered; {verdict}"
+          f"{', nothing lost' if not found['lost'] else ''}")
+    return 0 if not bad else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

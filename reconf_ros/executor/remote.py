@@ -182,3 +182,42 @@ class RemoteProcess:
     def tail(self, size: int = 2000) -> str:
         """The end of its log, read on its host."""
         return str(self.agent.request({"op": "tail", "pid": self.pid, "bytes": size}).get("text", ""))
+
+
+class Hosts:
+    """The agents a hosts file names (`read_hosts`), each reached on first use. A host the file
+    does not name fails, naming the host and the file: a component is never started elsewhere
+    than where its architecture places it."""
+
+    def __init__(self, path: str, timeout: float) -> None:
+        self.path, self.timeout = path, timeout
+        self.where, self.token = read_hosts(path)
+        self.agents: dict[str, Agent] = {}
+
+    def agent(self, host: Optional[str]) -> Optional[Agent]:
+        """The agent of `host`; None for this machine (no host, or the file's "local")."""
+        if not host:
+            return None
+        address = self.where.get(host)
+        if address is None:
+            raise OSError(f"host {host} is not in the hosts file {self.path} (it names "
+                          f"{', '.join(sorted(self.where)) or 'no host'})")
+        if address == LOCAL:
+            return None
+        if host not in self.agents:
+            self.agents[host] = Agent(host, address, self.token, self.timeout)
+        return self.agents[host]
+
+    def start(self, agent: Agent, argv: list[str], log: str, env: dict[str, str],
+              files: Optional[dict[str, str]] = None) -> RemoteProcess:
+        """Start `argv` on the agent's host: its log `log` (a relative name) in the agent's log
+        directory, `env` added to the agent's environment (with this process's ROS domain, which
+        the nodes must share), `files` (relative name -> text) written there first, and an
+        argument naming one of them given its path there."""
+        env = {"ROS_DOMAIN_ID": os.environ.get("ROS_DOMAIN_ID", "0"), **env}
+        answer = agent.request({"op": "start", "argv": argv, "log": log, "env": env, "files": files or {}})
+        return RemoteProcess(agent, int(answer["pid"]), str(answer["log"]))
+
+    def close(self) -> None:
+        for agent in self.agents.values():
+            agent.close()
