@@ -126,3 +126,7 @@ def test_the_hosts_of_a_hosts_file(agent: tuple[str, bytes, Path], tmp_path: Pat
     assert proc.wait(timeout=10) == 0
     assert proc.tail().split() == [os.environ.get("ROS_DOMAIN_ID", "0"), "m"]
     hosts.close()
+    # the log read by its agent from the command line, as a report names it (host, pid)
+    out = subprocess.run([sys.executable, "-m", "reconf_ros.tools.agent", "--hosts", str(tmp_path / "hosts.json"),
+                          "--tail", f"robot:{proc.pid}"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0 and out.stdout.split() == [os.environ.get("ROS_DOMAIN_ID", "0"), "m"], out.stderr

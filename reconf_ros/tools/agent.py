@@ -11,6 +11,7 @@ and reconf imported (docs/executor.md#launcher), as the manager's are.
 
     python -m reconf_ros.tools.agent --host robot --listen 10.0.0.2:7411 --token-file /etc/reconf/agent.token \\
         [--log-dir /var/log/reconf] [--no-launcher]
+    python -m reconf_ros.tools.agent --hosts hosts.json --tail robot:PID [--bytes N]    # the end of a log there
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from ..executor.remote import AGENT_PORT, MAX_WAIT, proof
+from ..executor.remote import AGENT_PORT, MAX_WAIT, Hosts, RemoteProcess, proof
 from .launcher import Launcher, launchable
 
 __all__ = ["Agent", "main"]
@@ -168,16 +169,41 @@ def listen(address: str) -> socket.socket:
     return sock
 
 
+def tail(hosts_file: str, where: str, size: int) -> int:
+    """Print the end of the log of process PID on HOST (`where` is HOST:PID), read by its agent."""
+    host, _, pid = where.rpartition(":")
+    try:
+        hosts = Hosts(hosts_file, timeout=10.0)
+        agent = hosts.agent(host)
+        if agent is None:
+            raise ValueError(f"host {host} is this machine in {hosts_file}: read its log here")
+        print(RemoteProcess(agent, int(pid), "").tail(size), end="")
+        hosts.close()
+        return 0
+    except (OSError, ValueError) as e:
+        print(f"reconf agent: {e}", file=sys.stderr)
+        return 2
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m reconf_ros.tools.agent", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--host", required=True, help="this host's name, as the architecture writes it")
+    ap.add_argument("--host", help="this host's name, as the architecture writes it")
     ap.add_argument("--listen", default=f"0.0.0.0:{AGENT_PORT}", metavar="ADDRESS:PORT")
-    ap.add_argument("--token-file", required=True, help="the secret its clients must prove they hold")
+    ap.add_argument("--token-file", help="the secret its clients must prove they hold")
     ap.add_argument("--log-dir", default="reconf-agent-logs", help="where the processes' logs go")
     ap.add_argument("--ready-file", default="", help=argparse.SUPPRESS)
     ap.add_argument("--no-launcher", action="store_true", help="start reconf-node like any other command")
+    ap.add_argument("--hosts", help="a hosts file: with --tail, the agents to ask")
+    ap.add_argument("--tail", metavar="HOST:PID", help="print the end of the log of PID, which HOST's agent started")
+    ap.add_argument("--bytes", type=int, default=4000, help="with --tail: how much (default 4000)")
     args = ap.parse_args(argv)
+    if args.tail:
+        if not args.hosts:
+            ap.error("--tail needs --hosts FILE")
+        return tail(args.hosts, args.tail, args.bytes)
+    if not args.host or not args.token_file:
+        ap.error("an agent needs --host and --token-file")
     try:
         with open(args.token_file, "rb") as fh:
             token = fh.read().strip()
