@@ -1,5 +1,6 @@
 """Faults of hosts and links on a lab of hosts (reconf_ros.tools.netlab: a network namespace per
-host, docs/hosts.md), with the FTMs of paper 000 under a client's load.
+host, docs/hosts.md): the FTMs of paper 000 under a client's load, and a plan across two hosts
+on a lossy link.
 
 For PBR and LFR, N runs (default 20) of: expand examples/ftm/client_server_pbr_tr.arch with that
 FTM, deploy it on the hosts the architecture names (client_site, master, slave), the demo
@@ -11,7 +12,12 @@ twice and answered wrong over the client's whole history (reconf_ros.demo.histor
 counts every anomaly but loss), how many runs had none, and, for partitions, how many runs the
 old primary published a reply after healing and in how many it had fenced itself while cut off.
 
-    python -m bench.bench_hosts [--runs 20] [--hz 50] [--only 'PBR crash,LFR partition'] [--results FILE]
+Then, the chatter replace across two hosts (examples/chatter_hosts.arch: the talker on the robot,
+the listener on the station, where the plan runs; the robot's agent starts talker_v2 there), without and with --loss % of the robot's packets dropped each way while the
+plan runs: the plan's wall time, the listener's largest wait for a message over its assumed
+period, messages lost, and the run's outcome (done, or the failure it reported).
+
+    python -m bench.bench_hosts [--runs 20] [--hz 50] [--only 'PBR crash,LFR partition,chatter'] [--results FILE]
 
 With --results, each run is appended to FILE (JSON lines) and the table is printed from every
 run FILE holds for the rows asked: run the 20 runs in chunks (`--runs 5` four times).
@@ -35,7 +41,9 @@ from reconf_ros.tools.netlab import hosts_of
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "ftm" / "client_server_pbr_tr.arch"
-ROWS = [("PBR", "crash"), ("LFR", "crash"), ("PBR", "partition"), ("LFR", "partition")]
+ROWS = [("PBR", "crash"), ("LFR", "crash"), ("PBR", "partition"), ("LFR", "partition"),
+        ("chatter replace", "none"), ("chatter replace", "loss")]
+CHATTER = ROOT / "examples" / "chatter_hosts.arch"
 PRIMARY = "master"
 OLD_PROTOCOL = "/server__r0_dup_protocol"
 
@@ -101,6 +109,53 @@ def measure(ftm: str, fault: str, hz: float, work: Path, cut: float) -> dict[str
             "limit": limit, "completed": verdict["completed"], **extra}
 
 
+def measure_plan(loss: float, work: Path) -> dict[str, Any]:
+    """One run of the chatter replace across two hosts, the robot's link losing `loss` % meanwhile."""
+    with LiveSystem(work, hosts=["robot", "station"], home="station") as live:
+        live.watch()
+        hosts_file = live.agents()
+        live.deploy_by_host(str(CHATTER))
+        try:
+            live.wait_ready(["talker", "listener"], timeout=60)
+        except TimeoutError as e:
+            return {"ok": False, "why": str(e)[:300]}
+        script = live.plan_script(["replace", "talker", "-f", str(CHATTER), "--with", "talker_v2"])
+        if loss:
+            live.loss("robot", loss)
+        t0 = time.monotonic()
+        res = live.run_plan(script, "--hosts", str(hosts_file), timeout=300)
+        wall = time.monotonic() - t0
+        live.heal("robot")
+        report = live.report()
+        started = report.get("started", {}).get("talker_v2", {})
+        on_robot = started.get("host") == "robot" and int(started.get("pid", 0)) in live.lab.pids("robot") \
+            if live.lab is not None else False
+        values = live.settle_status(["listener"]).get("/listener", {}).get("values", {})
+    lost = sum(int(x.split("/")[1]) for k, x in values.items() if k.startswith("in.in.from."))
+    outcome = report.get("outcome", "no report")
+    return {"ok": True, "outcome": outcome, "done": res.returncode == 0 and outcome == "done", "wall": wall,
+            "gap": float(values.get("in.in.max_gap_s", "nan")) / 0.1, "lost": lost, "on_robot": on_robot,
+            "why": (report.get("reason") or "")[:200], "violated": outcome == "violated"}
+
+
+def plan_table(results: list[dict[str, Any]], loss: float) -> None:
+    print("| plan across two hosts | robot's link | runs | done | failed (true report) | wall s | largest gap / period "
+          "| messages lost | talker_v2 on the robot |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for fault in ("none", "loss"):
+        runs = [r for r in results if r.get("row") == ["chatter replace", fault] and r["ok"]]
+        if not runs:
+            continue
+        done = [r for r in runs if r["done"]]
+        print(f"| chatter replace | {'lossless' if fault == 'none' else f'{loss:g} % lost each way'} | {len(runs)} | "
+              f"{len(done)} | {len(runs) - len(done)} | {three([r['wall'] for r in runs])} | "
+              f"{three([r['gap'] for r in runs])} | {three([r['lost'] for r in runs], '{:.0f}')} | "
+              f"{sum(1 for r in runs if r['on_robot'])} of {len(runs)} |", flush=True)
+        for r in runs:
+            if not r["done"]:
+                print(f"  ({r['outcome']}: {r['why']})")
+
+
 def pct(xs: list[float], q: float) -> float:
     xs = sorted(xs)
     return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))] if xs else float("nan")
@@ -124,6 +179,9 @@ def row_line(ftm: str, fault: str, runs: list[dict[str, Any]]) -> str:
 
 
 def table(results: list[dict[str, Any]], rows: list[tuple[str, str]]) -> None:
+    rows = [r for r in rows if r[0] != "chatter replace"]
+    if not rows:
+        return
     print("| FTM | fault of the primary's host | runs | failed | take-over s | longest wait s | lost | answered twice "
           "| wrong | runs with 0/0/0 | old primary answered after healing / fenced while cut off |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -144,6 +202,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--hz", type=float, default=50)
     ap.add_argument("--cut", type=float, default=3.0, help="seconds a partition lasts")
+    ap.add_argument("--loss", type=float, default=10.0, help="%% of the robot's packets lost each way in the loss row")
     ap.add_argument("--only", default="", help="rows whose 'FTM fault' contains one of these (comma-separated)")
     ap.add_argument("--results", default="", help="append each run here (JSON lines); the table counts them all")
     args = ap.parse_args()
@@ -156,7 +215,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for ftm, fault in rows:
             for i in range(args.runs):
-                r = measure(ftm, fault, args.hz, Path(tmp) / f"{ftm}-{fault}-{i}", args.cut)
+                work = Path(tmp) / f"{ftm.replace(' ', '_')}-{fault}-{i}"
+                r = measure_plan(args.loss if fault == "loss" else 0.0, work) if ftm == "chatter replace" else \
+                    measure(ftm, fault, args.hz, work, args.cut)
                 r.update(row=[ftm, fault], load=os.getloadavg()[0], at=time.time())
                 results.append(r)
                 if args.results:
@@ -165,6 +226,7 @@ def main() -> None:
     if args.results:
         results = [json.loads(line) for line in Path(args.results).read_text().splitlines() if line.strip()]
     table(results, rows)
+    plan_table(results, args.loss)
     loads = [r["load"] for r in results if r.get("row") in [list(x) for x in rows]]
     print(f"(load average, 1 min, after each run: {three(loads)} median/p95/max)")
 
