@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 # installed again, so reconf and mypy see lark 1.x.
 LARK := lark==1.3.1
 
-.PHONY: demo test typecheck bench clean
+.PHONY: demo test typecheck bench clean system-deps
 
 # The editable install also compiles the lexer and LALR driver (reconf_dsl/_fastparse.pyx, through
 # setup.py and Cython); where that cannot be built, the Python driver parses (docs/editor.md).
@@ -24,9 +24,19 @@ demo: $(STAMP)
 	$(BIN)/reconf check examples/chatter.arch
 	$(BIN)/reconf check examples/chatter_slow.arch || echo "(exit $$?: unsafe, as expected for this variant)"
 
+# The host lab's loss and partitions by packet drops use nftables (docs/hosts.md): installed with
+# apt-get where this runs as root and apt is there; elsewhere the tests that need it skip, saying so.
+system-deps:
+	@if ! command -v nft >/dev/null 2>&1 && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing nftables (the host lab's packet loss)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q nftables >/dev/null 2>&1 || \
+		{ apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q nftables >/dev/null; } || \
+		echo "nftables could not be installed: the tests of packet loss will skip"; \
+	fi
+
 # The tests that need no live ROS 2 graph run in two processes (the machine's two cores); the
 # live ones (marker `ros`) run alone, as their timing is real.
-test: $(STAMP)
+test: $(STAMP) system-deps
 	$(BIN)/python -m pytest -n 2 -m "not ros"
 	$(BIN)/python -m pytest -m ros
 	$(BIN)/python -m mypy

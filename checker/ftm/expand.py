@@ -39,6 +39,7 @@ ALARM = ir.Predicate("FtmAlarm")
 CERT = ir.Predicate("FtmCert")
 SEALED = ir.Predicate("FtmSealed")     # a request SEC's client side ciphered and signed
 BEAT = ir.Predicate("FtmHeartbeat", ir.Rate(Fraction(HEARTBEAT_HZ), "Hz"))
+LEASE = ir.Predicate("FtmHeartbeat")    # the backup's answer to each beat: the lease it grants the primary
 
 
 def node_prefix(server: str) -> str:
@@ -326,16 +327,20 @@ def _wire_peers(b: _Builder, before: str, before_behaviour: str, after: str, aft
 
 
 def _add_crash_detection(b: _Builder, info: ExpansionInfo) -> None:
-    """A duplex's heartbeat on replica 0, its detector and Recovery on replica 1."""
+    """A duplex's heartbeat on replica 0, its detector and Recovery on replica 1. The detector
+    answers each beat with the lease it grants the primary (its degraded mode too, granting
+    nothing); the heartbeat assumes nothing of it: a primary without a lease serves, one whose
+    lease lapsed fences itself (docs/ftm.md#running)."""
     s, p = b.server.name, node_prefix(b.server.name)
-    heartbeat = b.add(p + "r0_cd", b.host(0), [], [("beat", "FtmHeartbeat")], "heartbeat", [], [("beat", BEAT)],
-                      [("beat", ir.NOTHING)])
-    detector = b.add(p + "r1_cd", b.host(1), [("beat", BEAT)], [("alarm", "FtmAlarm")], "detect", [BEAT],
-                     [("alarm", ALARM)], [("alarm", ir.NOTHING)])
+    heartbeat = b.add(p + "r0_cd", b.host(0), [("lease", LEASE)], [("beat", "FtmHeartbeat")], "heartbeat", [],
+                      [("beat", BEAT)], [("beat", ir.NOTHING)])
+    detector = b.add(p + "r1_cd", b.host(1), [("beat", BEAT)], [("alarm", "FtmAlarm"), ("lease", "FtmHeartbeat")],
+                     "detect", [BEAT], [("alarm", ALARM), ("lease", LEASE)], [("alarm", ir.NOTHING), ("lease", LEASE)])
     info.detector = detector
     recovery = b.add(p + "recovery", b.host(1), [("alarm", ALARM)], [("switch", "FtmAlarm")], "recover", [ALARM],
                      [("switch", ALARM)], [("switch", ir.NOTHING)])
     b.wire(_topic(s, "cd2cd"), BEAT, (heartbeat, "beat"), (detector, "beat"))
+    b.wire(_topic(s, "lease"), LEASE, (detector, "lease"), (heartbeat, "lease"))
     b.wire(_topic(s, "cd2rcy"), ALARM, (detector, "alarm"), (recovery, "alarm"))
     b.wire(_topic(s, "rcy2pro"), ALARM, (recovery, "switch"), None)
 

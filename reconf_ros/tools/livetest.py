@@ -7,6 +7,10 @@ every process ended by its PID at the end (docs/runtime.md#testing).
         live.wait_ready(["talker", "listener"])
         res = live.run_plan(script)
         assert live.violations() == {}
+
+With `hosts`, the system runs on a lab of hosts (reconf_ros.tools.netlab): each process on the
+host its components name (the others, the watcher and plan scripts on `home`), over the hosts'
+network, and `crash`, `partition`, `loss` and `heal` strike a host (docs/hosts.md#testing).
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional, Sequence
 
 from ..nodes.dds import loopback_env
+from .netlab import NetLab
 
 __all__ = ["LiveSystem", "domain_id", "ros_available"]
 
@@ -51,7 +56,8 @@ def domain_id() -> int:
 
 
 class LiveSystem:
-    def __init__(self, workdir: Path, domain: Optional[int] = None) -> None:
+    def __init__(self, workdir: Path, domain: Optional[int] = None, hosts: Sequence[str] = (),
+                 home: str = "") -> None:
         self.dir = Path(workdir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.domain = domain if domain is not None else domain_id()
@@ -64,12 +70,25 @@ class LiveSystem:
         self.status_file = self.dir / "statuses.json"
         self.deployed: list[str] = []
         self.watcher: Optional[subprocess.Popen[bytes]] = None
+        self.lab: Optional[NetLab] = None
+        self.home = home or (hosts[0] if hosts else "")
+        if hosts:
+            self.lab = NetLab(list(hosts) + ([home] if home and home not in hosts else [])).up()
+            self.env = self.lab.env(self.home, self.env)
+
+    def on_host(self, host: Optional[str], argv: Sequence[str]) -> list[str]:
+        """`argv` as run on `host` (default: home) of the lab; as it is without one."""
+        if self.lab is None:
+            return list(argv)
+        return self.lab.argv(host if host and host in self.lab.hosts else self.home, argv)
 
     # --- processes ---
-    def start(self, argv: Sequence[str], log: str, group: Optional[int] = None) -> subprocess.Popen[bytes]:
-        """Start a process in a session of its own, or in process group `group` (0: a new one)."""
+    def start(self, argv: Sequence[str], log: str, group: Optional[int] = None,
+              host: Optional[str] = None) -> subprocess.Popen[bytes]:
+        """Start a process in a session of its own, or in process group `group` (0: a new one); on
+        `host` of the lab (default: home)."""
         with open(self.dir / log, "ab") as fh:
-            proc = subprocess.Popen(list(argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
+            proc = subprocess.Popen(self.on_host(host, argv), env=self.env, stdin=subprocess.DEVNULL, stdout=fh,
                                     stderr=subprocess.STDOUT, cwd=self.dir, preexec_fn=_die_with_parent,
                                     start_new_session=group is None, process_group=group)
         self.procs.append(proc)
@@ -130,7 +149,9 @@ class LiveSystem:
         self.wait_ready(others, timeout=90)
         log = self.dir / f"{client}.jsonl"
         self.env.update(RECONF_CLIENT_HZ=str(hz), RECONF_CLIENT_LOG=str(log), RECONF_CLIENT_COUNT=str(count))
-        procs[client] = self.start(["reconf-node", "--arch", path, client, "--deployed", path], f"{client}.log").pid
+        where = next((h for h, names in by_host(path).items() if client in names), None)
+        procs[client] = self.start(["reconf-node", "--arch", path, client, "--deployed", path], f"{client}.log",
+                                   host=where).pid
         self.deployed.append(client)
         return procs, log
 
@@ -138,7 +159,8 @@ class LiveSystem:
         """A node of this system's domain (reconf_ros.tools.inject) that publishes JSON documents on
         `topic`, std_msgs/String, volatile, once something subscribes: a fault's injection, a test
         hook's call. Started ahead, so a document is published when it is sent."""
-        proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.tools.inject", topic, str(timeout)], env=self.env,
+        proc = subprocess.Popen(self.on_host(None, [sys.executable, "-m", "reconf_ros.tools.inject", topic,
+                                                    str(timeout)]), env=self.env,
                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                 cwd=self.dir, text=True, preexec_fn=_die_with_parent, start_new_session=True)
         self.procs.append(proc)
@@ -147,7 +169,8 @@ class LiveSystem:
 
     def deploy_by_host(self, arch: str, components: Optional[Sequence[str]] = None) -> dict[str, int]:
         """Start the deployed components of `arch` as it deploys them, one process per host in a
-        process group of its own (a host's crash is its group's: `os.killpg`), by `reconf-node
+        process group of its own (a host's crash is its group's: `os.killpg`; on a lab, the host's
+        namespace: `crash`), by `reconf-node
         --arch`, which runs a component's own code when its run line is a reconf-node factory,
         and a model-driven node otherwise. Host -> process group id."""
         from ..nodes.ftm.hosts import by_host
@@ -156,7 +179,7 @@ class LiveSystem:
         self.deployed += [n for names in hosts.values() for n in names]
         path = os.path.abspath(arch)
         return {host: self.start(["reconf-node", "--arch", path, *names, "--deployed", path], f"host-{host}.log",
-                                 group=0).pid for host, names in hosts.items()}
+                                 group=0, host=host).pid for host, names in hosts.items()}
 
     def deploy(self, arch: str, components: Optional[Sequence[str]] = None, *, group: bool = True,
                generic: bool = False, per_process: int = 0) -> list[subprocess.Popen[bytes]]:
@@ -257,9 +280,9 @@ class LiveSystem:
 
     def run_plan(self, script: Path, *args: str, report: str = "report.json",
                  timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
-        res = subprocess.run([sys.executable, str(script), "--yes", "--log-dir", str(self.dir / "logs"),
-                              "--report", str(self.dir / report), *args], capture_output=True, text=True,
-                             env=self.env, timeout=timeout, cwd=self.dir)
+        res = subprocess.run(self.on_host(None, [sys.executable, str(script), "--yes", "--log-dir",
+                                                 str(self.dir / "logs"), "--report", str(self.dir / report), *args]),
+                             capture_output=True, text=True, env=self.env, timeout=timeout, cwd=self.dir)
         for info in self.report(report).get("started", {}).values():
             self.pids.add(int(info["pid"]))
         return res
@@ -291,6 +314,35 @@ class LiveSystem:
         st = self.statuses() if statuses is None else statuses
         return {n: s["message"] for n, s in st.items() if s["values"].get("violations", "0") != "0"}
 
+    def agents(self) -> Path:
+        """Start the per-host agent on every host of the lab (reconf_ros.tools.agent); the hosts
+        file a plan takes (`--hosts`) to start each component on its host."""
+        assert self.lab is not None, "agents need a lab (LiveSystem(hosts=...))"
+        from .netlab import start_agents
+        hosts_file, procs = start_agents(self.lab, self.dir / "agents", base=self.env)
+        for proc in procs.values():
+            self.procs.append(proc)
+            self.pids.add(proc.pid)
+        return hosts_file
+
+    # --- faults of hosts and links (a lab's) ---
+    def crash(self, host: str) -> list[int]:
+        """Host `host` crashes: every process on it killed (SIGKILL); their PIDs."""
+        assert self.lab is not None, "a host crash needs a lab (LiveSystem(hosts=...))"
+        return self.lab.crash(host)
+
+    def partition(self, host: str, how: str = "link") -> None:
+        assert self.lab is not None, "a partition needs a lab (LiveSystem(hosts=...))"
+        self.lab.partition(host, how)
+
+    def loss(self, host: str, percent: float) -> None:
+        assert self.lab is not None, "a loss needs a lab (LiveSystem(hosts=...))"
+        self.lab.loss(host, percent)
+
+    def heal(self, host: str) -> None:
+        assert self.lab is not None
+        self.lab.heal(host)
+
     # --- the end ---
     def _signal(self, sig: int) -> None:
         for pid in sorted(self.pids):
@@ -320,6 +372,8 @@ class LiveSystem:
         for proc in self.procs:
             if proc.poll() is None:
                 proc.wait(timeout=5)
+        if self.lab is not None:
+            self.lab.down()         # and every process still running on its hosts
 
     def __enter__(self) -> "LiveSystem":
         return self

@@ -3,11 +3,12 @@ every process a test starts (or a plan script it runs starts) is ended by its PI
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator, Sequence
 
 import pytest
 
 from reconf_ros.tools.livetest import LiveSystem, ros_available
+from reconf_ros.tools.netlab import lab_available
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,3 +33,26 @@ def live(tmp_path: Path) -> Iterator[LiveSystem]:
 
 def example(name: str) -> str:
     return str(ROOT / "examples" / name)
+
+
+@pytest.fixture
+def on_hosts(tmp_path: Path) -> Iterator[Callable[..., LiveSystem]]:
+    """Make a live system on a lab of hosts (`on_hosts(["robot", "station"], home="station")`):
+    one network namespace per host, each process on its host, the watcher on `home`; the lab
+    and every process on it removed at the end, even when the test fails. Skips where labs
+    cannot be made (not root, no iproute2)."""
+    made: list[LiveSystem] = []
+
+    def make(hosts: Sequence[str], home: str = "") -> LiveSystem:
+        why = lab_available()
+        if why:
+            pytest.skip(f"a lab of hosts cannot be made here: {why}")
+        system = LiveSystem(tmp_path / f"lab{len(made)}", hosts=hosts, home=home)
+        made.append(system)
+        system.watch()
+        return system
+    try:
+        yield make
+    finally:
+        for system in made:
+            system.stop()

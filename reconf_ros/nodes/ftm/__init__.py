@@ -20,7 +20,7 @@ from .wire import Ports
 __all__ = ["BEHAVIOURS", "install"]
 
 Installer = Callable[[Component, Ports, System], object]
-# None: the model-driven node's own publisher is the behaviour (a heartbeat at the model's rate)
+# None: the model-driven node's own publisher is the behaviour
 
 
 def _sec(comp: Component, ports: Ports, system: System) -> object:
@@ -48,7 +48,7 @@ BEHAVIOURS: dict[str, Optional[Installer]] = {
     "cipher_sign": _sec,
     "decipher_check": _sec,
     "certify": sec.CertificationAuthority,
-    "heartbeat": None,
+    "heartbeat": detect.Heartbeat,
     "detect": detect.Detector,
     "recover": detect.Recovery,
 }

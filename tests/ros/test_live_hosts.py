@@ -1,0 +1,142 @@
+"""Hosts as real network endpoints (reconf_ros.tools.netlab): each host a network namespace of
+its own on a bridge, every node of a host in its namespace, DDS across the hosts' network; and
+faults of hosts and links: a host crashed (every process of it killed), cut off (its link down)
+or losing packets (nftables). The FTM of paper 000 survives a crash and a partition of the
+primary's host, and the old primary, healed, answers nothing: it fenced itself."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import pytest
+
+from reconf_ros.demo.ftm import read_log, wait_replies
+from reconf_ros.demo.history import check_history
+from reconf_ros.nodes.ftm.detect import replica_nodes
+from reconf_ros.tools.livetest import LiveSystem
+from reconf_ros.tools.netlab import hosts_of, nft_available
+
+from .conftest import example
+
+HZ = 20         # requests/s (bench_hosts: 50)
+
+
+def received(live: LiveSystem) -> int:
+    return int(live.statuses().get("/listener", {}).get("values", {}).get("in.in.received", "0"))
+
+
+def test_two_hosts_talk_over_their_network_and_a_partition_cuts_them(on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    assert live.lab is not None
+    procs = live.deploy_by_host(example("chatter_hosts.arch"))
+    live.wait_ready(["talker", "listener"], timeout=60)
+    # each host's process runs in its host's namespace; the watcher, on the station, hears the robot's
+    assert procs["robot"] in live.lab.pids("robot") and procs["robot"] not in live.lab.pids("station")
+    assert procs["station"] in live.lab.pids("station")
+    assert live.statuses()["/talker"]["values"]["lifecycle"] == "active"
+    live.partition("robot")
+    time.sleep(1.0)
+    before = received(live)
+    assert live.wait(lambda st: st["/listener"]["values"].get("wire.listen", "").startswith("not met"), 5), \
+        live.statuses().get("/listener")
+    time.sleep(1.0)
+    assert received(live) == before, "a message crossed the partition"
+    live.heal("robot")
+    live.wait_ready(["listener"], timeout=30)
+    assert received(live) > before
+
+
+def test_discover_and_drift_on_one_host_read_every_hosts_nodes(on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    arch = example("chatter_hosts.arch")
+    live.deploy_by_host(arch)
+    live.wait_ready(["talker", "listener"], timeout=60)
+
+    def reconf(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(live.on_host("station", [sys.executable, "-m", "checker", *args]), capture_output=True,
+                              text=True, env=live.env, cwd=live.dir, timeout=120)
+    found = reconf("discover", "-o", "found.arch")
+    assert found.returncode == 0, found.stderr
+    assert "wrote found.arch: 2 reconf nodes, 0 placeholders" in found.stderr
+    drift = reconf("drift", arch)
+    assert drift.returncode == 0 and "in sync" in drift.stdout + drift.stderr, drift.stdout + drift.stderr
+    live.partition("robot")         # the talker gone from where the station reads: drift says so
+    time.sleep(25.0)                # Fast DDS forgets a participant it has not heard for 20 s
+    drift = reconf("drift", arch, "--settle", "10")
+    assert drift.returncode == 1 and "RC611" in drift.stdout + drift.stderr, drift.stdout + drift.stderr
+
+
+@pytest.mark.skipif(nft_available() is not None, reason=str(nft_available()))
+def test_a_lossy_link_delivers_what_reliability_recovers(on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    assert live.lab is not None
+    live.deploy_by_host(example("chatter_hosts.arch"))
+    live.wait_ready(["talker", "listener"], timeout=60)
+    live.loss("robot", 30)
+    assert "numgen random mod 1000 < 300 drop" in live.lab.faults("robot")
+    before = received(live)
+    time.sleep(3.0)
+    assert received(live) - before >= 15, "a 30 % loss stopped the stream"     # 30 sent, reliable
+    live.heal("robot")
+    assert live.lab.faults("robot") == "none"
+
+
+def serve(live: LiveSystem, ftm: str) -> Path:
+    _, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ)
+    assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
+    assert live.wait_detectors_armed(timeout=30), live.statuses()
+    return log
+
+
+def judged(log: Path) -> dict[str, Any]:
+    """The client's whole history, once it has had time to catch up: no anomaly and nothing lost."""
+    time.sleep(2.0)
+    return check_history(read_log(log), until=time.time() - 1.5)
+
+
+def replica0(live: LiveSystem) -> list[str]:
+    from reconf_dsl.loader import load
+    return replica_nodes(load([str(live.dir / "expanded.arch")]), "server", 0)
+
+
+@pytest.mark.parametrize("ftm", ["PBR", "LFR"])
+def test_the_backup_takes_over_from_a_partitioned_primary_which_fences_itself(
+        on_hosts: Callable[..., LiveSystem], ftm: str) -> None:
+    arch = example("ftm/client_server_pbr_tr.arch")
+    live = on_hosts(hosts_of([arch]), home="client_site")
+    log = serve(live, ftm)
+    cut = time.time()
+    live.partition("master")
+    assert wait_replies(log, 2 * HZ, timeout=20, after=cut + 0.1), live.statuses()    # the backup serves
+    time.sleep(1.0)
+    live.heal("master")
+    healed = time.time()
+    # healed: the old primary's nodes are back in the graph, inactive (fenced), and answer nothing
+    wanted = replica0(live)
+    assert live.wait(lambda st: all(st.get(f"/{n}", {}).get("seen", 0) > healed for n in wanted), 15), \
+        sorted(live.statuses())
+    st = live.statuses()
+    assert {n: st[f"/{n}"]["values"]["lifecycle"] for n in wanted} == {n: "inactive" for n in wanted}
+    # fenced by its own heartbeat while cut off (a request Recovery sent then may also arrive once healed)
+    assert st["/server__r0_cd"]["values"]["app.lease"] == "fenced"
+    assert cut < float(st["/server__r0_cd"]["values"]["app.fenced_at"]) < healed
+    assert wait_replies(log, 2 * HZ, timeout=20, after=healed)
+    verdict = judged(log)
+    assert verdict["linearizable"] and verdict["lost"] == [], verdict
+    replies = sorted(r[0]["t"] for r in read_log(log)["replies"].values())
+    wait = max(b - a for a, b in zip(replies, replies[1:]) if b > cut)
+    assert wait < 3.0, f"the client waited {wait:.3f} s for a reply"
+
+
+def test_the_backup_takes_over_from_a_crashed_host(on_hosts: Callable[..., LiveSystem]) -> None:
+    arch = example("ftm/client_server_pbr_tr.arch")
+    live = on_hosts(hosts_of([arch]), home="client_site")
+    log = serve(live, "PBR")
+    crashed = time.time()
+    assert live.crash("master"), "nothing ran on the master host"
+    assert wait_replies(log, 2 * HZ, timeout=20, after=crashed + 0.1), live.statuses()
+    verdict = judged(log)
+    assert verdict["linearizable"] and verdict["lost"] == [], verdict
