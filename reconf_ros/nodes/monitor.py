@@ -233,6 +233,7 @@ class Monitor:
                 out[f"in.{name}.on_demand"] = "1"
             for src in st.sources.values():
                 out[f"in.{name}.from.{src.node}"] = f"{src.received}/{src.lost}/{src.missed_head}"
+                out[f"in.{name}.last.{src.node}"] = f"{src.last:.3f}"
             for k, n in sorted(st.publishers.items()):
                 out[f"in.{name}@{k}.publishers"] = str(n)
         return out
