@@ -90,6 +90,11 @@ def recover_cmd(report: Optional[str], back: bool, live: bool, files: tuple[str,
 
 def _from_report(report: str, back: bool, sources: Sources, apply: Any, opts: dict[str, Any]) -> None:
     doc = read_report(report)
+    if doc.get("unread"):
+        raise Failure([Diagnostic("RC632", Severity.ERROR, f"{report}: the run could not read "
+                                  f"{', '.join(doc['unread'])} (no answer): its configuration is not known",
+                                  Span.unknown(report), notes=("recover from the live system instead: "
+                                                               "reconf recover --live -f FILES",))])
     plan_doc = doc["plan_document"]
     system = system_from_model_data(plan_doc["model"])
     seen = _config(doc["observed"])

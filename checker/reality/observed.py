@@ -52,15 +52,32 @@ class LiveConfiguration:
 
 def _locate(system: System, snap: Snapshot) -> dict[str, NodeInfo]:
     """Each component's node, deployed components first, then the versions (a new version that
-    a plan started runs under its own name, or declares its component in its status)."""
+    a plan started runs under its own name, or declares its component in its status). A node
+    that runs another component (other functionalities or ports: a new version of it, say) is
+    not its node; a finalized one is gone."""
     statuses = {f: {"component": n.component} for f, n in snap.nodes.items() if n.component}
     found: dict[str, NodeInfo] = {}
+    graph = {f for f, n in snap.nodes.items() if n.lifecycle != "finalized"}
     for comp in system.components + system.versions:
-        fqn = find_node(f"{snap.namespace}/{comp.name}", comp.name, set(snap.nodes), statuses,
+        fits = {f for f in graph if _runs(comp, snap.nodes[f])}
+        fqn = find_node(f"{snap.namespace}/{comp.name}", comp.name, fits, statuses,
                         {n.fqn for n in found.values()})
         if fqn is not None:
             found[comp.name] = snap.nodes[fqn]
     return found
+
+
+def _runs(comp: Component, node: NodeInfo) -> bool:
+    """Whether `node` can be `comp`'s: its model, if it shows one, has comp's functionalities
+    and ports (what a configuration reads of it)."""
+    if not node.model:
+        return True
+    parsed = parse_model(node.model, f"<{node.fqn} reconf.model>")
+    if parsed is None:
+        return True          # read as it is: what it lacks is said when it is read
+    live = parsed[1]
+    return {f.name for f in live.functionalities} == {f.name for f in comp.functionalities} and \
+        {p.name for p in live.ports} == {p.name for p in comp.ports}
 
 
 def _read(comp: Component, node: NodeInfo) -> tuple[list[FuncId], list[Role]]:
@@ -95,6 +112,8 @@ def observed(system: System, snap: Snapshot, target: Configuration) -> LiveConfi
         assert comp is not None
         if node.name != name:
             live.placed[name] = node.name
+        if node.lifecycle == "unresponsive":      # in the graph, not answering: never taken for absent
+            raise NotReadable(f"{name}'s node {node.fqn} does not answer ({node.unanswered or 'get_state'})")
         if node.lifecycle == "active":
             comps.add(name)
             d, r = _read(comp, node)
@@ -105,7 +124,7 @@ def observed(system: System, snap: Snapshot, target: Configuration) -> LiveConfi
                                               f"and it is {node.lifecycle}"))
     placed = {n.fqn for n in nodes.values()}
     for node in sorted(snap.nodes.values(), key=lambda n: n.fqn):
-        if node.fqn not in placed:
+        if node.fqn not in placed and node.lifecycle != "finalized":
             _unaccounted(live, node, comps, degraded, roles)
     system = _with_connectors(live.system, snap, roles)
     live.system = system

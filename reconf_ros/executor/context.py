@@ -111,6 +111,7 @@ class Context:
     began: float = 0.0               # when it began, on the wall clock (what the nodes' statuses use)
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
+    unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])

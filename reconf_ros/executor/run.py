@@ -16,6 +16,7 @@ from .observe import (
     check_touched,
     neighbourhood,
     observe,
+    read_all,
     settle,
     unusual,
     violations,
@@ -155,7 +156,8 @@ class Executor:
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
         unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
-        final = as_state(ctx, observe(ctx, hood))
+        # every component, not only the neighbourhood: the report says the whole configuration
+        final, _ = read_all(ctx)
         wrong = ctx.model.differences(end, final, hood)
         if wrong:
             return failed(ctx, last, ctx.steps[last - 1] if last else None, "after the last step: " + "; ".join(wrong))

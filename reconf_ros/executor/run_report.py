@@ -9,7 +9,7 @@ import time
 from typing import Any, Optional
 
 from .context import Context, StepTiming
-from .observe import Observed, as_state, observe, unusual
+from .observe import Observed, read_all, unusual
 from .plan_states import State
 from .processes import list_started
 from .runtime import StepFailed
@@ -27,6 +27,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
@@ -80,8 +81,7 @@ def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> 
 
 def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
     try:
-        seen = observe(ctx, ctx.model.comps)
-        return as_state(ctx, seen), seen
+        return read_all(ctx)
     except StepFailed as e:
         ctx.warn(f"could not observe the system after the failure: {e}")
         return None, {}

@@ -488,6 +488,14 @@ class ComponentNode(LifecycleNode):
         self.finished = True   # the process exits once the answer is out (run_components)
         return TransitionCallbackReturn.SUCCESS
 
+    def destroy_node(self) -> None:
+        """The node and its lifecycle state machine: rclpy's lifecycle node leaves the machine
+        (and the services it holds) alive, and with it the node in the graph, answering nothing."""
+        super().destroy_node()
+        machine = getattr(self, "_state_machine", None)
+        if machine is not None:
+            machine.destroy_when_not_in_use()
+
     def _isolate(self) -> None:
         """Every functionality degraded, every port attached to nothing: the state `create` makes."""
         for f in self.modes:
@@ -525,18 +533,33 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             node.trigger_configure()
             node.trigger_activate()
     try:
-        done_at: Optional[float] = None
-        while not stop["now"]:
-            executor.spin_once(timeout_sec=0.05)
-            if done_at is None and all(n.finished for n in nodes):
-                done_at = time.monotonic()
-            if done_at is not None and time.monotonic() - done_at > linger:
-                break
+        _spin(executor, nodes, stop, linger)
     finally:
         for n in nodes:
-            n.destroy_node()
+            if n in executor.get_nodes():      # not destroyed already (finalized before the others)
+                n.destroy_node()
         try:
             rclpy.shutdown()
         except Exception:
             pass
     return 0
+
+
+def _spin(executor: Any, nodes: list[ComponentNode], stop: dict[str, bool], linger: float) -> None:
+    """Spin until every node is finalized (and `linger` s more, for the last answers) or a signal
+    comes. A node finalized while others of the process run leaves the graph after `linger`
+    (destroyed), as a node of its own process would by exiting: its name is free again."""
+    finished_at: dict[int, float] = {}
+    while not stop["now"]:
+        executor.spin_once(timeout_sec=0.05)
+        now = time.monotonic()
+        for n in nodes:
+            if n.finished:
+                finished_at.setdefault(id(n), now)
+        if len(finished_at) == len(nodes) and now - max(finished_at.values()) > linger:
+            return
+        for n in [n for n in nodes if id(n) in finished_at and now - finished_at[id(n)] > linger]:
+            if len(nodes) > 1 and n in executor.get_nodes():
+                n.get_logger().info("finalized: the node leaves the graph (its process goes on for the others)")
+                executor.remove_node(n)
+                n.destroy_node()

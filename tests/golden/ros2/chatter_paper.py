@@ -911,6 +911,7 @@ class Context:
     began: float = 0.0               # when it began, on the wall clock (what the nodes' statuses use)
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
+    unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -1043,7 +1044,7 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "unresponsive")
+            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive")
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
@@ -1061,6 +1062,13 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     return dict(sorted(seen.items()))
 
 
+def _exited(ctx: Context, comp: str) -> bool:
+    """Whether the process this run started for `comp` has exited (a node killed stays in the
+    graph a while, not answering: it is absent, not unknown)."""
+    info = ctx.started.get(comp)
+    return info is not None and info.proc.poll() is not None
+
+
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     """The configuration the nodes showed: the active ones present, their modes and attachments."""
     back = {v: k for k, v in ctx.names.renames.items()}
@@ -1068,6 +1076,15 @@ def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
     roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
     return State(comps, degraded, roles)
+
+
+def read_all(ctx: Context) -> tuple[State, dict[str, Observed]]:
+    """Every component of the model read: the configuration, and what each node showed (the
+    components whose node did not answer noted in `ctx.unread`: the configuration says
+    nothing of them)."""
+    seen = observe(ctx, ctx.model.comps)
+    ctx.unread = {c for c, o in seen.items() if o.lifecycle == "unresponsive"}
+    return as_state(ctx, seen), seen
 
 
 def neighbourhood(ctx: Context) -> set[str]:
@@ -1591,6 +1608,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
@@ -1644,8 +1662,7 @@ def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> 
 
 def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
     try:
-        seen = observe(ctx, ctx.model.comps)
-        return as_state(ctx, seen), seen
+        return read_all(ctx)
     except StepFailed as e:
         ctx.warn(f"could not observe the system after the failure: {e}")
         return None, {}
@@ -1833,7 +1850,8 @@ class Executor:
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
         unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
-        final = as_state(ctx, observe(ctx, hood))
+        # every component, not only the neighbourhood: the report says the whole configuration
+        final, _ = read_all(ctx)
         wrong = ctx.model.differences(end, final, hood)
         if wrong:
             return failed(ctx, last, ctx.steps[last - 1] if last else None, "after the last step: " + "; ".join(wrong))
