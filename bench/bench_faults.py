@@ -102,7 +102,7 @@ class Run:
     def recovered(self) -> bool:
         """The recovery (if one was needed) carried out every step: done, or done with a monitor
         that saw a violation on the way (said, exit 1)."""
-        return self.recovery == "none" or self.recovery_outcome in ("done", "violated")
+        return self.recovery == "none" or self.recovery_outcome in ("done", "violated", "nothing to do")
 
     @property
     def ok(self) -> bool:
@@ -392,6 +392,8 @@ def one_run(seed: int, work: Path, cache: dict[str, Path], only: set[str], use_a
         rec = recover(run, rng, live, report, arch, use_alloy, healthy)
         recovered = live.report("recovered.json")
         run.recovery_outcome = recovered.get("outcome", "")
+        if rec is not None and rec.proc.returncode == 0 and "nothing to recover" in " ".join(rec.text.split()):
+            run.recovery_outcome = "nothing to do"
         if rec is not None:
             started |= set(rec.started().values())
             live.pids |= started

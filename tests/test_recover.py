@@ -213,3 +213,25 @@ def test_live_a_node_that_does_not_answer_is_2(tmp_path: Path) -> None:
     path.write_text(snap.to_json())
     r = invoke(["recover", "--live", "-f", CHATTER, "--snapshot", str(path), "--no-alloy", "--dry-run"])
     assert r.exit_code == 2 and "RC632" in r.stderr and "does not answer" in r.stderr, r.stderr
+
+
+def test_live_an_orphan_no_component_accounts_for_joins_the_model(tmp_path: Path) -> None:
+    """A new version a migration started as /talker_2 (it declares talker, as /talker does), on a
+    topic the model does not have: it is read from its own model, under its node's name, and
+    taken away; the topic becomes a connector of its type."""
+    snap = Snapshot(nodes={
+        "/talker": node("/talker", "talker", modes={"talk": "normal"}, ports={"out": ["/chatter"]}),
+        "/listener": node("/listener", "listener", modes={"listen": "normal"}, ports={"in": ["/chatter"]}),
+        "/talker_2": node("/talker_2", "talker", modes={"talk": "normal"}, ports={"out": ["/chatter2"]},
+                          created="sha256:x talker@new", pid=99),
+    }, topics={"/chatter": ["std_msgs/msg/String"], "/chatter2": ["std_msgs/msg/String"]})
+    path = tmp_path / "snap.json"
+    path.write_text(snap.to_json())
+    script = tmp_path / "recover.py"
+    r = invoke(["recover", "--live", "-f", CHATTER, "--snapshot", str(path), "--no-alloy", "-o", str(script)])
+    assert r.exit_code == 0, r.stderr
+    text = " ".join(r.stderr.split())
+    assert "detach talker_2.out from /chatter2" in text and "remove talker_2" in text, text
+    doc = json.loads(script.read_text().split('DOC = json.loads(r"""', 1)[1].split('"""', 1)[0])
+    assert doc["plan"]["recovery"]["placed"] == {"talker_2": "talker_2"}
+    assert any(k["name"] == "/chatter2" for k in doc["model"]["connectors"])

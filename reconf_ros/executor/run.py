@@ -151,6 +151,7 @@ class Executor:
         touched functionalities meet their assumptions on the wire, and no monitor's count moved
         (every monitor heard from at the start, and every node the plan created)."""
         ctx, last = self.ctx, self.ctx.args.to_step
+        ctx.step = -1                   # the final check
         end = ctx.states[last]
         normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]

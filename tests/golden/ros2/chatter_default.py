@@ -1683,9 +1683,14 @@ def interrupted(ctx: Context, i: int, at_once: bool = False) -> int:
     the processes the run started, write the report. Another signal meanwhile leaves the
     configuration unread, and says so."""
     by = ctx.interrupts.by or "a signal"
-    where = (f"during step {i} ({ctx.steps[i - 1].describe()})" if at_once and i else
-             f"after step {i}" if i else "before the first step")
-    ctx.warn(f"INTERRUPTED by {by} {where}" + (": stopped at once" if at_once else ": stopped at the step's end"))
+    if i < 0:                           # during the final check: every step was done
+        i, where = ctx.args.to_step, "during the final check"
+        at_once = False
+    else:
+        where = (f"during step {i} ({ctx.steps[i - 1].describe()})" if at_once and i else
+                 f"after step {i}" if i else "before the first step")
+    ctx.warn(f"INTERRUPTED by {by} {where}" + (": stopped at once" if at_once else
+                                                ": stopped at the step's end" if i and "check" not in where else ""))
     if at_once and i:
         ctx.timings = [t for t in ctx.timings if t.step != i] + [StepTiming(i, time.time(), 0.0, False)]
     observed: Optional[State] = None
@@ -1845,6 +1850,7 @@ class Executor:
         touched functionalities meet their assumptions on the wire, and no monitor's count moved
         (every monitor heard from at the start, and every node the plan created)."""
         ctx, last = self.ctx, self.ctx.args.to_step
+        ctx.step = -1                   # the final check
         end = ctx.states[last]
         normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
