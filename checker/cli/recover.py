@@ -117,7 +117,10 @@ Reading = tuple[str, float, float, Optional[str], Optional[str]]   # namespace, 
 def _from_live(files: list[str], snap_opts: Reading, sources: Sources, apply: Any, opts: dict[str, Any]) -> None:
     system = load(files, sources)
     target = up_state(system)
-    snap = snapshot(*snap_opts, expect=frozenset(c.name for c in system.components))
+    # discovery settles by the executor's rule alone (one announcement period, then a quiet
+    # graph): a component whose node is missing, the usual case here, would cost drift's wait
+    # for every model node; the plan's own check reads the system again before its first step
+    snap = snapshot(*snap_opts)
     try:
         live = observed(system, snap, target)
     except NotReadable as e:

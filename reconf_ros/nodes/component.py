@@ -337,6 +337,10 @@ class ComponentNode(LifecycleNode):
     def expect(self, port: str) -> None:
         self.monitor.expect(port, time.time())
 
+    def give_up(self, port: str) -> None:
+        self.monitor.give_up(port)
+        self._changed()
+
     def matched(self, port: str) -> int:
         """How many remote endpoints `port` is matched with now: subscribers of an output's
         topics, publishers of an input's."""
