@@ -13,7 +13,9 @@ component, runs the plan script of a change on it and, at a random step, injects
 
 Then the recovery the run offers: `reconf recover REPORT --yes` (on to the target or, one run in
 two, `--back`) when the script wrote a report it could read whole, else `reconf recover --live
--f ARCH --yes`. Its own probe (`bench/probe.py`: rclpy, none of the executor's code) reads the
+-f ARCH --yes` (ARCH the deployed architecture; for the FTM transition, its target's expansion:
+going back by the recovery's generic plan does not keep the mechanism's request path, and the
+client's requests are lost, see docs/executor.md#failure-and-recovery). Its own probe (`bench/probe.py`: rclpy, none of the executor's code) reads the
 live graph after the script and after the recovery, and the run passes when every report agrees
 with it (the configuration the script observed, the one `--live` read, the one the recovery
 ended in), the configuration after the recovery is valid (by the plan's model), every node is
@@ -22,6 +24,7 @@ holds a traceback. Prints one line per run and a table per fault kind: the runs 
 check, and the recovery's wall time (median, p95).
 
     python -m bench.bench_faults [--runs 25] [--seed-start 0] [--only chatter,chain5] [--json out.json]
+    python -m bench.bench_faults --combine a.json b.json       # one table of several chunks' runs
 
 Scenarios, one per run in turn with the fault kinds (run i: kind i mod 4, scenario (i div 4) mod 5):
 chatter (replace talker), robot (remove obstacle_detector), chain5 (replace stage0), redundant
@@ -316,7 +319,9 @@ def recover(run: Run, rng: random.Random, live: LiveSystem, report: dict[str, An
         argv = [RECONF, "recover", str(live.dir / "report.json"), *(["--back"] if back else []), *base]
     else:
         run.recovery = "live"
-        arch = str(live.dir / "expanded.arch") if run.scenario == "ftm" else arch
+        if run.scenario == "ftm":   # on to the transition's target: its new nodes are adopted
+            target = live.with_ftm(str(EX / SCENARIOS[-1].arch), SCENARIOS[-1].plan[-1], name="target.arch")
+            arch = live.expanded(target, name="target-expanded.arch")
         argv = [RECONF, "recover", "--live", "-f", arch, *base]
     script = Script(argv, live, live.dir / "recover.out")
     run.recovery_exit = script.finish(300)
@@ -422,7 +427,8 @@ def pct(xs: list[float], q: float) -> float:
 
 def table(runs: list[Run]) -> str:
     head = ("| fault | runs | report true | recovered | valid after | no orphan | tracebacks | all | "
-            "violation seen during recovery | recovery s median | p95 |\n|---|---|---|---|---|---|---|---|---|---|---|")
+            "violation seen during recovery | recoveries run | recovery s median | p95 |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = [head]
     for kind in KINDS + ("all",):
         rs = [r for r in runs if kind in ("all", r.kind)]
@@ -431,7 +437,7 @@ def table(runs: list[Run]) -> str:
         secs = [r.recovery_s for r in rs if r.recovery not in ("none", "")]
         rows.append(f"| {kind} | {len(rs)} | {sum(r.report_true for r in rs)} | {sum(r.recovered for r in rs)} | "
                     f"{sum(r.valid for r in rs)} | {sum(r.no_orphan for r in rs)} | {sum(r.tracebacks for r in rs)} | "
-                    f"{sum(r.ok for r in rs)} | {sum(r.recovery_outcome == 'violated' for r in rs)} | "
+                    f"{sum(r.ok for r in rs)} | {sum(r.recovery_outcome == 'violated' for r in rs)} | {len(secs)} | "
                     f"{statistics.median(secs) if secs else float('nan'):.1f} | {pct(secs, 0.95):.1f} |")
     return "\n".join(rows)
 
@@ -473,7 +479,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--no-alloy", action="store_true", help="recover with --no-alloy (Alloy verifies by default)")
     ap.add_argument("--json", default="", help="also write every run here")
     ap.add_argument("--keep", default="", help="keep the runs' directories here")
+    ap.add_argument("--combine", nargs="+", default=[], metavar="JSON",
+                    help="print the table of the runs these --json files hold (chunks of one campaign), run nothing")
     args = ap.parse_args(argv)
+    if args.combine:
+        runs = [Run(**r) for f in args.combine for r in json.loads(Path(f).read_text())]
+        print(table(runs))
+        return 0 if runs and all(r.ok for r in runs) else 1
     only = tuple(s for s in args.only.split(",") if s)
     try:
         runs = campaign(args.runs, args.seed_start, only, not args.no_alloy, Path(args.keep) if args.keep else None)

@@ -47,12 +47,26 @@ def create(ctx: Context, step: Step) -> None:
         names.placed.setdefault(comp, names.fresh(comp))
     fqn = names.fqn(comp)
     if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
-        if not _adoptable(ctx, comp, fqn):
+        if _adoptable(ctx, comp, fqn):
+            _adopt(ctx, comp, fqn)
+            return baseline(ctx, comp)
+        if not _finalized(ctx, fqn):
             raise StepFailed(f"before the step, a node {fqn} is already running")
-        _adopt(ctx, comp, fqn)
-    else:
-        _start(ctx, comp, fqn)
+        names.placed[comp] = names.fresh(comp)     # the finalized node stays while its process runs others
+        ctx.say(f"      {fqn} is a finalized node that stays in its process: {comp} starts as {names.fqn(comp)}")
+        fqn = names.fqn(comp)
+    _start(ctx, comp, fqn)
     baseline(ctx, comp)
+
+
+def _finalized(ctx: Context, fqn: str) -> bool:
+    """Whether the node `fqn` says it is finalized (its lifecycle, or its last status)."""
+    if (ctx.rt.status(fqn) or {}).get("lifecycle") == "finalized":
+        return True
+    try:
+        return ctx.rt.lifecycle(fqn) == "finalized"
+    except StepFailed:
+        return False
 
 
 def _adopt(ctx: Context, comp: str, fqn: str) -> None:

@@ -399,7 +399,10 @@ class ComponentNode(LifecycleNode):
 
     def status(self) -> dict[str, str]:
         now = time.time()
-        out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
+        # finalized: the node stays in the graph while others of its process run (a new node of
+        # its component then takes another name: docs/executor.md#names)
+        lifecycle = "finalized" if self.finished else "active" if self.active else "inactive"
+        out = {"component": self.component.name, "lifecycle": lifecycle,
                "pid": str(os.getpid()), "errors": str(len(self.errors))}
         if os.environ.get(CREATED_ENV):
             out["created"] = os.environ[CREATED_ENV]      # which plan's step started it (docs/executor.md#names)
@@ -490,6 +493,7 @@ class ComponentNode(LifecycleNode):
             self._isolate()
             self.active = False
         self.finished = True   # the process exits once the answer is out (run_components)
+        self._changed()
         return TransitionCallbackReturn.SUCCESS
 
     def destroy_node(self) -> None:
@@ -537,33 +541,19 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             node.trigger_configure()
             node.trigger_activate()
     try:
-        _spin(executor, nodes, stop, linger)
+        done_at: Optional[float] = None
+        while not stop["now"]:
+            executor.spin_once(timeout_sec=0.05)
+            if done_at is None and all(n.finished for n in nodes):
+                done_at = time.monotonic()
+            if done_at is not None and time.monotonic() - done_at > linger:
+                break
     finally:
         for n in nodes:
-            if n in executor.get_nodes():      # not destroyed already (finalized before the others)
-                n.destroy_node()
+            n.destroy_node()
         try:
             rclpy.shutdown()
         except Exception:
             pass
     return 0
 
-
-def _spin(executor: Any, nodes: list[ComponentNode], stop: dict[str, bool], linger: float) -> None:
-    """Spin until every node is finalized (and `linger` s more, for the last answers) or a signal
-    comes. A node finalized while others of the process run leaves the graph after `linger`
-    (destroyed), as a node of its own process would by exiting: its name is free again."""
-    finished_at: dict[int, float] = {}
-    while not stop["now"]:
-        executor.spin_once(timeout_sec=0.05)
-        now = time.monotonic()
-        for n in nodes:
-            if n.finished:
-                finished_at.setdefault(id(n), now)
-        if len(finished_at) == len(nodes) and now - max(finished_at.values()) > linger:
-            return
-        for n in [n for n in nodes if id(n) in finished_at and now - finished_at[id(n)] > linger]:
-            if len(nodes) > 1 and n in executor.get_nodes():
-                n.get_logger().info("finalized: the node leaves the graph (its process goes on for the others)")
-                executor.remove_node(n)
-                n.destroy_node()

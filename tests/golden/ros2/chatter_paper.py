@@ -479,9 +479,12 @@ def tool_node(tool: str) -> str:
 def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],
               claimed: Iterable[str] = ()) -> Optional[str]:
     """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
-    is not `claimed` and declares no other component; else the one node of own's namespace whose
-    status declares the component (`declared`), a new version's `X_2` (docs/executor.md#names)."""
+    is not `claimed`, declares no other component and is not finalized; else the one node of own's
+    namespace whose status declares the component (`declared`), a new version's `X_2`
+    (docs/executor.md#names)."""
     claimed = set(claimed)
+    # a node whose status says it is finalized is gone, though its process (others' too) still runs
+    graph = {f for f in graph if statuses.get(f, {}).get("lifecycle") != "finalized"}
     if own in graph and own not in claimed and statuses.get(own, {}).get("component", declared) == declared:
         return own
     ns = own.rsplit("/", 1)[0]
@@ -1463,12 +1466,26 @@ def create(ctx: Context, step: Step) -> None:
         names.placed.setdefault(comp, names.fresh(comp))
     fqn = names.fqn(comp)
     if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
-        if not _adoptable(ctx, comp, fqn):
+        if _adoptable(ctx, comp, fqn):
+            _adopt(ctx, comp, fqn)
+            return baseline(ctx, comp)
+        if not _finalized(ctx, fqn):
             raise StepFailed(f"before the step, a node {fqn} is already running")
-        _adopt(ctx, comp, fqn)
-    else:
-        _start(ctx, comp, fqn)
+        names.placed[comp] = names.fresh(comp)     # the finalized node stays while its process runs others
+        ctx.say(f"      {fqn} is a finalized node that stays in its process: {comp} starts as {names.fqn(comp)}")
+        fqn = names.fqn(comp)
+    _start(ctx, comp, fqn)
     baseline(ctx, comp)
+
+
+def _finalized(ctx: Context, fqn: str) -> bool:
+    """Whether the node `fqn` says it is finalized (its lifecycle, or its last status)."""
+    if (ctx.rt.status(fqn) or {}).get("lifecycle") == "finalized":
+        return True
+    try:
+        return ctx.rt.lifecycle(fqn) == "finalized"
+    except StepFailed:
+        return False
 
 
 def _adopt(ctx: Context, comp: str, fqn: str) -> None:
