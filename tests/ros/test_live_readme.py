@@ -35,7 +35,7 @@ SHOWS: list[list[tuple[str, tuple[str, ...]]]] = [
      ("reconf drift", ("component talker has no node in the live system",)),
      ("reconf recover --live", ("1. ↓ degrade listener.listen", "create talker (all functionalities degraded)")),
      ("reconf plan replace", ("Wrote plan.py",)),
-     ("timeout -s INT", ("INTERRUPTED by SIGINT", "report: reconf-chatter-interrupted.json")),
+     ("timeout --preserve-status -s INT", ("INTERRUPTED by SIGINT", "report: reconf-chatter-interrupted.json")),
      ("reconf recover reconf-chatter-interrupted.json", ("recover reconf-chatter-interrupted.json → the start",)),
      ("reconf drift", ("✓ in sync: chatter — 2 components against",)),
      ("reconf down", ("reconf will bring chatter down in 5 steps",))],
