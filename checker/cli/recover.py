@@ -59,7 +59,7 @@ def read_report(path: str) -> dict[str, Any]:
 @click.option("-f", "--file", "files", multiple=True, type=click.Path(dir_okay=False),
               help="with --live: the architecture (repeatable; default: the one *.arch here, or $RECONF_ARCH)")
 @click.option("--settle", type=click.FloatRange(min=0), default=10.0, show_default=True, metavar="SECONDS",
-              help="with --live: at most this long for discovery to settle (as `reconf drift`)")
+              help="with --live: at most this long for discovery to settle (one announcement period, then a quiet graph)")
 @click.option("--snapshot", "snapshot_in", type=click.Path(dir_okay=False), metavar="FILE",
               help="with --live: plan from this snapshot (--save-snapshot of drift or discover) instead")
 @click.option("--save-snapshot", "snapshot_out", type=click.Path(dir_okay=False), metavar="FILE",
@@ -80,7 +80,7 @@ def recover_cmd(report: Optional[str], back: bool, live: bool, files: tuple[str,
     if live and back:
         raise click.UsageError("--back goes with a REPORT: --live plans to the deployed configuration of -f FILES")
     namespace, timeout = opts["run_namespace"], opts["run_timeout"]
-    apply = applier(script_argv(opts))
+    apply = applier(script_argv(opts), "reconf recover")
     if report is not None:
         _from_report(report, back, sources, apply, opts)
     else:
