@@ -621,3 +621,42 @@ run SecondPublisherRefused {
     and Post.comps = Pre.comps and Post.degraded = Pre.degraded and Post.roles = Pre.roles + k -> p
     and not attach[Pre, Post, k, p]
 } for 3 expect 1
+
+-- Restoring validity (docs/soundness.md#restoring-validity) ----------------------------
+-- A recovery starts from an observed configuration that need not be valid and first degrades
+-- what fails. Degrading a present functionality f in its normal mode, one of whose assumptions
+-- fails (Pre need not be valid):
+pred recover_degrade[s, s2: System, f: Functionality] {
+  f in present_funcs[s] - s.degraded
+  some failing[s, f]
+  s2.comps = s.comps
+  s2.degraded = s.degraded + f
+  s2.roles = s.roles
+}
+-- The functionalities of the components that read a connector an output of f is attached to.
+fun readers_of[s: System, f: Functionality]: set Functionality {
+  inputs.(((s.roles).(f.assoc_out)).(s.roles) & Input).funcs
+}
+-- ... makes no assumption fail that degrading its own functionality cannot mend: what fails
+-- after is of a present functionality other than f in its normal mode (degraded, it assumes
+-- nothing), that failed before or reads what f published on.
+assert RecoverDegrade {
+  all f: Functionality | recover_degrade[Pre, Post, f] implies
+    failing[Post, present_funcs[Post]].Data in
+      (present_funcs[Post] - Post.degraded - f) & (failing[Pre, present_funcs[Pre]].Data + readers_of[Pre, f])
+}
+-- Degrading more mends nothing else: with the same components and attachments and more
+-- functionalities degraded, what fails of a functionality still normal still fails. So the
+-- recovery's degrades are needed by every valid configuration reached by degrading alone, and
+-- in any order every state fails only on what a later one of them degrades.
+assert RecoverMonotone {
+  (Pre.comps = Post.comps and Pre.roles = Post.roles and Pre.degraded in Post.degraded) implies
+    failing[Pre, present_funcs[Pre] - Post.degraded] in failing[Post, present_funcs[Post]]
+}
+check RecoverDegrade for 5 expect 0
+check RecoverMonotone for 5 expect 0
+-- Not vacuous: a degrade of a failing functionality can make a reader of its output fail.
+run RecoverBreaksAReader {
+  some f: Functionality | recover_degrade[Pre, Post, f] and
+    some (failing[Post, present_funcs[Post]].Data - failing[Pre, present_funcs[Pre]].Data)
+} for 3 expect 1

@@ -153,6 +153,11 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
                                       "active, a node name that is not a DSL name): kept as a comment, or renamed"),
     ("RC625", "smh-unsafe-default", "`reconf modes export`: the deployed configuration is not safe, so its "
                                     "`__DEFAULT__` mode would not be (exit 1); a warning with `--degrade-unsafe`"),
+    ("RC631", "recover-left-alone", "warning, `reconf recover --live`: a node that is no component of the model and "
+                                    "that no plan started (no creation mark): left alone"),
+    ("RC632", "recover-unreadable", "`reconf recover --live`: a node of the model (or one a plan started) runs but "
+                                    "does not answer, or runs a model that does not parse: no plan can start from "
+                                    "a configuration not known (exit 2)"),
     ("RC701", "recording-unreadable", "`check --bag`: the recording cannot be read (missing, not a rosbag2 directory, "
                                       ".db3 or .mcap, or corrupt)"),
     ("RC702", "recording-rate-contradicted", "`check --bag`: a topic's observed rate (its worst sliding window) is "

@@ -66,12 +66,12 @@ def script_argv(opts: dict[str, Any]) -> list[str]:
     return argv
 
 
-def applier(argv: list[str]) -> Callable[[dict[str, Any]], int]:
+def applier(argv: list[str], prog: str = "reconf up/down") -> Callable[[dict[str, Any]], int]:
     """Carry out a plan document with the executor, its output on stderr (stdout is for the
     machine format). The step range is checked against the plan first, as a usage error."""
     def apply(doc: dict[str, Any]) -> int:
         parser = script.arguments(doc)
-        parser.prog = "reconf up/down"
+        parser.prog = prog
         setattr(parser, "error", _usage)
         script.parse(doc, argv, parser)
         with contextlib.redirect_stdout(sys.stderr):

@@ -269,16 +269,8 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
               f"{plural(deg['longest'], 'step')}"
               + (f" ({deg['longest_functionality']})" if deg["longest_functionality"] else "") + ".")
     out.print(f"[bold]Disruption:[/] {p.disruption} (Σ criticality × steps degraded)")
-    py = evidence["python"]
-    states = py["states"]
-    out.print("[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, "
-              + (f"all {states} states valid" if states != 1 else "the 1 state is valid"))
-    al = evidence.get("alloy")
+    al = _verification(out, evidence)
     if al:
-        out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "
-                  f"{plural(al['transitions'], 'transition')} "
-                  f"{agree(al['transitions'], 'is an instance of its action', 'are instances of their actions')} "
-                  f"(evaluated in {al['seconds']:.2f} s, {al['module_hash'][:19]})")
         if al.get("slice"):
             sl = al["slice"]
             once = sl["judged_once"]
@@ -302,8 +294,38 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
             out.print(f"[yellow]{escape(note)}[/]")
         else:
             out.print(f"[dim]note: {escape(note)}[/]")
+    if p.recovery is not None and not p.steps:
+        ended = len(p.recovery.orphans)
+        out.print("nothing to recover: the observed configuration is valid and is the target"
+                  + (f" ({plural(ended, 'orphan')} of a plan to end)" if ended else ""))
     if output:
         out.print(f"Wrote {output}: run it with `python3 {output}` (or `--dry-run` to replay it without ROS).")
+
+
+def _verification(out: Any, evidence: dict[str, Any]) -> Optional[dict[str, Any]]:
+    """The lines saying how the plan was verified, by the Python engine and by Alloy (whose
+    evidence is returned for the lines that follow)."""
+    py = evidence["python"]
+    states, restore = py["states"], py.get("restore", {}).get("steps", 0)
+    if restore:
+        out.print(f"[bold]Verification:[/] [green]✓[/] Python engine: {_restoring(restore)}, restoring validity; "
+                  "each state fails only on what a later one degrades (RecoverDegrade, RecoverMonotone);")
+        out.print(f"              from there every precondition holds, {plural(states - restore, 'state')} valid")
+    else:
+        out.print("[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, "
+                  + (f"all {states} states valid" if states != 1 else "the 1 state is valid"))
+    al = evidence.get("alloy")
+    if al:
+        out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "
+                  f"{plural(al['transitions'], 'transition')} "
+                  f"{agree(al['transitions'], 'is an instance of its action', 'are instances of their actions')} "
+                  f"(evaluated in {al['seconds']:.2f} s, {al['module_hash'][:19]})"
+                  + (f", from the state after step {restore}" if restore else ""))
+    return al
+
+
+def _restoring(n: int) -> str:
+    return "step 1 degrades what fails" if n == 1 else f"steps 1-{n} degrade what fails"
 
 
 def no_plan(label: str, reasons: list[str], fmt: OutputFormat, p: Optional[Plan] = None,

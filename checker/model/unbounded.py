@@ -356,8 +356,10 @@ def prove(assertion: str, weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_
     `rlimit` bounds z3's work (0: only the timeout does)."""
     weakened = frozenset(weaken)
     unknown = weakened - set(WEAKENINGS)
-    if assertion not in ASSERTIONS or unknown:
+    if assertion not in ASSERTIONS + RECOVERY_ASSERTIONS or unknown:
         raise ValueError(f"unknown assertion or weakening: {assertion}, {sorted(unknown)}")
+    if assertion in RECOVERY_ASSERTIONS:
+        return _prove_recovery(assertion, weakened, timeout_ms, rlimit)
     started = time.perf_counter()
     z3, v, pre, acts = _setup(weakened)
     act = None if assertion in INVARIANTS else acts[assertion[len("Safe"):].lower()]
@@ -403,7 +405,7 @@ def satisfiable(action: str, weaken: Iterable[str] = (), timeout_ms: int = TIMEO
 def prove_all(weaken: Iterable[str] = (), timeout_ms: int = TIMEOUT_MS,
               after: Callable[[Proof], None] | None = None) -> UnboundedReport:
     proofs = []
-    for name in ASSERTIONS:
+    for name in ASSERTIONS + RECOVERY_ASSERTIONS:
         proofs.append(prove(name, weaken, timeout_ms))
         if after:
             after(proofs[-1])
@@ -554,3 +556,80 @@ def _render_counterexample(assertion: str, cex: dict[str, Any], console: Any) ->
         for field_, shown in (("components", "components present"), ("degraded", "degraded"), ("roles", "roles"),
                               ("unsatisfied", "unsatisfied")):
             console.print(f"    {shown}: {', '.join(conf[field_]) or '(none)'}")
+
+
+# --- restoring validity (docs/soundness.md#restoring-validity) ----------------------------
+#
+# A recovery starts from an observed configuration that need not be valid, and first degrades
+# what fails (checker.planning.recovery). Two properties, over any configuration (valid or not):
+#
+# RecoverDegrade: degrading a present functionality f0 in its normal mode, one of whose
+#   assumptions fails, makes no assumption fail that degrading its own functionality cannot
+#   mend: whatever fails after is an assumption of a present functionality g other than f0 in
+#   its normal mode (degrading g mends it: a degraded mode assumes nothing), and g either
+#   failed before or reads a connector an output of f0 is attached to.
+# RecoverMonotone: degrading more never mends anything else: with the same components and
+#   attachments and a superset of degraded functionalities, an assumption of a functionality
+#   still normal that fails with fewer degraded still fails. So the degrades the recovery makes
+#   (the ones that fail, then the ones that fail once those are degraded, ...) are needed by
+#   every valid configuration reached by degrading alone, and in any order each state fails
+#   only on functionalities a later step degrades (a functionality failing midway fails at the
+#   end unless degraded, and the end is valid).
+
+RECOVERY_ASSERTIONS = ("RecoverDegrade", "RecoverMonotone")
+
+
+def _recover_degrade(v: _Vocabulary, pre: _State) -> tuple[list[Any], _State]:
+    """The negation of RecoverDegrade, and Post."""
+    z3 = v.z3
+    f0, a0 = z3.Const("f0", v.Functionality), z3.Const("a0", v.Data)
+    g, a = z3.Const("g", v.Functionality), z3.Const("a", v.Data)
+    post = pre.but(degraded=lambda h: z3.Or(pre.degraded(h), h == f0))
+
+    def published(k: Any) -> Any:
+        o = v.var(v.Output, "o")
+        return z3.Exists([o], z3.And(v.assoc_out(f0, o), pre.rout(k, o)))
+    claim = z3.And(g != f0, z3.Not(post.degraded(g)),
+                   z3.Or(z3.And(pre.assumes(g, a), z3.Not(pre.holds(g, a))), pre.reads(v.fowner(g), published)))
+    return [pre.present(f0), z3.Not(pre.degraded(f0)), v.nasms(f0, a0), z3.Not(pre.holds(f0, a0)),
+            post.present(g), post.assumes(g, a), z3.Not(post.holds(g, a)), z3.Not(claim)], post
+
+
+def _recover_monotone(v: _Vocabulary, pre: _State) -> tuple[list[Any], _State]:
+    """The negation of RecoverMonotone, and the configuration with more degraded."""
+    z3 = v.z3
+    more = z3.Function("degraded_more", v.Functionality, z3.BoolSort())
+    h = v.var(v.Functionality, "h")
+    g, a = z3.Const("g", v.Functionality), z3.Const("a", v.Data)
+    post = pre.but(degraded=more)
+    return [z3.ForAll([h], z3.Implies(pre.degraded(h), more(h))),
+            post.present(g), z3.Not(more(g)), v.nasms(g, a), z3.Not(pre.holds(g, a)), post.holds(g, a)], post
+
+
+def _prove_recovery(assertion: str, weakened: frozenset[str], timeout_ms: int, rlimit: int) -> Proof:
+    started = time.perf_counter()
+    z3, v, pre, _ = _setup(weakened)
+    negation, post = (_recover_degrade if assertion == "RecoverDegrade" else _recover_monotone)(v, pre)
+    solver = _solver(z3, timeout_ms, rlimit)
+    solver.add(v.facts(weakened) + negation)
+    answer = solver.check()
+    seconds = round(time.perf_counter() - started, 3)
+    if answer == z3.unsat:
+        return Proof(assertion, "proved", seconds)
+    if answer == z3.sat:
+        r = _Reading(solver.model(), v)
+        return Proof(assertion, "counterexample", seconds,
+                     counterexample={"pre": r.config(pre), "post": r.config(post), "static": r.static()})
+    return Proof(assertion, "unknown", seconds, reason=solver.reason_unknown())
+
+
+def recovery_breaks_a_reader(timeout_ms: int = TIMEOUT_MS) -> str:
+    """"sat" when degrading a failing functionality can make another one fail that did not
+    before (a reader of its output), so that RecoverDegrade's second case is not vacuous (the
+    meta-model's `RecoverBreaksAReader`, unbounded)."""
+    z3, v, pre, _ = _setup(frozenset())
+    negation, post = _recover_degrade(v, pre)
+    g, a = z3.Const("g", v.Functionality), z3.Const("a", v.Data)
+    solver = _solver(z3, timeout_ms, 0)
+    solver.add(v.facts(frozenset()) + negation[:-1] + [pre.holds(g, a)])
+    return str(solver.check())

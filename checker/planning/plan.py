@@ -35,7 +35,7 @@ from checker.planning.states import States
 from reconf_dsl.ir import System
 from reconf_dsl.words import plural
 
-__all__ = ["Goal", "Plan", "Problem", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
+__all__ = ["Goal", "Plan", "Problem", "Recovery", "NoSafePlan", "BadRequest", "unknown", "settle", "disruption", "state_weight", "run_actions", "verify",
            "FULL_CHECK_LIMIT", "state_dict", "state_change",
            "degradation", "degraded_runs"]
 
@@ -186,6 +186,9 @@ class Plan:
     # the strategies tried before the one that produced this plan, and why they failed
     # (checker.planning.chain)
     attempts: list["Attempt"] = field(default_factory=list)
+    # a recovery's plan (checker.planning.recovery): from an observed configuration that may
+    # not be valid, its first steps degrade what fails; None for every other plan
+    recovery: Optional["Recovery"] = None
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -214,7 +217,28 @@ class Plan:
             "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
         if self.attempts:
             out["attempts"] = [a.to_dict() for a in self.attempts]
+        if self.recovery is not None:
+            out["recovery"] = self.recovery.to_dict()
         return out
+
+
+@dataclass
+class Recovery:
+    """What a recovery's plan adds to a plan (docs/executor.md#failure-and-recovery): its first
+    `restore` steps degrade what fails in the observed configuration, judged by the property
+    docs/soundness.md proves (#restoring-validity), and `rest` is the ordinary plan from there
+    (what Alloy verifies, as any plan); `placed` the nodes the live system showed for
+    components not under their own names; `orphans` the nodes a plan started that are in no
+    configuration (unconfigured or inactive), ended before the first step."""
+
+    restore: int = 0
+    rest: Optional["Plan"] = None
+    placed: dict[str, str] = field(default_factory=dict)
+    orphans: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"restore": self.restore, "placed": dict(sorted(self.placed.items())),
+                "orphans": [dict(o) for o in self.orphans]}
 
 
 def state_dict(s: Configuration) -> dict[str, list[Any]]:

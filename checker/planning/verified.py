@@ -50,8 +50,15 @@ def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
     if alloy_planner:
         p = alloy_planned(p, max_steps)
     evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
+    rest = p
+    if p.recovery is not None and p.recovery.restore and p.recovery.rest is not None:
+        # a recovery's first steps restore validity: judged by the proved property
+        # (checker.planning.recovery.check_restore); Alloy verifies the plan from their end
+        evidence["python"]["restore"] = {"steps": p.recovery.restore, "valid_from": p.recovery.restore,
+                                         "proved": ["RecoverDegrade", "RecoverMonotone"]}
+        rest = p.recovery.rest
     if verdicts is not None:
-        evidence["alloy"] = verdicts.evidence(p)
+        evidence["alloy"] = verdicts.evidence(rest)
     return Verified(p, evidence)
 
 

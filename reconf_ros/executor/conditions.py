@@ -1,7 +1,7 @@
 """The conditions a step waits for on the wire, read from the nodes' statuses
 (docs/control-interface.md#the-six-actions): before a step, an upgraded functionality's
-assumptions met and every reader of a connector that loses a publisher receiving from one that
-stays; after it, an attached port matched with the other side of its connector and, for a
+assumptions met and every reader of a connector that loses a publisher receiving, since the
+step began, from one that stays; after it, an attached port matched with the other side of its connector and, for a
 publishing output, its data received."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from .plan_states import State
 from .runtime import StepFailed
 from .semantics import rate
 from .status import Status
-from .steps import Step, plural, split_list
+from .steps import Step, plural
 
 
 def meets(func: str) -> Callable[[Status], bool]:
@@ -80,12 +80,17 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
                                  f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
                                  "could leave it without one")
             continue
-        fresh = f"in.{port}.fresh"
-        if not wait_status(ctx, reader, lambda st: bool(names & set(split_list(st.get(fresh, "")))), wait):
+        if not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
             st = ctx.rt.status(ctx.names.fqn(reader)) or {}
-            raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on {k} "
-                             f"(fresh sources: {st.get(fresh) or 'none'}); taking {step.component}'s away "
-                             "would leave it without data")
+            raise StepFailed(f"{reader}.{port} has received nothing on {k} from {', '.join(sorted(names))} since the "
+                             f"step began (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); taking "
+                             f"{step.component}'s away would leave it without data")
+
+
+def _heard_since(st: Status, port: str, nodes: set[str], since: float) -> list[str]:
+    """The `nodes` whose messages `port` received after `since` (wall clock), as the status
+    shows: a publisher that died a moment ago vouches for nothing with what it sent before."""
+    return [n for n in sorted(nodes) if float(st.get(f"in.{port}.last.{n}") or 0) > since]
 
 
 def wire_after(ctx: Context, step: Step, will: State) -> None:

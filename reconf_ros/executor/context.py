@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
+import signal
 from dataclasses import dataclass, field
-from typing import Any, Optional, Protocol
+from typing import Any, Callable, Optional, Protocol
 
 from .naming import Names
 from .plan_states import PlanStates
@@ -52,6 +53,46 @@ class StepTiming:
         return {**doc, "action": self.action} if self.ok else doc
 
 
+class Interrupts:
+    """SIGINT and SIGTERM as a run takes them (docs/executor.md#interrupted): the first asks the
+    run to stop at the end of the current step, the second (and any later one) stops it at once
+    (KeyboardInterrupt, where Python is when it comes). A manager also counts the stop requests
+    its client forwards (`poll`: a call that returns who asked, or "")."""
+
+    def __init__(self) -> None:
+        self.count = 0                 # stops asked: signals and forwarded requests
+        self.signals = 0               # signals this process received
+        self.by = ""                   # who asked first
+        self.poll: Optional[Callable[[], str]] = None
+
+    def handler(self, signum: int, frame: Any) -> None:
+        self.signals += 1
+        self.ask(signal.Signals(signum).name)
+        if self.count > 1:
+            raise KeyboardInterrupt
+
+    def ask(self, by: str) -> None:
+        self.count += 1
+        self.by = self.by or by
+
+    def install(self) -> None:
+        """Take SIGINT and SIGTERM (in the main thread)."""
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self.handler)
+
+    def forget_requests(self) -> None:
+        """After a manager's run: only this process's own signals still count."""
+        self.count, self.poll = self.signals, None
+        self.by = self.by if self.signals else ""
+
+    @property
+    def stop(self) -> bool:
+        asked = self.poll() if self.poll is not None else ""
+        if asked:
+            self.ask(asked)
+        return self.count > 0
+
+
 @dataclass
 class Context:
     """One run of a plan document on the live system."""
@@ -65,6 +106,12 @@ class Context:
     touched: set[str] = field(default_factory=set)
     timings: list[StepTiming] = field(default_factory=list)
     failure: str = ""                # why the last step failed
+    interrupts: Interrupts = field(default_factory=Interrupts)
+    step: int = 0                    # the step being performed (0: none yet)
+    began: float = 0.0               # when it began, on the wall clock (what the nodes' statuses use)
+    baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
+    violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
+    unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -74,6 +121,9 @@ class Context:
         self.log_dir: str = self.args.log_dir or os.path.join(
             "reconf-logs", f"{self.doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
         self._names: Optional[Names] = None
+        recovery = self.doc["plan"].get("recovery") or {}
+        self.placed: dict[str, str] = dict(recovery.get("placed") or {})
+        self.orphans: list[dict[str, Any]] = list(recovery.get("orphans") or [])
 
     @property
     def names(self) -> Names:
@@ -81,6 +131,7 @@ class Context:
         if self._names is None:
             self._names = Names(self.rt, self.doc["plan"].get("renames", {}), self.model.comps,
                                 self.doc["fingerprint"])
+            self._names.placed.update(self.placed)     # where a recovery found the nodes
         return self._names
 
     def say(self, text: str) -> None:

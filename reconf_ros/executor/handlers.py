@@ -16,6 +16,7 @@ from typing import Callable
 
 from .conditions import wire_after, wire_before
 from .context import Context, Started
+from .observe import wait_status
 from .plan_states import State
 from .processes import command, start, wait_exit
 from .runtime import StepFailed
@@ -23,17 +24,70 @@ from .status import CREATED_ENV
 from .steps import Step
 
 
+def _adoptable(ctx: Context, comp: str, fqn: str) -> bool:
+    """Whether the node `fqn` that runs already is `comp`'s and not active (a process an earlier
+    run started and did not activate, or one deactivated): the create adopts it."""
+    st = ctx.rt.status(fqn) or {}
+    if st.get("component", ctx.names.declared(comp)) != ctx.names.declared(comp):
+        return False
+    try:
+        return ctx.rt.lifecycle(fqn) in ("unconfigured", "inactive")
+    except StepFailed:
+        return False
+
+
 def create(ctx: Context, step: Step) -> None:
-    """Start the component's process, wait for its lifecycle services, configure and activate it."""
+    """Start the component's process (or adopt its node, there and not active), wait for its
+    lifecycle services, configure and activate it; its monitor counts from then on."""
     comp, names = step.component, ctx.names
     if names.is_version(comp):        # X@new: a node name no other node has (X's may still run)
         names.locate([comp])
-        if comp in names.placed:
+        if comp in names.placed and not _adoptable(ctx, comp, names.fqn(comp)):
             raise StepFailed(f"before the step, {comp} runs already (node {names.fqn(comp)})")
-        names.placed[comp] = names.fresh(comp)
+        names.placed.setdefault(comp, names.fresh(comp))
     fqn = names.fqn(comp)
     if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
-        raise StepFailed(f"before the step, a node {fqn} is already running")
+        if _adoptable(ctx, comp, fqn):
+            _adopt(ctx, comp, fqn)
+            return baseline(ctx, comp)
+        if not _finalized(ctx, fqn):
+            raise StepFailed(f"before the step, a node {fqn} is already running")
+        names.placed[comp] = names.fresh(comp)     # the finalized node stays while its process runs others
+        ctx.say(f"      {fqn} is a finalized node that stays in its process: {comp} starts as {names.fqn(comp)}")
+        fqn = names.fqn(comp)
+    _start(ctx, comp, fqn)
+    baseline(ctx, comp)
+
+
+def _finalized(ctx: Context, fqn: str) -> bool:
+    """Whether the node `fqn` says it is finalized (its lifecycle, or its last status)."""
+    if (ctx.rt.status(fqn) or {}).get("lifecycle") == "finalized":
+        return True
+    try:
+        return ctx.rt.lifecycle(fqn) == "finalized"
+    except StepFailed:
+        return False
+
+
+def _adopt(ctx: Context, comp: str, fqn: str) -> None:
+    lc = ctx.rt.lifecycle(fqn)
+    pid = (ctx.rt.status(fqn) or {}).get("pid", "unknown")
+    if lc == "unconfigured":
+        ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_CONFIGURE, "configure")
+    ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
+    ctx.say(f"      adopted {comp}'s node {fqn} (pid {pid}, {lc}: started and left so by an earlier run): activated")
+
+
+def baseline(ctx: Context, comp: str) -> None:
+    """Take a new node's monitor's count of violations as it comes up: from then on it counts in
+    every step's check and the final one (docs/executor.md)."""
+    if wait_status(ctx, comp, lambda st: st.get("lifecycle") == "active", min(3.0, ctx.rt.left())):
+        ctx.baseline[comp] = int((ctx.rt.status(ctx.names.fqn(comp)) or {}).get("violations", "0"))
+
+
+def _start(ctx: Context, comp: str, fqn: str) -> None:
+    """Start the component's process as `fqn`, wait for its lifecycle services, configure and activate it."""
+    names = ctx.names
     argv = command(ctx, comp)
     os.makedirs(ctx.log_dir, exist_ok=True)
     log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
@@ -133,6 +187,7 @@ HANDLERS: dict[str, Callable[[Context, Step], None]] = {
 def perform(ctx: Context, step: Step, was: State, will: State) -> None:
     """One step: its wire condition before, its handler, its wire condition after."""
     ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    ctx.began = time.time()
     wire_before(ctx, step, was, will)
     HANDLERS[step.action](ctx, step)
     wire_after(ctx, step, will)

@@ -44,7 +44,7 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "unresponsive")
+            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive")
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
@@ -62,6 +62,13 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     return dict(sorted(seen.items()))
 
 
+def _exited(ctx: Context, comp: str) -> bool:
+    """Whether the process this run started for `comp` has exited (a node killed stays in the
+    graph a while, not answering: it is absent, not unknown)."""
+    info = ctx.started.get(comp)
+    return info is not None and info.proc.poll() is not None
+
+
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     """The configuration the nodes showed: the active ones present, their modes and attachments."""
     back = {v: k for k, v in ctx.names.renames.items()}
@@ -69,6 +76,15 @@ def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
     roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
     return State(comps, degraded, roles)
+
+
+def read_all(ctx: Context) -> tuple[State, dict[str, Observed]]:
+    """Every component of the model read: the configuration, and what each node showed (the
+    components whose node did not answer noted in `ctx.unread`: the configuration says
+    nothing of them)."""
+    seen = observe(ctx, ctx.model.comps)
+    ctx.unread = {c for c, o in seen.items() if o.lifecycle == "unresponsive"}
+    return as_state(ctx, seen), seen
 
 
 def neighbourhood(ctx: Context) -> set[str]:

@@ -9,12 +9,15 @@ import json
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
-from typing import Any
+import time
+from typing import Any, Iterable, Optional
 
 from .context import Context
 from .runtime import StepFailed
+from .status import CREATED_ENV
 
 
 def command(ctx: Context, comp: str) -> list[str]:
@@ -101,21 +104,94 @@ def wait_exit(proc: Any, seconds: float) -> int:
     return int(proc.returncode)
 
 
-def list_started(ctx: Context, stop: bool) -> None:
+def _stop(proc: Any) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=3)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=3)
+
+
+def list_started(ctx: Context, stop: bool, present: Optional[Iterable[str]] = None) -> None:
     """Name every process this run started (pid, state, log); with `stop`, end the ones still
-    running (SIGTERM, then SIGKILL after 3 s)."""
+    running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component is not
+    in the `present` ones observed: never activated, they are in no configuration and would
+    only stand in the way of a run or a recovery that starts them again."""
     if not ctx.started:
         return
+    keep = None if present is None else set(present)
     ctx.warn("Processes this run started:")
     for c, info in sorted(ctx.started.items()):
         alive = info.proc.poll() is None
-        if alive and stop:
-            info.proc.terminate()
-            try:
-                info.proc.wait(timeout=3)
-            except subprocess.TimeoutExpired:
-                info.proc.kill()
-            ctx.warn(f"  {c}: pid {info.pid} stopped (--stop-started), log {info.log}")
+        if alive and (stop or (keep is not None and c not in keep)):
+            _stop(info.proc)
+            info.ended = info.proc.returncode
+            why = "--stop-started" if stop else "never active: in no configuration"
+            ctx.warn(f"  {c}: pid {info.pid} stopped ({why}), log {info.log}")
         else:
             state = "running" if alive else f"exited with status {info.proc.returncode}"
             ctx.warn(f"  {c}: pid {info.pid} {state}, log {info.log}")
+
+
+def _process(pid: Optional[int], mark: str) -> Optional[bool]:
+    """Whether `pid` is a live process of this host whose environment carries the creation
+    `mark` (True), another process or a zombie (False), or none (None)."""
+    if not pid:
+        return None
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
+            if fh.read().rsplit(")", 1)[1].split()[0] == "Z":
+                return None
+        with open(f"/proc/{pid}/environ", "rb") as fh:
+            env = fh.read().split(b"\0")
+    except (OSError, IndexError):
+        return None
+    return f"{CREATED_ENV}={mark}".encode() in env
+
+
+def _wait_gone(pid: int, mark: str, seconds: float) -> bool:
+    end = time.monotonic() + seconds
+    while _process(pid, mark):
+        if time.monotonic() >= end:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
+    """End a node a plan started that is in no configuration (docs/executor.md#recovering-from-the-live-system):
+    down its lifecycle to finalized (a reconf node then exits), its process signalled if it does
+    not exit (only a process of this host that carries the node's creation mark). What was done."""
+    fqn, pid, mark = orphan["node"], orphan.get("pid"), orphan.get("created", "")
+    transition = ctx.rt.Transition
+    try:
+        lc = ctx.rt.lifecycle(fqn) if fqn in ctx.rt.nodes() else "gone"
+    except StepFailed:
+        lc = "unresponsive"
+    if lc == "active":
+        raise StepFailed(f"the orphan {fqn} is active now: plan the recovery again")
+    if lc in ("unconfigured", "inactive"):
+        tid = transition.TRANSITION_UNCONFIGURED_SHUTDOWN if lc == "unconfigured" else \
+            transition.TRANSITION_INACTIVE_SHUTDOWN
+        try:
+            ctx.rt.transition(fqn, tid, "shutdown")
+        except StepFailed as e:
+            lc = f"{lc}, shutdown refused ({e})"
+    ctx.rt.forget(fqn)
+    if pid is None or _wait_gone(pid, mark, ctx.args.timeout):
+        return f"{lc} → finalized, exited" if lc in ("unconfigured", "inactive") else f"{lc}"
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        if _process(pid, mark):
+            os.kill(pid, sig)
+            if _wait_gone(pid, mark, 3.0):
+                return f"{lc}; did not exit, ended by {sig.name}"
+    raise StepFailed(f"the orphan {fqn} (pid {pid}) did not exit")
+
+
+def end_orphans(ctx: Context) -> None:
+    """End every orphan a recovery's plan lists, before its first step."""
+    for orphan in ctx.orphans:
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        how = end_orphan(ctx, orphan)
+        ctx.say(f"ended the orphan {orphan['node']} (pid {orphan.get('pid') or 'unknown'}): {how}")

@@ -6,7 +6,7 @@ from typing import Any, Optional
 from .context import Writer
 from .plan_states import PlanStates, State
 from .semantics import Model
-from .steps import Step, plan_steps
+from .steps import Step, plan_steps, restoring
 
 
 def _walk(model: Model, steps: list[Step], recorded: PlanStates,
@@ -28,18 +28,32 @@ def _walk(model: Model, steps: list[Step], recorded: PlanStates,
     return rows, None, agree
 
 
+def _verdict(model: Model, steps: list[Step], restore: int, i: int, st: State) -> tuple[str, list[str]]:
+    """`safe`, `UNSAFE`, or `restoring`: a state before the end of a recovery's first degrades
+    that fails only on functionalities a later one of them degrades (docs/soundness.md#restoring-validity)."""
+    bad = model.failing(st)
+    if not bad:
+        return "safe", []
+    words = [f"{c}.{f} assumes {a}, which does not hold" for c, f, a in bad]
+    later = {(s.component, s.functionality) for s in steps[i:restore] if s.action == "degrade"}
+    if i < restore and all((c, f) in later for c, f, _ in bad):
+        return "restoring", words
+    return "UNSAFE", words
+
+
 def replay(doc: dict[str, Any], out: Writer) -> bool:
-    """Replay the plan from its first state; print every state; True when all are safe."""
-    model, steps = Model(doc["model"]), plan_steps(doc)
+    """Replay the plan from its first state; print every state; True when all are safe (or, in a
+    recovery's first degrades, restoring validity)."""
+    model, steps, restore = Model(doc["model"]), plan_steps(doc), restoring(doc)
     rows, refused, ok = _walk(model, steps, PlanStates(doc["plan"]), out)
     unsafe = []
     for i, (text, st) in enumerate(rows):
-        bad = model.failures(st)
+        verdict, bad = _verdict(model, steps, restore, i, st)
         degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
-        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
+        print(f"{text:<60} [{verdict}]  degraded: {degraded}", file=out)
         for reason in bad:
             print(f"       {reason}", file=out)
-        if bad:
+        if verdict == "UNSAFE":
             unsafe.append(i)
     if refused is not None:
         i, step, why = refused
@@ -50,7 +64,12 @@ def replay(doc: dict[str, Any], out: Writer) -> bool:
         where = ", ".join(f"step {i} ({steps[i - 1].describe()})" if i else "the initial state" for i in unsafe)
         print(f"dry run: UNSAFE after {where}", file=out)
         ok = False
-    if ok:
+    if ok and restore:
+        print(f"dry run: steps 1-{restore} restore validity; " if restore > 1 else
+              "dry run: step 1 restores validity; ", end="", file=out)
+        print(f"the {len(rows) - restore} states from there are safe" if len(rows) - restore != 1 else
+              "the 1 state from there is safe", file=out)
+    elif ok:
         print("dry run: " + (f"all {len(rows)} states are safe" if len(rows) != 1 else "the 1 state is safe"),
               file=out)
     return ok

@@ -9,21 +9,22 @@ import time
 from typing import Any, Optional
 
 from .conditions import meets
-from .context import Context, StepTiming, Writer
+from .context import Context, Interrupts, StepTiming, Writer
 from .handlers import perform
 from .observe import (
     as_state,
     check_touched,
     neighbourhood,
     observe,
+    read_all,
     settle,
     unusual,
     violations,
     wait_status,
     wait_statuses,
 )
-from .processes import warm
-from .run_report import failed, stale, write_report
+from .processes import end_orphans, warm
+from .run_report import failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
 from .steps import EXIT_FAILED, EXIT_OK, plan_steps, plural
 
@@ -50,12 +51,16 @@ def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> boo
 
 class Executor:
     """Applies a plan document's steps to the running system (docs/executor.md). A manager lends
-    its long-lived `runtime` and its `launcher`; a plan script makes its own runtime."""
+    its long-lived `runtime`, its `launcher` and its `interrupts`; a plan script makes its own
+    runtime and takes SIGINT and SIGTERM itself once the steps are confirmed."""
 
     def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Writer = sys.stdout,
-                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
+                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None,
+                 interrupts: Optional[Interrupts] = None) -> None:
         self.ctx = Context(doc, args, out, err, rt=runtime, launcher=launcher)
         self.own_runtime = runtime is None
+        if interrupts is not None:
+            self.ctx.interrupts = interrupts
 
     def apply(self, first: int) -> int:
         ctx = self.ctx
@@ -63,9 +68,12 @@ class Executor:
             return EXIT_FAILED
         t0 = time.monotonic()
         if self.own_runtime:
+            ctx.interrupts.install()
             ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
         try:
             return self._apply(first, t0)
+        except KeyboardInterrupt:       # a second signal: at once, wherever the run was
+            return interrupted(ctx, ctx.step, at_once=True)
         finally:
             if self.own_runtime:
                 ctx.rt.close()
@@ -77,10 +85,14 @@ class Executor:
         refused = self._check_start(first, hood)
         if refused is not None:
             return refused
+        if ctx.interrupts.stop:
+            return interrupted(ctx, 0)
+        end_orphans(ctx)
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
-        # wire than in the model (a suspended protocol keeps its clients waiting)
-        counted = violations(ctx, ctx.states[first - 1].components)
+        # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
+        # creates joins them as it comes up (handlers.baseline)
+        ctx.baseline = violations(ctx, ctx.states[first - 1].components)
         ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
@@ -88,7 +100,9 @@ class Executor:
         for i in range(first, last + 1):
             if not self._step(i):
                 return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
-        return self._finish(first, hood, counted, t0, check_at)
+            if ctx.interrupts.stop and i < last:
+                return interrupted(ctx, i)
+        return self._finish(first, hood, t0, check_at)
 
     def _check_start(self, first: int, hood: set[str]) -> Optional[int]:
         """Refuse (the exit status) unless the live system is the plan's state before `first`."""
@@ -115,36 +129,44 @@ class Executor:
         step = ctx.steps[i - 1]
         ctx.say(f"{step.label(i)} ...")
         s0, at = time.monotonic(), round(time.time(), 3)
+        ctx.step = i
         try:
             perform(ctx, step, ctx.states[i - 1], ctx.states[i])
             ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
             check_touched(ctx, ctx.states[i], f"after step {i}")
-        except (StepFailed, OSError, KeyboardInterrupt) as e:
-            ctx.failure = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
+        except (StepFailed, OSError) as e:
+            ctx.failure = str(e)
             ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
             return False
+        except KeyboardInterrupt:
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            raise
         ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
         ctx.say(f"      done in {time.monotonic() - s0:.3f} s")
+        counted(ctx, i)
         return True
 
-    def _finish(self, first: int, hood: set[str], counted: dict[str, int], t0: float, check_at: float) -> int:
+    def _finish(self, first: int, hood: set[str], t0: float, check_at: float) -> int:
         """After the last step: the neighbourhood reads back as the plan's last state, the
-        touched functionalities meet their assumptions on the wire, and no monitor's count moved."""
+        touched functionalities meet their assumptions on the wire, and no monitor's count moved
+        (every monitor heard from at the start, and every node the plan created)."""
         ctx, last = self.ctx, self.ctx.args.to_step
+        ctx.step = -1                   # the final check
         end = ctx.states[last]
         normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
         unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
-        final = as_state(ctx, observe(ctx, hood))
+        # every component, not only the neighbourhood: the report says the whole configuration
+        final, _ = read_all(ctx)
         wrong = ctx.model.differences(end, final, hood)
         if wrong:
-            return failed(ctx, last, ctx.steps[last - 1], "after the last step: " + "; ".join(wrong))
-        now = violations(ctx, counted)
-        seen_bad = {c: now[c] - n for c, n in counted.items() if now.get(c, n) > n}
+            return failed(ctx, last, ctx.steps[last - 1] if last else None, "after the last step: " + "; ".join(wrong))
+        seen_bad = counted(ctx, last)
         upto = "" if last == len(ctx.steps) else f"; stopped after step {last} as asked (--to-step)"
         done = last - first + 1
-        ctx.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {time.monotonic() - t0:.2f} s "
+        ctx.say(("no step" if done <= 0 else f"all {done} steps" if done != 1 else "the 1 step")
+                + f" done in {time.monotonic() - t0:.2f} s "
                 f"(checking the live system {check_at - t0:.2f} s, steps "
                 f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
         if unmet or seen_bad:
@@ -152,13 +174,23 @@ class Executor:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
             for c, n in sorted(seen_bad.items()):
                 ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
-                         "during the run")
+                         f"during the run (first seen after step {ctx.violated[c]})")
             write_report(ctx, "violated", first, observed=final)
             return EXIT_FAILED
-        heard = len(counted)
+        heard = len(ctx.baseline)
         ctx.say("on the wire: every functionality the plan touched meets its assumptions, and "
                 + (f"none of the {heard} monitors heard from saw" if heard != 1 else
                    "the 1 monitor heard from did not see")
                 + " a normal mode's assumption violated during the run")
         write_report(ctx, "done", first, observed=final)
         return EXIT_OK
+
+
+def counted(ctx: Context, i: int) -> dict[str, int]:
+    """Each counted monitor's violations since its baseline (those whose count moved), the step
+    after which each was first seen noted in `ctx.violated`."""
+    now = violations(ctx, ctx.baseline)
+    moved = {c: now[c] - n for c, n in ctx.baseline.items() if now.get(c, n) > n}
+    for c in moved:
+        ctx.violated.setdefault(c, i)
+    return moved

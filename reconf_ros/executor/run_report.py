@@ -8,12 +8,12 @@ import os
 import time
 from typing import Any, Optional
 
-from .context import Context
-from .observe import Observed, as_state, observe, unusual
+from .context import Context, StepTiming
+from .observe import Observed, read_all, unusual
 from .plan_states import State
 from .processes import list_started
 from .runtime import StepFailed
-from .steps import EXIT_FAILED, Step
+from .steps import EXIT_FAILED, EXIT_INTERRUPTED, Step
 
 
 def write_report(ctx: Context, outcome: str, first: int, observed: Optional[State],
@@ -27,10 +27,14 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
+        "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}
+    if ctx.interrupts.stop:
+        body["interrupted_by"] = ctx.interrupts.by
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w", encoding="utf-8") as fh:
         json.dump(body, fh, indent=1, sort_keys=True)
@@ -68,32 +72,74 @@ def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> 
             ctx.warn(f"  - {b}")
     else:
         ctx.warn("It is valid: every assumption of every present functionality holds in the model.")
-    for k, name in ((i - 1, "before"), (i, "after")):
+    if i == 0 and not ctx.model.differences(ctx.states[0], observed, ctx.model.comps):
+        ctx.warn("It is the plan's first state: nothing was done.")
+    for k, name in ((i - 1, "before"), (i, "after")) if i else ():
         if not ctx.model.differences(ctx.states[k], observed, ctx.model.comps):
             ctx.warn(f"It is the plan's state {name} step {i}.")
 
 
 def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
     try:
-        seen = observe(ctx, ctx.model.comps)
-        return as_state(ctx, seen), seen
+        return read_all(ctx)
     except StepFailed as e:
         ctx.warn(f"could not observe the system after the failure: {e}")
         return None, {}
 
 
-def failed(ctx: Context, i: int, step: Step, why: str) -> int:
+def failed(ctx: Context, i: int, step: Optional[Step], why: str) -> int:
     """Step `i` failed: read every component, say what the system is now and how to recover."""
-    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}")
+    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}" if step is not None else f"FAILED: {why}")
+    observed = _report_observed(ctx, i)
+    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    _how_to_recover(ctx, path)
+    return EXIT_FAILED
+
+
+def interrupted(ctx: Context, i: int, at_once: bool = False) -> int:
+    """The run was interrupted (docs/executor.md#interrupted): after step `i` (0: before the
+    first), or, `at_once`, during it. Read every component, say what the system is now, name
+    the processes the run started, write the report. Another signal meanwhile leaves the
+    configuration unread, and says so."""
+    by = ctx.interrupts.by or "a signal"
+    if i < 0:                           # during the final check: every step was done
+        i, where = ctx.args.to_step, "during the final check"
+        at_once = False
+    else:
+        where = (f"during step {i} ({ctx.steps[i - 1].describe()})" if at_once and i else
+                 f"after step {i}" if i else "before the first step")
+    ctx.warn(f"INTERRUPTED by {by} {where}" + (": stopped at once" if at_once else
+                                                ": stopped at the step's end" if i and "check" not in where else ""))
+    if at_once and i:
+        ctx.timings = [t for t in ctx.timings if t.step != i] + [StepTiming(i, time.time(), 0.0, False)]
+    observed: Optional[State] = None
+    try:
+        observed = _report_observed(ctx, i)
+    except KeyboardInterrupt:
+        ctx.warn("interrupted again: the configuration was not read")
+        list_started(ctx, False)
+    path = write_report(ctx, "interrupted", i, observed=observed, failed_step=i if at_once and i else None,
+                        why=f"interrupted by {by} {where}")
+    if observed is not None:
+        _how_to_recover(ctx, path)
+    return EXIT_INTERRUPTED
+
+
+def _report_observed(ctx: Context, i: int) -> Optional[State]:
+    """Every component read and judged; the processes started named (those never activated
+    ended: they are in no configuration); the configuration observed."""
     ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
     observed, seen = _observe_all(ctx)
     if observed is not None:
         _judge(ctx, i, observed, seen)
-    list_started(ctx, ctx.args.stop_started)
-    if ctx.started and ctx.args.stop_started:
-        observed = as_state(ctx, observe(ctx, ctx.model.comps))
-    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    list_started(ctx, ctx.args.stop_started, None if observed is None else observed.components)
+    if ctx.started and ctx.args.stop_started and observed is not None:
+        observed = _observe_all(ctx)[0]
+    return observed
+
+
+def _how_to_recover(ctx: Context, path: str) -> None:
     ctx.warn(f"To recover, plan from the observed configuration:\n"
-             f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
-             f"    reconf recover {path} --back -o recover.py    (back to the plan's start)")
-    return EXIT_FAILED
+             f"    reconf recover {path} --yes           (on to the plan's target)\n"
+             f"    reconf recover {path} --back --yes    (back to the plan's start)\n"
+             f"    (-o recover.py writes the plan as a script instead)")

@@ -55,7 +55,10 @@ class Runtime:
         self.clients: dict[str, Any] = {}
         self.statuses: dict[str, Status] = {}             # node fqn -> its last status
         self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
-        rclpy.init()
+        from rclpy.signals import SignalHandlerOptions
+        # rclpy's own handlers would shut the context down under a running step (RCLError,
+        # ExternalShutdownException): SIGINT and SIGTERM are the run's (context.Interrupts)
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
         self.started_at = time.monotonic()               # discovery began here
         self.graph_seen: set[str] = set()

@@ -1,6 +1,7 @@
 """A plan script's command line: its options, the dry run, and applying the plan from this
 process or through a running manager (docs/executor.md#manager). Exit status: 0 done (or every
-state safe), 1 failed, unsafe, stale or violated, 2 usage or no ROS."""
+state safe), 1 failed, unsafe, stale or violated, 2 usage or no ROS, 130 interrupted (SIGINT or
+SIGTERM: docs/executor.md#interrupted)."""
 from __future__ import annotations
 
 import argparse
@@ -12,7 +13,7 @@ from typing import Any, Optional
 
 from .replay import replay
 from .run import Executor, confirmed
-from .steps import EXIT_FAILED, EXIT_OK, EXIT_USAGE, plural
+from .steps import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, orphans, plural
 
 
 def manager_socket(namespace: str = "") -> str:
@@ -36,9 +37,18 @@ def via_manager(doc: dict[str, Any], argv: list[str], args: argparse.Namespace, 
               "or leave out --manager to apply the plan from this process", file=sys.stderr)
         return EXIT_USAGE
     request = {"doc": doc, "argv": argv + ["--yes", "--quiet-list", "--cwd", os.getcwd()]}
+
+    def forward(signum: int, frame: Any) -> None:
+        """A signal to this script asks the manager to stop the run (docs/executor.md#interrupted)."""
+        try:
+            sock.sendall(json.dumps({"stop": signal.Signals(signum).name}).encode() + b"\n")
+        except OSError:
+            pass
     with sock, sock.makefile("rwb") as stream:
         stream.write(json.dumps(request).encode() + b"\n")
         stream.flush()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, forward)
         for line in stream:
             msg = json.loads(line)
             if "exit" in msg:
@@ -85,14 +95,28 @@ def parse(doc: dict[str, Any], argv: Optional[list[str]],
     if not 1 <= args.from_step <= max(1, len(steps)):
         ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
     args.to_step = args.to_step or len(steps)
-    if not args.from_step <= args.to_step <= len(steps):
+    if steps and not args.from_step <= args.to_step <= len(steps):
         ap.error(f"--to-step must be between --from-step and {len(steps)}")
+    if not steps and args.to_step:
+        ap.error("--to-step: the plan has no step")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
     return args
 
 
 def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
+    """The script: replay the plan, then apply it here or through a manager. SIGINT and SIGTERM
+    end it quietly (exit 130) until the run takes them over (docs/executor.md#interrupted)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return _main(doc, argv)
+    except KeyboardInterrupt:
+        print("interrupted before any step: nothing done", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _main(doc: dict[str, Any], argv: Optional[list[str]]) -> int:
     try:
         sys.stdout.reconfigure(errors="replace")  # type: ignore[union-attr]
     except AttributeError:
@@ -110,8 +134,8 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
         if not safe and not args.dry_run:
             print("refusing to apply an unsafe plan", file=sys.stderr)
         return EXIT_OK if safe else EXIT_FAILED
-    if not steps:
-        print("nothing to do")
+    if not steps and not orphans(doc):
+        print("nothing to do: the plan has no step")
         return EXIT_OK
     if args.manager:
         forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
@@ -126,5 +150,4 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
         print("ROS 2 is not available (no module rclpy): install reconf with its `ros` extra "
               "(pip install 'reconf[ros]'), or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
         return EXIT_USAGE
-    signal.signal(signal.SIGTERM, signal.default_int_handler)
     return Executor(doc, args).apply(args.from_step)

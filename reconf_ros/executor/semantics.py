@@ -71,7 +71,12 @@ class Model:
         return out
 
     def failures(self, state: State) -> list[str]:
-        """Every assumption of a present functionality's current mode that does not hold."""
+        """Every assumption of a present functionality's current mode that does not hold, in words."""
+        return [f"{c}.{f} assumes {a}, which does not hold" for c, f, a in self.failing(state)]
+
+    def failing(self, state: State) -> list[tuple[str, str, str]]:
+        """(component, functionality, assumption's text) of every assumption of a present
+        functionality's current mode that does not hold."""
         present = [c for c in sorted(state.components) if c in self.comps]
         feeds: dict[tuple[str, str], list[str]] = {}
         for conn, comp, pname in sorted(state.roles):
@@ -90,12 +95,12 @@ class Model:
                     return True
             return any(satisfies(e, a) for e in self.env)
 
-        out = []
+        out: list[tuple[str, str, str]] = []
         for comp in present:
             for f in self.comps[comp]["functionalities"]:
                 for a in self.mode(comp, f, state)["assumptions"]:
                     if not holds(comp, f, a):
-                        out.append(f"{comp}.{f['name']} assumes {a['text']}, which does not hold")
+                        out.append((comp, f["name"], a["text"]))
         return out
 
     def relying_inputs(self, comp: str, state: State) -> list[str]:

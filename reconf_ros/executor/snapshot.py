@@ -56,6 +56,7 @@ class NodeInfo:
     ports: dict[str, list[str]] = field(default_factory=dict)
     pid: Optional[int] = None
     unanswered: str = ""                 # why a read of the node got no answer ("": every read was answered)
+    created: Optional[str] = None        # the mark of the plan step that started it (docs/executor.md#names)
 
     @property
     def name(self) -> str:
@@ -205,6 +206,7 @@ def _read_reconf(rt: Runtime, snap: Snapshot, model_names: ModelNames) -> None:
         status = rt.status(fqn) or {}
         info.component = status.get("component")
         info.pid = int(status["pid"]) if status.get("pid", "").isdigit() else None
+        info.created = status.get("created") or None
     for fqn, values in rt.get_many(wanted).items():
         info = snap.nodes[fqn]
         if isinstance(values, StepFailed):

@@ -30,9 +30,12 @@ def tool_node(tool: str) -> str:
 def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],
               claimed: Iterable[str] = ()) -> Optional[str]:
     """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
-    is not `claimed` and declares no other component; else the one node of own's namespace whose
-    status declares the component (`declared`), a new version's `X_2` (docs/executor.md#names)."""
+    is not `claimed`, declares no other component and is not finalized; else the one node of own's
+    namespace whose status declares the component (`declared`), a new version's `X_2`
+    (docs/executor.md#names)."""
     claimed = set(claimed)
+    # a node whose status says it is finalized is gone, though its process (others' too) still runs
+    graph = {f for f in graph if statuses.get(f, {}).get("lifecycle") != "finalized"}
     if own in graph and own not in claimed and statuses.get(own, {}).get("component", declared) == declared:
         return own
     ns = own.rsplit("/", 1)[0]

@@ -11,7 +11,7 @@ from typing import Any, Iterable, Optional, TypedDict
 # by tests/test_tables.py).
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class PredicateDoc(TypedDict):
@@ -117,12 +117,18 @@ def plan_steps(doc: dict[str, Any]) -> list[Step]:
     return [Step.from_doc(s) for s in doc["plan"]["steps"]]
 
 
+def restoring(doc: dict[str, Any]) -> int:
+    """How many first steps of a recovery's plan restore validity (docs/executor.md#failure-and-recovery)."""
+    return int((doc["plan"].get("recovery") or {}).get("restore", 0))
+
+
+def orphans(doc: dict[str, Any]) -> list[dict[str, Any]]:
+    """The nodes a recovery's plan ends before its first step (docs/executor.md#recovering-from-the-live-system)."""
+    return list((doc["plan"].get("recovery") or {}).get("orphans") or [])
+
+
 def join_list(items: Iterable[str]) -> str:
     return ",".join(sorted(items))
-
-
-def split_list(text: str) -> list[str]:
-    return [x for x in text.split(",") if x]
 
 
 def plural(n: int, word: str, many: str = "") -> str:

@@ -189,6 +189,13 @@ class Input(Port):
         if node is not None and self.on_demand:
             node.expect(self.name)
 
+    def give_up(self) -> None:
+        """Note that the oldest message owed on this on-demand input will not come (its request
+        was given up): the monitor no longer counts the wait for it."""
+        node = self.component.node
+        if node is not None and self.on_demand:
+            node.give_up(self.name)
+
     def read(self) -> Any:
         """The last message received on any of the port's connectors (None before the first, or
         before the component runs), whatever the mode or lifecycle state."""

@@ -384,6 +384,10 @@ class ComponentNode(LifecycleNode):
         on-demand inputs only). KeyError for a port that is not an input."""
         self.monitor.expect(port, time.time())
 
+    def give_up(self, port: str) -> None:
+        self.monitor.give_up(port)
+        self._changed()
+
     def matched(self, port: str) -> int:
         """How many remote endpoints `port` is matched with now: subscribers of an output's
         topics, publishers of an input's."""
@@ -453,7 +457,10 @@ class ComponentNode(LifecycleNode):
         messages published, `created` for a node a plan started, and the component's `app.*`
         reports). Any state; publishes nothing."""
         now = time.time()
-        out = {"component": self.component.name, "lifecycle": "active" if self.active else "inactive",
+        # finalized: the node stays in the graph while others of its process run (a new node of
+        # its component then takes another name: docs/executor.md#names)
+        lifecycle = "finalized" if self.finished else "active" if self.active else "inactive"
+        out = {"component": self.component.name, "lifecycle": lifecycle,
                "pid": str(os.getpid()), "errors": str(len(self.errors))}
         if os.environ.get(CREATED_ENV):
             out["created"] = os.environ[CREATED_ENV]      # which plan's step started it (docs/executor.md#names)
@@ -563,7 +570,16 @@ class ComponentNode(LifecycleNode):
             self._isolate()
             self.active = False
         self.finished = True   # the process exits once the answer is out (run_components)
+        self._changed()
         return TransitionCallbackReturn.SUCCESS
+
+    def destroy_node(self) -> None:
+        """The node and its lifecycle state machine: rclpy's lifecycle node leaves the machine
+        (and the services it holds) alive, and with it the node in the graph, answering nothing."""
+        super().destroy_node()
+        machine = getattr(self, "_state_machine", None)
+        if machine is not None:
+            machine.destroy_when_not_in_use()
 
     def _isolate(self) -> None:
         """Every functionality degraded, every port attached to nothing: the state `create` makes."""
@@ -623,3 +639,4 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
         except Exception:
             pass
     return 0
+

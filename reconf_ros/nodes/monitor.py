@@ -92,6 +92,13 @@ class Monitor:
         """An on-demand input is owed one more message, asked for at `now`."""
         self.inputs[port].owed.append(now)
 
+    def give_up(self, port: str) -> None:
+        """The oldest message owed on an on-demand input will not come (its asker gave the
+        request up, as an FTM protocol does after GIVE_UP_AFTER): it is no longer waited for."""
+        st = self.inputs[port]
+        if st.owed:
+            st.owed.popleft()
+
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
         st = self.inputs[port]
         if st.port.on_demand:
@@ -234,6 +241,7 @@ class Monitor:
                 out[f"in.{name}.on_demand"] = "1"
             for src in st.sources.values():
                 out[f"in.{name}.from.{src.node}"] = f"{src.received}/{src.lost}/{src.missed_head}"
+                out[f"in.{name}.last.{src.node}"] = f"{src.last:.3f}"
             for k, n in sorted(st.publishers.items()):
                 out[f"in.{name}@{k}.publishers"] = str(n)
         return out

@@ -15,11 +15,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import select
 import socket
 import sys
 import time
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
+from ..executor.context import Interrupts
 from ..executor.run import Executor
 from ..executor.runtime import Runtime
 from ..executor.script import manager_socket, parse
@@ -47,19 +49,39 @@ class Stream:
         self.out.flush()
 
 
-def handle(rt: Runtime, conn: socket.socket, launcher: Optional[Launcher] = None) -> None:
+def stop_requests(conn: socket.socket, stream: Any) -> Callable[[], str]:
+    """What the client forwards while its plan runs: a line {"stop": SIGNAL} when the plan script
+    is interrupted (docs/executor.md#interrupted); read without waiting."""
+    def poll() -> str:
+        try:
+            ready, _, _ = select.select([conn], [], [], 0)
+            line = stream.readline() if ready else b""
+            return str(json.loads(line).get("stop", "")) if line.strip() else ""
+        except (OSError, ValueError, AttributeError):
+            return ""
+    return poll
+
+
+def handle(rt: Runtime, conn: socket.socket, launcher: Optional[Launcher] = None,
+           interrupts: Optional[Interrupts] = None) -> None:
     """Read one request (a plan document and the script's arguments), apply it, send the exit."""
+    interrupts = interrupts or Interrupts()
     with conn, conn.makefile("rwb") as stream:
         out, err = Stream(stream, "out"), Stream(stream, "err")
         try:
-            code = run(rt, stream.readline(), out, err, launcher)
+            line = stream.readline()
+            interrupts.poll = stop_requests(conn, stream)
+            code = run(rt, line, out, err, launcher, interrupts)
             stream.write(json.dumps({"exit": code}).encode() + b"\n")
             stream.flush()
         except OSError:     # the client went away; the run itself has finished or failed
             pass
+        finally:
+            interrupts.forget_requests()
 
 
-def run(rt: Runtime, line: bytes, out: Stream, err: Stream, launcher: Optional[Launcher] = None) -> int:
+def run(rt: Runtime, line: bytes, out: Stream, err: Stream, launcher: Optional[Launcher] = None,
+        interrupts: Optional[Interrupts] = None) -> int:
     try:
         request = json.loads(line or b"{}")
         doc, argv = request["doc"], [str(a) for a in request["argv"]]
@@ -73,7 +95,8 @@ def run(rt: Runtime, line: bytes, out: Stream, err: Stream, launcher: Optional[L
     here = os.getcwd()
     os.chdir(args.cwd or here)
     try:
-        return Executor(doc, args, out=out, err=err, runtime=rt, launcher=launcher).apply(args.from_step)
+        return Executor(doc, args, out=out, err=err, runtime=rt, launcher=launcher,
+                        interrupts=interrupts).apply(args.from_step)
     except Exception as e:      # keep serving; the client hears what went wrong
         err.write(f"the manager failed while applying the plan: {e!r}\n")
         return EXIT_FAILED
@@ -100,29 +123,18 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
     server.listen(4)
     server.settimeout(0.0)
     launcher = Launcher() if launch else None
-    rt = Runtime("manager", namespace, timeout, node_name=tool_node("manager"))   # rclpy ends it on SIGINT, SIGTERM
-    from rclpy.executors import ExternalShutdownException
+    interrupts = Interrupts()   # SIGINT, SIGTERM: a plan running stops at its step's end, then the manager ends
+    interrupts.install()
+    rt = Runtime("manager", namespace, timeout, node_name=tool_node("manager"))
     print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
           flush=True)
     if ready:
         with open(ready, "w", encoding="utf-8") as fh:
             fh.write(path)
     try:
-        looked = 0.0
-        while True:
-            try:
-                rt.spin(0.05)
-            except (KeyboardInterrupt, ExternalShutdownException):
-                break
-            if time.monotonic() - looked >= GRAPH_POLL:
-                rt.graph()
-                looked = time.monotonic()
-            try:
-                conn, _ = server.accept()
-            except (BlockingIOError, TimeoutError):
-                continue
-            conn.settimeout(None)
-            handle(rt, conn, launcher)
+        _loop(rt, server, launcher, interrupts)
+    except KeyboardInterrupt:   # a second signal while idle
+        pass
     finally:
         if launcher is not None:
             launcher.close()
@@ -133,6 +145,23 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
             pass
         rt.close()
     return 0
+
+
+def _loop(rt: Runtime, server: socket.socket, launcher: Optional[Launcher], interrupts: Interrupts) -> None:
+    """Serve clients one at a time until a signal comes (the plan it interrupts ends first)."""
+    looked = 0.0
+    while not interrupts.signals:
+        rt.spin(0.05)
+        if time.monotonic() - looked >= GRAPH_POLL:
+            rt.graph()
+            looked = time.monotonic()
+        try:
+            conn, _ = server.accept()
+        except (BlockingIOError, TimeoutError):
+            continue
+        conn.settimeout(None)
+        handle(rt, conn, launcher, interrupts)
+    print(f"reconf manager: {interrupts.by}: stopping", flush=True)
 
 
 def main(argv: Optional[list[str]] = None) -> int:

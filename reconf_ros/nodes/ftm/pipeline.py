@@ -249,6 +249,7 @@ class Protocol:
                 self.p.comp.node.get_logger().warning(f"{rid}: no result from the layer in {GIVE_UP_AFTER} s, dropped")
                 self.dropped.add(rid)
                 del self.inflight[rid]
+                self.p.input("from_after").give_up()     # its result is no longer waited for
         while len(self.inflight) < self.window and self.queue and self.p.normal:
             self.next()
 

@@ -12,7 +12,9 @@ service call), --step-timeout S (per step), --wire-timeout S (wait for matching 
 --report FILE (the run's report, JSON), --stop-started (on failure, stop what this run started).
 Exit status: 0 every step done and the wire showed no violated assumption (or, with --dry-run,
 every state safe); 1 a state is unsafe, the live system does not match the plan, a step failed,
-or the monitors saw a violated assumption; 2 bad usage or ROS 2 not available.
+or the monitors saw a violated assumption; 2 bad usage or ROS 2 not available; 130 interrupted
+(SIGINT or SIGTERM: the run stops at the end of the step, at once on a second signal, and
+writes its report).
 
 Each component runs one lifecycle node named after it that implements the reconf control
 interface (docs/control-interface.md). The executor below is the modules of reconf_ros/executor/,
@@ -44,7 +46,7 @@ from typing import Any, Callable, Iterable, Iterator, Optional, Protocol, TypedD
 # by tests/test_tables.py).
 SYMBOLS = {"create": "+", "remove": "-", "attach": "\u2192", "detach": "\u00d7", "degrade": "\u2193",
            "upgrade": "\u2191"}
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class PredicateDoc(TypedDict):
@@ -150,12 +152,18 @@ def plan_steps(doc: dict[str, Any]) -> list[Step]:
     return [Step.from_doc(s) for s in doc["plan"]["steps"]]
 
 
+def restoring(doc: dict[str, Any]) -> int:
+    """How many first steps of a recovery's plan restore validity (docs/executor.md#failure-and-recovery)."""
+    return int((doc["plan"].get("recovery") or {}).get("restore", 0))
+
+
+def orphans(doc: dict[str, Any]) -> list[dict[str, Any]]:
+    """The nodes a recovery's plan ends before its first step (docs/executor.md#recovering-from-the-live-system)."""
+    return list((doc["plan"].get("recovery") or {}).get("orphans") or [])
+
+
 def join_list(items: Iterable[str]) -> str:
     return ",".join(sorted(items))
-
-
-def split_list(text: str) -> list[str]:
-    return [x for x in text.split(",") if x]
 
 
 def plural(n: int, word: str, many: str = "") -> str:
@@ -329,7 +337,12 @@ class Model:
         return out
 
     def failures(self, state: State) -> list[str]:
-        """Every assumption of a present functionality's current mode that does not hold."""
+        """Every assumption of a present functionality's current mode that does not hold, in words."""
+        return [f"{c}.{f} assumes {a}, which does not hold" for c, f, a in self.failing(state)]
+
+    def failing(self, state: State) -> list[tuple[str, str, str]]:
+        """(component, functionality, assumption's text) of every assumption of a present
+        functionality's current mode that does not hold."""
         present = [c for c in sorted(state.components) if c in self.comps]
         feeds: dict[tuple[str, str], list[str]] = {}
         for conn, comp, pname in sorted(state.roles):
@@ -348,12 +361,12 @@ class Model:
                     return True
             return any(satisfies(e, a) for e in self.env)
 
-        out = []
+        out: list[tuple[str, str, str]] = []
         for comp in present:
             for f in self.comps[comp]["functionalities"]:
                 for a in self.mode(comp, f, state)["assumptions"]:
                     if not holds(comp, f, a):
-                        out.append(f"{comp}.{f['name']} assumes {a['text']}, which does not hold")
+                        out.append((comp, f["name"], a["text"]))
         return out
 
     def relying_inputs(self, comp: str, state: State) -> list[str]:
@@ -466,9 +479,12 @@ def tool_node(tool: str) -> str:
 def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],
               claimed: Iterable[str] = ()) -> Optional[str]:
     """A component's node: the node under its own name `own` (a fully qualified name) if it runs,
-    is not `claimed` and declares no other component; else the one node of own's namespace whose
-    status declares the component (`declared`), a new version's `X_2` (docs/executor.md#names)."""
+    is not `claimed`, declares no other component and is not finalized; else the one node of own's
+    namespace whose status declares the component (`declared`), a new version's `X_2`
+    (docs/executor.md#names)."""
     claimed = set(claimed)
+    # a node whose status says it is finalized is gone, though its process (others' too) still runs
+    graph = {f for f in graph if statuses.get(f, {}).get("lifecycle") != "finalized"}
     if own in graph and own not in claimed and statuses.get(own, {}).get("component", declared) == declared:
         return own
     ns = own.rsplit("/", 1)[0]
@@ -524,7 +540,10 @@ class Runtime:
         self.clients: dict[str, Any] = {}
         self.statuses: dict[str, Status] = {}             # node fqn -> its last status
         self.heard: dict[str, float] = {}                 # node fqn -> when its last status came
-        rclpy.init()
+        from rclpy.signals import SignalHandlerOptions
+        # rclpy's own handlers would shut the context down under a running step (RCLError,
+        # ExternalShutdownException): SIGINT and SIGTERM are the run's (context.Interrupts)
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
         self.started_at = time.monotonic()               # discovery began here
         self.graph_seen: set[str] = set()
@@ -837,6 +856,46 @@ class StepTiming:
         return {**doc, "action": self.action} if self.ok else doc
 
 
+class Interrupts:
+    """SIGINT and SIGTERM as a run takes them (docs/executor.md#interrupted): the first asks the
+    run to stop at the end of the current step, the second (and any later one) stops it at once
+    (KeyboardInterrupt, where Python is when it comes). A manager also counts the stop requests
+    its client forwards (`poll`: a call that returns who asked, or "")."""
+
+    def __init__(self) -> None:
+        self.count = 0                 # stops asked: signals and forwarded requests
+        self.signals = 0               # signals this process received
+        self.by = ""                   # who asked first
+        self.poll: Optional[Callable[[], str]] = None
+
+    def handler(self, signum: int, frame: Any) -> None:
+        self.signals += 1
+        self.ask(signal.Signals(signum).name)
+        if self.count > 1:
+            raise KeyboardInterrupt
+
+    def ask(self, by: str) -> None:
+        self.count += 1
+        self.by = self.by or by
+
+    def install(self) -> None:
+        """Take SIGINT and SIGTERM (in the main thread)."""
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self.handler)
+
+    def forget_requests(self) -> None:
+        """After a manager's run: only this process's own signals still count."""
+        self.count, self.poll = self.signals, None
+        self.by = self.by if self.signals else ""
+
+    @property
+    def stop(self) -> bool:
+        asked = self.poll() if self.poll is not None else ""
+        if asked:
+            self.ask(asked)
+        return self.count > 0
+
+
 @dataclass
 class Context:
     """One run of a plan document on the live system."""
@@ -850,6 +909,12 @@ class Context:
     touched: set[str] = field(default_factory=set)
     timings: list[StepTiming] = field(default_factory=list)
     failure: str = ""                # why the last step failed
+    interrupts: Interrupts = field(default_factory=Interrupts)
+    step: int = 0                    # the step being performed (0: none yet)
+    began: float = 0.0               # when it began, on the wall clock (what the nodes' statuses use)
+    baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
+    violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
+    unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -859,6 +924,9 @@ class Context:
         self.log_dir: str = self.args.log_dir or os.path.join(
             "reconf-logs", f"{self.doc['system']}-{datetime.datetime.now().strftime('%Y%m%d-%H%M%S')}-{os.getpid()}")
         self._names: Optional[Names] = None
+        recovery = self.doc["plan"].get("recovery") or {}
+        self.placed: dict[str, str] = dict(recovery.get("placed") or {})
+        self.orphans: list[dict[str, Any]] = list(recovery.get("orphans") or [])
 
     @property
     def names(self) -> Names:
@@ -866,6 +934,7 @@ class Context:
         if self._names is None:
             self._names = Names(self.rt, self.doc["plan"].get("renames", {}), self.model.comps,
                                 self.doc["fingerprint"])
+            self._names.placed.update(self.placed)     # where a recovery found the nodes
         return self._names
 
     def say(self, text: str) -> None:
@@ -896,18 +965,32 @@ def _walk(model: Model, steps: list[Step], recorded: PlanStates,
     return rows, None, agree
 
 
+def _verdict(model: Model, steps: list[Step], restore: int, i: int, st: State) -> tuple[str, list[str]]:
+    """`safe`, `UNSAFE`, or `restoring`: a state before the end of a recovery's first degrades
+    that fails only on functionalities a later one of them degrades (docs/soundness.md#restoring-validity)."""
+    bad = model.failing(st)
+    if not bad:
+        return "safe", []
+    words = [f"{c}.{f} assumes {a}, which does not hold" for c, f, a in bad]
+    later = {(s.component, s.functionality) for s in steps[i:restore] if s.action == "degrade"}
+    if i < restore and all((c, f) in later for c, f, _ in bad):
+        return "restoring", words
+    return "UNSAFE", words
+
+
 def replay(doc: dict[str, Any], out: Writer) -> bool:
-    """Replay the plan from its first state; print every state; True when all are safe."""
-    model, steps = Model(doc["model"]), plan_steps(doc)
+    """Replay the plan from its first state; print every state; True when all are safe (or, in a
+    recovery's first degrades, restoring validity)."""
+    model, steps, restore = Model(doc["model"]), plan_steps(doc), restoring(doc)
     rows, refused, ok = _walk(model, steps, PlanStates(doc["plan"]), out)
     unsafe = []
     for i, (text, st) in enumerate(rows):
-        bad = model.failures(st)
+        verdict, bad = _verdict(model, steps, restore, i, st)
         degraded = ", ".join(f"{c}.{f}" for c, f in sorted(st.degraded) if c in st.components) or "-"
-        print(f"{text:<60} [{'UNSAFE' if bad else 'safe'}]  degraded: {degraded}", file=out)
+        print(f"{text:<60} [{verdict}]  degraded: {degraded}", file=out)
         for reason in bad:
             print(f"       {reason}", file=out)
-        if bad:
+        if verdict == "UNSAFE":
             unsafe.append(i)
     if refused is not None:
         i, step, why = refused
@@ -918,7 +1001,12 @@ def replay(doc: dict[str, Any], out: Writer) -> bool:
         where = ", ".join(f"step {i} ({steps[i - 1].describe()})" if i else "the initial state" for i in unsafe)
         print(f"dry run: UNSAFE after {where}", file=out)
         ok = False
-    if ok:
+    if ok and restore:
+        print(f"dry run: steps 1-{restore} restore validity; " if restore > 1 else
+              "dry run: step 1 restores validity; ", end="", file=out)
+        print(f"the {len(rows) - restore} states from there are safe" if len(rows) - restore != 1 else
+              "the 1 state from there is safe", file=out)
+    elif ok:
         print("dry run: " + (f"all {len(rows)} states are safe" if len(rows) != 1 else "the 1 state is safe"),
               file=out)
     return ok
@@ -959,7 +1047,7 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "unresponsive")
+            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive")
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
@@ -977,6 +1065,13 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     return dict(sorted(seen.items()))
 
 
+def _exited(ctx: Context, comp: str) -> bool:
+    """Whether the process this run started for `comp` has exited (a node killed stays in the
+    graph a while, not answering: it is absent, not unknown)."""
+    info = ctx.started.get(comp)
+    return info is not None and info.proc.poll() is not None
+
+
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     """The configuration the nodes showed: the active ones present, their modes and attachments."""
     back = {v: k for k, v in ctx.names.renames.items()}
@@ -984,6 +1079,15 @@ def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
     degraded = [(c, f) for c in comps for f, m in seen[c].modes.items() if m != "normal"]
     roles = [(back.get(k, k), c, p) for c in comps for p, ks in seen[c].ports.items() for k in ks]
     return State(comps, degraded, roles)
+
+
+def read_all(ctx: Context) -> tuple[State, dict[str, Observed]]:
+    """Every component of the model read: the configuration, and what each node showed (the
+    components whose node did not answer noted in `ctx.unread`: the configuration says
+    nothing of them)."""
+    seen = observe(ctx, ctx.model.comps)
+    ctx.unread = {c for c, o in seen.items() if o.lifecycle == "unresponsive"}
+    return as_state(ctx, seen), seen
 
 
 def neighbourhood(ctx: Context) -> set[str]:
@@ -1116,12 +1220,17 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
                                  f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
                                  "could leave it without one")
             continue
-        fresh = f"in.{port}.fresh"
-        if not wait_status(ctx, reader, lambda st: bool(names & set(split_list(st.get(fresh, "")))), wait):
+        if not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
             st = ctx.rt.status(ctx.names.fqn(reader)) or {}
-            raise StepFailed(f"{reader}.{port} is not receiving from {', '.join(sorted(names))} on {k} "
-                             f"(fresh sources: {st.get(fresh) or 'none'}); taking {step.component}'s away "
-                             "would leave it without data")
+            raise StepFailed(f"{reader}.{port} has received nothing on {k} from {', '.join(sorted(names))} since the "
+                             f"step began (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); taking "
+                             f"{step.component}'s away would leave it without data")
+
+
+def _heard_since(st: Status, port: str, nodes: set[str], since: float) -> list[str]:
+    """The `nodes` whose messages `port` received after `since` (wall clock), as the status
+    shows: a publisher that died a moment ago vouches for nothing with what it sent before."""
+    return [n for n in sorted(nodes) if float(st.get(f"in.{port}.last.{n}") or 0) > since]
 
 
 def wire_after(ctx: Context, step: Step, will: State) -> None:
@@ -1239,39 +1348,165 @@ def wait_exit(proc: Any, seconds: float) -> int:
     return int(proc.returncode)
 
 
-def list_started(ctx: Context, stop: bool) -> None:
+def _stop(proc: Any) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=3)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=3)
+
+
+def list_started(ctx: Context, stop: bool, present: Optional[Iterable[str]] = None) -> None:
     """Name every process this run started (pid, state, log); with `stop`, end the ones still
-    running (SIGTERM, then SIGKILL after 3 s)."""
+    running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component is not
+    in the `present` ones observed: never activated, they are in no configuration and would
+    only stand in the way of a run or a recovery that starts them again."""
     if not ctx.started:
         return
+    keep = None if present is None else set(present)
     ctx.warn("Processes this run started:")
     for c, info in sorted(ctx.started.items()):
         alive = info.proc.poll() is None
-        if alive and stop:
-            info.proc.terminate()
-            try:
-                info.proc.wait(timeout=3)
-            except subprocess.TimeoutExpired:
-                info.proc.kill()
-            ctx.warn(f"  {c}: pid {info.pid} stopped (--stop-started), log {info.log}")
+        if alive and (stop or (keep is not None and c not in keep)):
+            _stop(info.proc)
+            info.ended = info.proc.returncode
+            why = "--stop-started" if stop else "never active: in no configuration"
+            ctx.warn(f"  {c}: pid {info.pid} stopped ({why}), log {info.log}")
         else:
             state = "running" if alive else f"exited with status {info.proc.returncode}"
             ctx.warn(f"  {c}: pid {info.pid} {state}, log {info.log}")
 
 
+def _process(pid: Optional[int], mark: str) -> Optional[bool]:
+    """Whether `pid` is a live process of this host whose environment carries the creation
+    `mark` (True), another process or a zombie (False), or none (None)."""
+    if not pid:
+        return None
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
+            if fh.read().rsplit(")", 1)[1].split()[0] == "Z":
+                return None
+        with open(f"/proc/{pid}/environ", "rb") as fh:
+            env = fh.read().split(b"\0")
+    except (OSError, IndexError):
+        return None
+    return f"{CREATED_ENV}={mark}".encode() in env
+
+
+def _wait_gone(pid: int, mark: str, seconds: float) -> bool:
+    end = time.monotonic() + seconds
+    while _process(pid, mark):
+        if time.monotonic() >= end:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
+    """End a node a plan started that is in no configuration (docs/executor.md#recovering-from-the-live-system):
+    down its lifecycle to finalized (a reconf node then exits), its process signalled if it does
+    not exit (only a process of this host that carries the node's creation mark). What was done."""
+    fqn, pid, mark = orphan["node"], orphan.get("pid"), orphan.get("created", "")
+    transition = ctx.rt.Transition
+    try:
+        lc = ctx.rt.lifecycle(fqn) if fqn in ctx.rt.nodes() else "gone"
+    except StepFailed:
+        lc = "unresponsive"
+    if lc == "active":
+        raise StepFailed(f"the orphan {fqn} is active now: plan the recovery again")
+    if lc in ("unconfigured", "inactive"):
+        tid = transition.TRANSITION_UNCONFIGURED_SHUTDOWN if lc == "unconfigured" else \
+            transition.TRANSITION_INACTIVE_SHUTDOWN
+        try:
+            ctx.rt.transition(fqn, tid, "shutdown")
+        except StepFailed as e:
+            lc = f"{lc}, shutdown refused ({e})"
+    ctx.rt.forget(fqn)
+    if pid is None or _wait_gone(pid, mark, ctx.args.timeout):
+        return f"{lc} → finalized, exited" if lc in ("unconfigured", "inactive") else f"{lc}"
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        if _process(pid, mark):
+            os.kill(pid, sig)
+            if _wait_gone(pid, mark, 3.0):
+                return f"{lc}; did not exit, ended by {sig.name}"
+    raise StepFailed(f"the orphan {fqn} (pid {pid}) did not exit")
+
+
+def end_orphans(ctx: Context) -> None:
+    """End every orphan a recovery's plan lists, before its first step."""
+    for orphan in ctx.orphans:
+        ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+        how = end_orphan(ctx, orphan)
+        ctx.say(f"ended the orphan {orphan['node']} (pid {orphan.get('pid') or 'unknown'}): {how}")
+
+
 # --- reconf_ros/executor/handlers.py ---
 
+def _adoptable(ctx: Context, comp: str, fqn: str) -> bool:
+    """Whether the node `fqn` that runs already is `comp`'s and not active (a process an earlier
+    run started and did not activate, or one deactivated): the create adopts it."""
+    st = ctx.rt.status(fqn) or {}
+    if st.get("component", ctx.names.declared(comp)) != ctx.names.declared(comp):
+        return False
+    try:
+        return ctx.rt.lifecycle(fqn) in ("unconfigured", "inactive")
+    except StepFailed:
+        return False
+
+
 def create(ctx: Context, step: Step) -> None:
-    """Start the component's process, wait for its lifecycle services, configure and activate it."""
+    """Start the component's process (or adopt its node, there and not active), wait for its
+    lifecycle services, configure and activate it; its monitor counts from then on."""
     comp, names = step.component, ctx.names
     if names.is_version(comp):        # X@new: a node name no other node has (X's may still run)
         names.locate([comp])
-        if comp in names.placed:
+        if comp in names.placed and not _adoptable(ctx, comp, names.fqn(comp)):
             raise StepFailed(f"before the step, {comp} runs already (node {names.fqn(comp)})")
-        names.placed[comp] = names.fresh(comp)
+        names.placed.setdefault(comp, names.fresh(comp))
     fqn = names.fqn(comp)
     if fqn in ctx.rt.nodes() or ctx.rt.node.count_services(f"{fqn}/get_state"):
-        raise StepFailed(f"before the step, a node {fqn} is already running")
+        if _adoptable(ctx, comp, fqn):
+            _adopt(ctx, comp, fqn)
+            return baseline(ctx, comp)
+        if not _finalized(ctx, fqn):
+            raise StepFailed(f"before the step, a node {fqn} is already running")
+        names.placed[comp] = names.fresh(comp)     # the finalized node stays while its process runs others
+        ctx.say(f"      {fqn} is a finalized node that stays in its process: {comp} starts as {names.fqn(comp)}")
+        fqn = names.fqn(comp)
+    _start(ctx, comp, fqn)
+    baseline(ctx, comp)
+
+
+def _finalized(ctx: Context, fqn: str) -> bool:
+    """Whether the node `fqn` says it is finalized (its lifecycle, or its last status)."""
+    if (ctx.rt.status(fqn) or {}).get("lifecycle") == "finalized":
+        return True
+    try:
+        return ctx.rt.lifecycle(fqn) == "finalized"
+    except StepFailed:
+        return False
+
+
+def _adopt(ctx: Context, comp: str, fqn: str) -> None:
+    lc = ctx.rt.lifecycle(fqn)
+    pid = (ctx.rt.status(fqn) or {}).get("pid", "unknown")
+    if lc == "unconfigured":
+        ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_CONFIGURE, "configure")
+    ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
+    ctx.say(f"      adopted {comp}'s node {fqn} (pid {pid}, {lc}: started and left so by an earlier run): activated")
+
+
+def baseline(ctx: Context, comp: str) -> None:
+    """Take a new node's monitor's count of violations as it comes up: from then on it counts in
+    every step's check and the final one (docs/executor.md)."""
+    if wait_status(ctx, comp, lambda st: st.get("lifecycle") == "active", min(3.0, ctx.rt.left())):
+        ctx.baseline[comp] = int((ctx.rt.status(ctx.names.fqn(comp)) or {}).get("violations", "0"))
+
+
+def _start(ctx: Context, comp: str, fqn: str) -> None:
+    """Start the component's process as `fqn`, wait for its lifecycle services, configure and activate it."""
+    names = ctx.names
     argv = command(ctx, comp)
     os.makedirs(ctx.log_dir, exist_ok=True)
     log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
@@ -1371,6 +1606,7 @@ HANDLERS: dict[str, Callable[[Context, Step], None]] = {
 def perform(ctx: Context, step: Step, was: State, will: State) -> None:
     """One step: its wire condition before, its handler, its wire condition after."""
     ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+    ctx.began = time.time()
     wire_before(ctx, step, was, will)
     HANDLERS[step.action](ctx, step)
     wire_after(ctx, step, will)
@@ -1389,10 +1625,14 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
+        "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}
+    if ctx.interrupts.stop:
+        body["interrupted_by"] = ctx.interrupts.by
     tmp = f"{path}.tmp{os.getpid()}"
     with open(tmp, "w", encoding="utf-8") as fh:
         json.dump(body, fh, indent=1, sort_keys=True)
@@ -1430,35 +1670,77 @@ def _judge(ctx: Context, i: int, observed: State, seen: dict[str, Observed]) -> 
             ctx.warn(f"  - {b}")
     else:
         ctx.warn("It is valid: every assumption of every present functionality holds in the model.")
-    for k, name in ((i - 1, "before"), (i, "after")):
+    if i == 0 and not ctx.model.differences(ctx.states[0], observed, ctx.model.comps):
+        ctx.warn("It is the plan's first state: nothing was done.")
+    for k, name in ((i - 1, "before"), (i, "after")) if i else ():
         if not ctx.model.differences(ctx.states[k], observed, ctx.model.comps):
             ctx.warn(f"It is the plan's state {name} step {i}.")
 
 
 def _observe_all(ctx: Context) -> tuple[Optional[State], dict[str, Observed]]:
     try:
-        seen = observe(ctx, ctx.model.comps)
-        return as_state(ctx, seen), seen
+        return read_all(ctx)
     except StepFailed as e:
         ctx.warn(f"could not observe the system after the failure: {e}")
         return None, {}
 
 
-def failed(ctx: Context, i: int, step: Step, why: str) -> int:
+def failed(ctx: Context, i: int, step: Optional[Step], why: str) -> int:
     """Step `i` failed: read every component, say what the system is now and how to recover."""
-    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}")
+    ctx.warn(f"step {i} ({step.describe()}) FAILED: {why}" if step is not None else f"FAILED: {why}")
+    observed = _report_observed(ctx, i)
+    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    _how_to_recover(ctx, path)
+    return EXIT_FAILED
+
+
+def interrupted(ctx: Context, i: int, at_once: bool = False) -> int:
+    """The run was interrupted (docs/executor.md#interrupted): after step `i` (0: before the
+    first), or, `at_once`, during it. Read every component, say what the system is now, name
+    the processes the run started, write the report. Another signal meanwhile leaves the
+    configuration unread, and says so."""
+    by = ctx.interrupts.by or "a signal"
+    if i < 0:                           # during the final check: every step was done
+        i, where = ctx.args.to_step, "during the final check"
+        at_once = False
+    else:
+        where = (f"during step {i} ({ctx.steps[i - 1].describe()})" if at_once and i else
+                 f"after step {i}" if i else "before the first step")
+    ctx.warn(f"INTERRUPTED by {by} {where}" + (": stopped at once" if at_once else
+                                                ": stopped at the step's end" if i and "check" not in where else ""))
+    if at_once and i:
+        ctx.timings = [t for t in ctx.timings if t.step != i] + [StepTiming(i, time.time(), 0.0, False)]
+    observed: Optional[State] = None
+    try:
+        observed = _report_observed(ctx, i)
+    except KeyboardInterrupt:
+        ctx.warn("interrupted again: the configuration was not read")
+        list_started(ctx, False)
+    path = write_report(ctx, "interrupted", i, observed=observed, failed_step=i if at_once and i else None,
+                        why=f"interrupted by {by} {where}")
+    if observed is not None:
+        _how_to_recover(ctx, path)
+    return EXIT_INTERRUPTED
+
+
+def _report_observed(ctx: Context, i: int) -> Optional[State]:
+    """Every component read and judged; the processes started named (those never activated
+    ended: they are in no configuration); the configuration observed."""
     ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
     observed, seen = _observe_all(ctx)
     if observed is not None:
         _judge(ctx, i, observed, seen)
-    list_started(ctx, ctx.args.stop_started)
-    if ctx.started and ctx.args.stop_started:
-        observed = as_state(ctx, observe(ctx, ctx.model.comps))
-    path = write_report(ctx, "failed", i, observed=observed, failed_step=i, why=why)
+    list_started(ctx, ctx.args.stop_started, None if observed is None else observed.components)
+    if ctx.started and ctx.args.stop_started and observed is not None:
+        observed = _observe_all(ctx)[0]
+    return observed
+
+
+def _how_to_recover(ctx: Context, path: str) -> None:
     ctx.warn(f"To recover, plan from the observed configuration:\n"
-             f"    reconf recover {path} -o recover.py           (on to the plan's target)\n"
-             f"    reconf recover {path} --back -o recover.py    (back to the plan's start)")
-    return EXIT_FAILED
+             f"    reconf recover {path} --yes           (on to the plan's target)\n"
+             f"    reconf recover {path} --back --yes    (back to the plan's start)\n"
+             f"    (-o recover.py writes the plan as a script instead)")
 
 
 # --- reconf_ros/executor/run.py ---
@@ -1485,12 +1767,16 @@ def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> boo
 
 class Executor:
     """Applies a plan document's steps to the running system (docs/executor.md). A manager lends
-    its long-lived `runtime` and its `launcher`; a plan script makes its own runtime."""
+    its long-lived `runtime`, its `launcher` and its `interrupts`; a plan script makes its own
+    runtime and takes SIGINT and SIGTERM itself once the steps are confirmed."""
 
     def __init__(self, doc: dict[str, Any], args: argparse.Namespace, out: Writer = sys.stdout,
-                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None) -> None:
+                 err: Writer = sys.stderr, runtime: Any = None, launcher: Any = None,
+                 interrupts: Optional[Interrupts] = None) -> None:
         self.ctx = Context(doc, args, out, err, rt=runtime, launcher=launcher)
         self.own_runtime = runtime is None
+        if interrupts is not None:
+            self.ctx.interrupts = interrupts
 
     def apply(self, first: int) -> int:
         ctx = self.ctx
@@ -1498,9 +1784,12 @@ class Executor:
             return EXIT_FAILED
         t0 = time.monotonic()
         if self.own_runtime:
+            ctx.interrupts.install()
             ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
         try:
             return self._apply(first, t0)
+        except KeyboardInterrupt:       # a second signal: at once, wherever the run was
+            return interrupted(ctx, ctx.step, at_once=True)
         finally:
             if self.own_runtime:
                 ctx.rt.close()
@@ -1512,10 +1801,14 @@ class Executor:
         refused = self._check_start(first, hood)
         if refused is not None:
             return refused
+        if ctx.interrupts.stop:
+            return interrupted(ctx, 0)
+        end_orphans(ctx)
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
-        # wire than in the model (a suspended protocol keeps its clients waiting)
-        counted = violations(ctx, ctx.states[first - 1].components)
+        # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
+        # creates joins them as it comes up (handlers.baseline)
+        ctx.baseline = violations(ctx, ctx.states[first - 1].components)
         ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
@@ -1523,7 +1816,9 @@ class Executor:
         for i in range(first, last + 1):
             if not self._step(i):
                 return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
-        return self._finish(first, hood, counted, t0, check_at)
+            if ctx.interrupts.stop and i < last:
+                return interrupted(ctx, i)
+        return self._finish(first, hood, t0, check_at)
 
     def _check_start(self, first: int, hood: set[str]) -> Optional[int]:
         """Refuse (the exit status) unless the live system is the plan's state before `first`."""
@@ -1550,36 +1845,44 @@ class Executor:
         step = ctx.steps[i - 1]
         ctx.say(f"{step.label(i)} ...")
         s0, at = time.monotonic(), round(time.time(), 3)
+        ctx.step = i
         try:
             perform(ctx, step, ctx.states[i - 1], ctx.states[i])
             ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
             check_touched(ctx, ctx.states[i], f"after step {i}")
-        except (StepFailed, OSError, KeyboardInterrupt) as e:
-            ctx.failure = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)
+        except (StepFailed, OSError) as e:
+            ctx.failure = str(e)
             ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
             return False
+        except KeyboardInterrupt:
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            raise
         ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
         ctx.say(f"      done in {time.monotonic() - s0:.3f} s")
+        counted(ctx, i)
         return True
 
-    def _finish(self, first: int, hood: set[str], counted: dict[str, int], t0: float, check_at: float) -> int:
+    def _finish(self, first: int, hood: set[str], t0: float, check_at: float) -> int:
         """After the last step: the neighbourhood reads back as the plan's last state, the
-        touched functionalities meet their assumptions on the wire, and no monitor's count moved."""
+        touched functionalities meet their assumptions on the wire, and no monitor's count moved
+        (every monitor heard from at the start, and every node the plan created)."""
         ctx, last = self.ctx, self.ctx.args.to_step
+        ctx.step = -1                   # the final check
         end = ctx.states[last]
         normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
         unmet = [f"{c}.{f}" for c, f in normal if not wait_status(ctx, c, meets(f), ctx.args.wire_timeout)]
-        final = as_state(ctx, observe(ctx, hood))
+        # every component, not only the neighbourhood: the report says the whole configuration
+        final, _ = read_all(ctx)
         wrong = ctx.model.differences(end, final, hood)
         if wrong:
-            return failed(ctx, last, ctx.steps[last - 1], "after the last step: " + "; ".join(wrong))
-        now = violations(ctx, counted)
-        seen_bad = {c: now[c] - n for c, n in counted.items() if now.get(c, n) > n}
+            return failed(ctx, last, ctx.steps[last - 1] if last else None, "after the last step: " + "; ".join(wrong))
+        seen_bad = counted(ctx, last)
         upto = "" if last == len(ctx.steps) else f"; stopped after step {last} as asked (--to-step)"
         done = last - first + 1
-        ctx.say((f"all {done} steps" if done != 1 else "the 1 step") + f" done in {time.monotonic() - t0:.2f} s "
+        ctx.say(("no step" if done <= 0 else f"all {done} steps" if done != 1 else "the 1 step")
+                + f" done in {time.monotonic() - t0:.2f} s "
                 f"(checking the live system {check_at - t0:.2f} s, steps "
                 f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
         if unmet or seen_bad:
@@ -1587,16 +1890,26 @@ class Executor:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
             for c, n in sorted(seen_bad.items()):
                 ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
-                         "during the run")
+                         f"during the run (first seen after step {ctx.violated[c]})")
             write_report(ctx, "violated", first, observed=final)
             return EXIT_FAILED
-        heard = len(counted)
+        heard = len(ctx.baseline)
         ctx.say("on the wire: every functionality the plan touched meets its assumptions, and "
                 + (f"none of the {heard} monitors heard from saw" if heard != 1 else
                    "the 1 monitor heard from did not see")
                 + " a normal mode's assumption violated during the run")
         write_report(ctx, "done", first, observed=final)
         return EXIT_OK
+
+
+def counted(ctx: Context, i: int) -> dict[str, int]:
+    """Each counted monitor's violations since its baseline (those whose count moved), the step
+    after which each was first seen noted in `ctx.violated`."""
+    now = violations(ctx, ctx.baseline)
+    moved = {c: now[c] - n for c, n in ctx.baseline.items() if now.get(c, n) > n}
+    for c in moved:
+        ctx.violated.setdefault(c, i)
+    return moved
 
 
 # --- reconf_ros/executor/script.py ---
@@ -1622,9 +1935,18 @@ def via_manager(doc: dict[str, Any], argv: list[str], args: argparse.Namespace, 
               "or leave out --manager to apply the plan from this process", file=sys.stderr)
         return EXIT_USAGE
     request = {"doc": doc, "argv": argv + ["--yes", "--quiet-list", "--cwd", os.getcwd()]}
+
+    def forward(signum: int, frame: Any) -> None:
+        """A signal to this script asks the manager to stop the run (docs/executor.md#interrupted)."""
+        try:
+            sock.sendall(json.dumps({"stop": signal.Signals(signum).name}).encode() + b"\n")
+        except OSError:
+            pass
     with sock, sock.makefile("rwb") as stream:
         stream.write(json.dumps(request).encode() + b"\n")
         stream.flush()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, forward)
         for line in stream:
             msg = json.loads(line)
             if "exit" in msg:
@@ -1671,14 +1993,28 @@ def parse(doc: dict[str, Any], argv: Optional[list[str]],
     if not 1 <= args.from_step <= max(1, len(steps)):
         ap.error(f"--from-step must be between 1 and {max(1, len(steps))}")
     args.to_step = args.to_step or len(steps)
-    if not args.from_step <= args.to_step <= len(steps):
+    if steps and not args.from_step <= args.to_step <= len(steps):
         ap.error(f"--to-step must be between --from-step and {len(steps)}")
+    if not steps and args.to_step:
+        ap.error("--to-step: the plan has no step")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
     return args
 
 
 def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
+    """The script: replay the plan, then apply it here or through a manager. SIGINT and SIGTERM
+    end it quietly (exit 130) until the run takes them over (docs/executor.md#interrupted)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return _main(doc, argv)
+    except KeyboardInterrupt:
+        print("interrupted before any step: nothing done", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _main(doc: dict[str, Any], argv: Optional[list[str]]) -> int:
     try:
         sys.stdout.reconfigure(errors="replace")  # type: ignore[union-attr]
     except AttributeError:
@@ -1696,8 +2032,8 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
         if not safe and not args.dry_run:
             print("refusing to apply an unsafe plan", file=sys.stderr)
         return EXIT_OK if safe else EXIT_FAILED
-    if not steps:
-        print("nothing to do")
+    if not steps and not orphans(doc):
+        print("nothing to do: the plan has no step")
         return EXIT_OK
     if args.manager:
         forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
@@ -1712,8 +2048,10 @@ def main(doc: dict[str, Any], argv: Optional[list[str]] = None) -> int:
         print("ROS 2 is not available (no module rclpy): install reconf with its `ros` extra "
               "(pip install 'reconf[ros]'), or source a ROS 2 installation; --dry-run needs neither.", file=sys.stderr)
         return EXIT_USAGE
-    signal.signal(signal.SIGTERM, signal.default_int_handler)
     return Executor(doc, args).apply(args.from_step)
+
+for _sig in (signal.SIGINT, signal.SIGTERM):    # until main() takes them: quietly, nothing done
+    signal.signal(_sig, lambda signum, frame: sys.exit(130))
 
 DOC = json.loads(r"""{
  "command": "plan",

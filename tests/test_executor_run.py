@@ -1,0 +1,99 @@
+"""The executor's run, without ROS: a runtime whose statuses a test sets. A step that takes a
+publisher away waits for what the staying one sent after the step began (a publisher that
+died a moment ago vouches for nothing); SIGINT and SIGTERM stop a run at the step's end, a
+second at once; every monitor counts, a created node's from its own start."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+from typing import Any, Callable
+
+import pytest
+
+from checker.planning import plan_replace
+from checker.reports.plan_document import plan_document
+from reconf_dsl.loader import load
+from reconf_ros.executor.conditions import wire_before
+from reconf_ros.executor.context import Context, Interrupts
+from reconf_ros.executor.run import counted
+from reconf_ros.executor.runtime import StepFailed
+from reconf_ros.executor.script import arguments, parse
+from tests.examples_table import ROOT
+
+
+class Runtime:
+    """The part of `reconf_ros.executor.runtime.Runtime` the conditions read: statuses, and a
+    wait that looks once (the statuses do not change by themselves here)."""
+
+    namespace = ""
+
+    def __init__(self, statuses: dict[str, dict[str, str]]) -> None:
+        self.statuses = statuses
+
+    def status(self, fqn: str) -> Any:
+        return self.statuses.get(fqn)
+
+    def wait(self, cond: Callable[[], bool], seconds: float) -> bool:
+        return bool(cond())
+
+    def nodes(self) -> list[str]:
+        return sorted(self.statuses)
+
+
+def context(statuses: dict[str, dict[str, str]]) -> Context:
+    system = load([os.path.join(ROOT, "examples", "chatter.arch")])
+    plan = plan_replace(system, "talker", "talker_v2")
+    doc = plan_document("replace talker", system, plan, {}, model=True)
+    args = arguments(doc).parse_args(["--wire-timeout", "0.1"])
+    return Context(doc, args, out=open(os.devnull, "w"), err=open(os.devnull, "w"), rt=Runtime(statuses))
+
+
+def test_a_publisher_that_died_a_moment_ago_vouches_for_nothing() -> None:
+    """Step 4 detaches talker.out: the listener must have received from talker_v2 since the step
+    began. It heard from it 0.1 s before (fresh still): not enough."""
+    now = time.time()
+    listener = {"in.in.fresh": "talker,talker_v2", "in.in.last.talker_v2": f"{now - 0.1:.3f}",
+                "in.in.last.talker": f"{now:.3f}", "in.in@/chatter.publishers": "2"}
+    ctx = context({"/listener": listener})
+    ctx.began = now
+    with pytest.raises(StepFailed, match="has received nothing on /chatter from talker_v2 since the step began"):
+        wire_before(ctx, ctx.steps[3], ctx.states[3], ctx.states[4])
+    listener["in.in.last.talker_v2"] = f"{now + 0.05:.3f}"       # a message sent after the step began
+    wire_before(ctx, ctx.steps[3], ctx.states[3], ctx.states[4])
+
+
+def test_a_first_signal_asks_a_second_stops_at_once() -> None:
+    interrupts = Interrupts()
+    interrupts.handler(signal.SIGTERM, None)
+    assert interrupts.stop and interrupts.by == "SIGTERM" and interrupts.signals == 1
+    with pytest.raises(KeyboardInterrupt):
+        interrupts.handler(signal.SIGINT, None)
+
+
+def test_a_manager_client_s_request_stops_a_run_and_is_forgotten_after() -> None:
+    interrupts = Interrupts()
+    asked = iter(["SIGINT", ""])
+    interrupts.poll = lambda: next(asked, "")
+    assert interrupts.stop and interrupts.by == "SIGINT"
+    interrupts.forget_requests()
+    assert not interrupts.stop and interrupts.poll is None      # the manager keeps serving
+
+
+def test_every_monitor_counts_from_its_own_start() -> None:
+    """A node a plan created counts from the baseline taken when it came up."""
+    statuses = {"/listener": {"violations": "2"}, "/talker_v2": {"violations": "1"}}
+    ctx = context(statuses)
+    ctx.baseline = {"listener": 2, "talker_v2": 0}
+    assert counted(ctx, 3) == {"talker_v2": 1}
+    statuses["/listener"]["violations"] = "3"
+    assert counted(ctx, 5) == {"listener": 1, "talker_v2": 1}
+    assert ctx.violated == {"talker_v2": 3, "listener": 5}
+
+
+def test_a_plan_of_no_step_parses() -> None:
+    ctx = context({})
+    doc = dict(ctx.doc, plan=dict(ctx.doc["plan"], steps=[], changes=[]))
+    assert parse(doc, ["--yes"]).to_step == 0
+    with pytest.raises(SystemExit):
+        parse(doc, ["--to-step", "2"])
