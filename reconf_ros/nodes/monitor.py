@@ -91,6 +91,12 @@ class Monitor:
         """An on-demand input is owed one more message, asked for at `now`."""
         self.inputs[port].owed.append(now)
 
+    def duplicate(self, port: str, gid: bytes, seq: Optional[int]) -> bool:
+        """Whether the message `seq` of publisher `gid` on `port` was taken already (two readers of
+        one input both deliver a transient-local publisher's data)."""
+        src = self.inputs[port].sources.get(gid)
+        return seq is not None and src is not None and seq <= src.last_seq
+
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
         st = self.inputs[port]
         if st.port.on_demand:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 7 steps, strategy paper.
 
-Architecture fingerprint: sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981
+Architecture fingerprint: sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
     python3 this_file.py               apply the plan to the running system (needs rclpy)
@@ -87,6 +87,7 @@ class ComponentDoc(TypedDict, total=False):
     host: Optional[str]
     ports: list[PortDoc]
     functionalities: list[FunctionalityDoc]
+    node: dict[str, Any]               # not a reconf node: how its adapter drives it (docs/adapter.md)
 
 
 class ConnectorDoc(TypedDict, total=False):
@@ -493,6 +494,15 @@ class StepFailed(Exception):
     """A step (or a read of the live system) could not be carried out; the message says why."""
 
 
+class NoControlInterface(StepFailed):
+    """A node answered, but without the control interface's parameters: not a reconf node (nor an
+    adapter), so there are no modes or attachments to read (docs/control-interface.md)."""
+
+
+NOT_A_RECONF_NODE = ("a node not built with reconf is driven through an adapter: declare it in its component "
+                     "(`node NAME { ... }`, docs/adapter.md)")
+
+
 def one(answers: dict[str, Any], key: str) -> Any:
     """The answer for `key` of a call to many; its StepFailed raised."""
     answer = answers[key]
@@ -702,6 +712,15 @@ class Runtime:
         return dict(one(self.get_many({fqn: names}), fqn))
 
     def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
+        """The answer to get_parameters(`names`) as values. A name without a value is not a value:
+        rclpy answers a request naming an undeclared parameter with no value at all, rclcpp with
+        NOT_SET; either way the node does not implement the control interface (NoControlInterface)."""
+        missing = names[len(res.values):] if len(res.values) < len(names) else \
+            [n for n, v in zip(names, res.values) if v.type == self.ParameterType.PARAMETER_NOT_SET]
+        if missing:
+            shown = ", ".join(missing[:3]) + (", …" if len(missing) > 3 else "")
+            raise NoControlInterface(f"{fqn} does not implement the control interface: no value for {shown}; "
+                                     f"{NOT_A_RECONF_NODE}")
         values: dict[str, Any] = {}
         for n, v in zip(names, res.values):
             if v.type == self.ParameterType.PARAMETER_STRING:
@@ -1157,9 +1176,15 @@ def wire_after(ctx: Context, step: Step, will: State) -> None:
 
 def command(ctx: Context, comp: str) -> list[str]:
     """The component's run line, or, when it has none, a model-driven node of the architecture
-    the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
+    the plan reaches (`reconf-node --plan`); with the node's name and namespace. A component
+    that is not a reconf node (its `node` block) is started by its adapter, `reconf-node --plan`
+    too, which runs the run line itself (docs/adapter.md)."""
     run, names = ctx.runs.get(comp), ctx.names
-    argv = shlex.split(run) if run else ["reconf-node", "--plan", plan_path(ctx), comp]
+    adapted = "node" in ctx.model.comps.get(comp, {})
+    if adapted and not run:
+        raise StepFailed(f"{comp} is a node reconf does not build (its `node` block) and has no run line: "
+                         "reconf cannot start it")
+    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan_path(ctx), comp]
     exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
     if exe is None:
         raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
@@ -1281,10 +1306,12 @@ def create(ctx: Context, step: Step) -> None:
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
     cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
+    plain: dict[str, float] = {}
     while not cli.service_is_ready():
         if proc.poll() is not None:
             raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                              f"(see {log})")
+        _not_a_lifecycle_node(ctx, comp, fqn, plain)
         ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
     t_up = time.monotonic()
     if ctx.rt.nodes().count(fqn) > 1:
@@ -1298,6 +1325,22 @@ def create(ctx: Context, step: Step) -> None:
     ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
     ctx.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
             f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
+
+
+NOT_LIFECYCLE_AFTER = 1.5   # s a new node may serve parameters without lifecycle services before it is called plain
+
+
+def _not_a_lifecycle_node(ctx: Context, comp: str, fqn: str, seen: dict[str, float]) -> None:
+    """Fail at once, not at the step's timeout, when the process's node runs and serves its
+    parameters but has had no lifecycle services for NOT_LIFECYCLE_AFTER s: not a reconf node."""
+    node = ctx.rt.node
+    if fqn in ctx.rt.nodes() and node.count_services(f"{fqn}/get_parameters") and \
+            not node.count_services(f"{fqn}/get_state"):
+        if time.monotonic() - seen.setdefault("since", time.monotonic()) > NOT_LIFECYCLE_AFTER:
+            raise StepFailed(f"{comp}'s process runs node {fqn}, which serves no lifecycle services: not a reconf "
+                             f"node; {NOT_A_RECONF_NODE}")
+    else:
+        seen.pop("since", None)
 
 
 def remove(ctx: Context, step: Step) -> None:
@@ -1728,7 +1771,7 @@ DOC = json.loads(r"""{
  "evidence": {
   "python_engine": "all 8 states valid"
  },
- "fingerprint": "sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981",
+ "fingerprint": "sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26",
  "format_version": 2,
  "model": {
   "components": [
