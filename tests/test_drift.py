@@ -167,6 +167,22 @@ def test_a_plain_node_is_a_placeholder_component() -> None:
     assert "// placeholder: /heard: no publisher's model gives a rate" in text
     chatter = found.connector("/chatter")
     assert chatter is not None and [str(r) for r in chatter.subscribers] == ["counter.chatter", "listener.in"]
+    # how reconf drives it (docs/adapter.md): its real name and topics, a plain node's outputs held
+    assert counter.node is not None and (counter.node.name, counter.node.lifecycle) == ("counter", False)
+    assert {t.port: t.ros_name for t in counter.node.topics} == {"heard": "/heard", "chatter": "/chatter"}
+    assert [str(e.kind) for e in counter.node.effects("main", "degraded")] == ["hold"]
+    assert "add the `run` line that starts it" in text
+
+
+def test_a_lifecycle_node_is_written_to_be_deactivated_and_a_node_with_services_undriven() -> None:
+    snap = deployed(CHATTER)
+    snap.nodes["/camera"] = NodeInfo("/camera", publishers={"/image": ["sensor_msgs/msg/Image"]}, lifecycle="active")
+    snap.nodes["/adder"] = NodeInfo("/adder", servers={"/add": ["example_interfaces/srv/AddTwoInts"]})
+    found = load_text(architecture(snap, "chatter"), "<discovered>")
+    camera, adder = found.component("camera"), found.component("adder")
+    assert camera is not None and camera.node is not None and camera.node.lifecycle
+    assert [e.kind for e in camera.node.effects("main", "degraded")] == ["deactivate"]
+    assert adder is not None and adder.node is None         # an adapter relays topics, not services
 
 
 SLOW = str(ROOT / "examples" / "chatter_slow.arch")

@@ -94,20 +94,7 @@ class ComponentNode(LifecycleNode):
         self.deployed = deployed        # attachments to make at start (see run_components)
         self.exit_status = 0            # the process's, once every node is finalized (run_components)
         self._internal = False
-        for f in component.functionalities:
-            self.declare_parameter(f"reconf.mode.{f.name}", Parameter.Type.STRING,
-                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING,
-                                                       description=f"mode of {f.name}: normal or degraded"))
-        for p in component.ports:
-            # rclpy 9 types an empty list as BYTE_ARRAY: declare the type, then set the value.
-            self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
-                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
-                                                       description=f"connectors {p.name} is attached to"))
-        # the component's model, read-only, for `reconf discover` (docs/control-interface.md#the-model)
-        self.declare_parameter(MODEL_PARAM, self._model_text(),
-                               ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
-                                                   description="the component as .arch text"))
-        self._store_params()
+        self._declare_interface()
         self.add_on_set_parameters_callback(self._on_set)
         self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
         # No polling: a silence timer per rated input, restarted by each arrival, fires only when
@@ -122,6 +109,23 @@ class ComponentNode(LifecycleNode):
         self._dirty = False
         self._flush = self.create_guard_condition(self._tick)
         self._changed()
+
+    def _declare_interface(self) -> None:
+        """The control interface's parameters (docs/control-interface.md#parameters), and the model."""
+        for f in self.component.functionalities:
+            self.declare_parameter(f"reconf.mode.{f.name}", Parameter.Type.STRING,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING,
+                                                       description=f"mode of {f.name}: normal or degraded"))
+        for p in self.component.ports:
+            # rclpy 9 types an empty list as BYTE_ARRAY: declare the type, then set the value.
+            self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
+                                                       description=f"connectors {p.name} is attached to"))
+        # the component's model, read-only, for `reconf discover` (docs/control-interface.md#the-model)
+        self.declare_parameter(MODEL_PARAM, self._model_text(),
+                               ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
+                                                   description="the component as .arch text"))
+        self._store_params()
 
     def _model_text(self) -> str:
         try:
