@@ -20,7 +20,7 @@ and its ports renamed to private names (`nodes.wrapped`) and
 """
 from __future__ import annotations
 
-import functools
+import gc
 import signal
 import sys
 import threading
@@ -42,6 +42,7 @@ __all__ = ["AdapterNode", "from_architecture", "run_nodes"]
 
 WATCH_PERIOD = 0.2      # s between two looks at the node's process
 RECHECK_PERIOD = 1.0    # s between two looks at the publishers of the node's outputs
+SWITCH_INTERVAL = 0.001  # s a thread holds the interpreter while another waits (Python's default: 0.005)
 
 
 def from_architecture(system: System, name: str) -> Component:
@@ -52,6 +53,7 @@ def from_architecture(system: System, name: str) -> Component:
         raise KeyError(f"{system.name} declares no component {name} with a `node` block")
     comp = model_of(system, name, behaviour=False)
     comp.wraps, comp.node_block = ir.node, node_block(ir.node)
+    comp.lean = True          # the control interface's four services: a smaller wait set (docs/runtime.md#cost)
     return comp
 
 
@@ -79,14 +81,20 @@ class AdapterNode(ComponentNode):
         self.rates = {p.name: 0.0 for p in component.outputs}
         self.applied: dict[str, Any] = {}     # parameter -> the value last set on the node
         self.died: Optional[str] = None
-        for i in component.inputs:
-            i.listeners.append(functools.partial(self._to_node, i.name))
         self.create_timer(WATCH_PERIOD, self._watch)
+        # what start-up made (rclpy, the model, the language) is never garbage: a full collection
+        # over it stalled the relays for tens of ms at 1 kHz (docs/adapter.md#what-it-costs)
+        gc.collect()
+        gc.freeze()
+        # two threads relay (one each way): a waiting one gets the interpreter after 1 ms, not 5
+        sys.setswitchinterval(SWITCH_INTERVAL)
 
     # --- relays ---
-    def _to_node(self, port: str, data: bytes) -> None:
-        """A message of input `port`, as the connector delivered it (measured): on to the node."""
-        self.wrapped.write(port, data)
+    def _pass_on(self, port: str, data: bytes) -> None:
+        """A message of input `port`, as the connector delivered it: on to the node at once, then
+        measured (the monitor times it by its reception)."""
+        if self.active:
+            self.wrapped.write(port, data)
 
     def _relay(self, port: str, data: bytes) -> None:
         """A message the node published on `port` (in the hidden node's thread): on to the port's
@@ -205,9 +213,8 @@ class AdapterNode(ComponentNode):
 
     def status(self) -> dict[str, str]:
         now = time.monotonic()
-        with self.lock:
-            out = super().status()
-            counts = dict(self.from_node)
+        out = super().status()         # the relays' thread only adds to counters: read without the lock
+        counts = dict(self.from_node)
         since, before = self.rate_mark
         if now - since >= 0.5:
             self.rates = {p: (counts[p] - before[p]) / (now - since) for p in counts}

@@ -331,6 +331,7 @@ class ComponentNode(LifecycleNode):
         seq = info.get("publication_sequence_number")
         if key in self.companions and self.monitor.duplicate(port, gid, seq):
             return              # both readers had it
+        self._pass_on(port, msg)
         self._check(now)      # a gap that ends now is judged, exactly, before the message closes it
         fresh_before = self.monitor.fresh_sources(port, now)
         self.monitor.on_message(port, now, gid, seq, self._source(topic, gid))
@@ -352,6 +353,9 @@ class ComponentNode(LifecycleNode):
                     m.callback(msg)
                 except Exception as e:
                     self._fault(f.name, e)
+
+    def _pass_on(self, port: str, msg: Any) -> None:
+        """Where a message goes before it is measured: nowhere here (an adapter hands it to its node)."""
 
     def _on_request(self, port: str, msg: Any) -> None:
         if not self.active:     # buffered, handed over on activation (docs/control-interface.md)

@@ -133,6 +133,8 @@ class Wrapped:
         self.clients = {"get_state": self.driver.create_client(GetState, f"{self.fqn}/get_state"),
                         "change_state": self.driver.create_client(ChangeState, f"{self.fqn}/change_state"),
                         "set_parameters": self.driver.create_client(SetParameters, f"{self.fqn}/set_parameters")}
+        # not rclpy's EventsExecutor: in 9.1.2, while it spins in one thread, create_task and the
+        # node's graph queries from another wait forever (docs/adapter.md#what-it-costs)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.driver)
         self.thread = threading.Thread(target=self._spin, name=f"driver {self.private}", daemon=True)
