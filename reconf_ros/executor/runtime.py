@@ -205,10 +205,18 @@ class Runtime:
         return answers
 
     def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
-        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer)."""
-        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns})
-        return {n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
-                for n, r in res.items()}
+        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer). A
+        node that serves its parameters and no lifecycle services is a NoControlInterface at once,
+        not a timeout: it is not a reconf node."""
+        fqns = list(fqns)
+        plain = {f for f in fqns if self.node.count_services(f"{f}/get_parameters")
+                 and not self.node.count_services(f"{f}/get_state")}
+        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns if f not in plain})
+        out: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
+                               for f in plain}
+        out.update({n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                    for n, r in res.items()})
+        return out
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""

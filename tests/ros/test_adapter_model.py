@@ -87,3 +87,38 @@ def test_a_node_module_next_to_the_architecture_is_found(tmp_path: Path) -> None
                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
     assert res.returncode == 0, res.stderr
     assert "component sensor {" in res.stdout and "run \"reconf-node mynodes:sensor\"" in res.stdout
+
+
+def test_an_undeclared_parameter_is_not_a_value() -> None:
+    """rclpy answers get_parameters naming an undeclared parameter with no value at all, rclcpp
+    with NOT_SET: either way, a node without the control interface, said in one line."""
+    from types import SimpleNamespace
+
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+
+    from reconf_ros.executor.runtime import NoControlInterface, Runtime, StepFailed
+    rt = Runtime.__new__(Runtime)
+    rt.ParameterType = ParameterType
+    names = ["reconf.mode.talk", "reconf.port.out"]
+    for values in ([], [ParameterValue(type=ParameterType.PARAMETER_NOT_SET)] * 2):
+        with pytest.raises(NoControlInterface, match="does not implement the control interface: no value for "
+                                                     "reconf.mode.talk") as e:
+            rt.values("/lc_talker", names, SimpleNamespace(values=values))
+        assert isinstance(e.value, StepFailed) and "\n" not in str(e.value)
+    ok = [ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="normal"),
+          ParameterValue(type=ParameterType.PARAMETER_STRING_ARRAY, string_array_value=["/chatter"])]
+    assert rt.values("/talker", names, SimpleNamespace(values=ok)) == {"reconf.mode.talk": "normal",
+                                                                        "reconf.port.out": ["/chatter"]}
+
+
+def test_two_readers_of_one_input_take_each_message_once() -> None:
+    from reconf_ros.nodes.monitor import Monitor
+    system = load([example("chatter.arch")])
+    from reconf_ros.nodes.generic import from_architecture as model_driven
+    mon = Monitor(model_driven(system, "listener"))
+    gid = b"talker-gid"
+    assert not mon.duplicate("in", gid, 1)
+    mon.on_message("in", 1.0, gid, 1, "talker")
+    mon.on_message("in", 1.1, gid, 2, "talker")
+    assert mon.duplicate("in", gid, 2) and mon.duplicate("in", gid, 1) and not mon.duplicate("in", gid, 3)
+    assert not mon.duplicate("in", b"other", 2) and not mon.duplicate("in", gid, None)
