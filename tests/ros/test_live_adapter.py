@@ -156,6 +156,15 @@ def test_executor_says_when_a_node_has_no_control_interface(live: LiveSystem) ->
     res = reconf(live, "up", str(arch), "--yes", "--stop-started", "--log-dir", str(live.dir / "logs"))
     assert res.returncode == 1 and time.monotonic() - t0 < 25, res.stderr
     assert "serves no lifecycle services: not a reconf node" in res.stderr, res.stderr
+    lifecycle = live.dir / "undeclared_lifecycle.arch"      # a lifecycle node: it configures, it activates…
+    lifecycle.write_text("system lc\nmessage String = std_msgs/msg/String\n"
+                         'component lc_talker {\n  run "python3 -m reconf_ros.demo.unmodified lc_talker"\n'
+                         "  output out: String\n  functionality talk (out) { normal { out: String @ 10 Hz } "
+                         "degraded { out: nothing } }\n}\ntopic /chatter: String @ 10 Hz { lc_talker.out -> }\n")
+    res = reconf(live, "up", str(lifecycle), "--yes", "--stop-started", "--log-dir", str(live.dir / "logs"))
+    assert res.returncode == 1, res.stderr        # …and has none of the interface's parameters: not "normal"
+    assert "/lc_talker does not implement the control interface: no value for reconf.mode.talk" in res.stderr, \
+        res.stderr
     plain = live.start([sys.executable, "-m", "reconf_ros.demo.unmodified", "talker"], "plain.log")
     live.deploy(example("chatter.arch"), ["listener"])
     live.wait_ready(["listener"])
