@@ -10,10 +10,17 @@ with a violation or a failure. Then a 50-component live system (model-driven nod
 processes): the wall time of replacing its hub, by the plan script alone and through a manager.
 
     python -m bench.bench_live [--runs 20] [--only chatter] [--big-runs 5]
+    python -m bench.bench_live --only unmodified --runs 5 --big-runs 0 --save runs.jsonl   # in chunks…
+    python -m bench.bench_live --table runs.jsonl                                           # …one table
+
+`--save` appends each run's figures to a file, so that rows can be measured in several short
+runs (a live machine shared by others is held for minutes, not an hour); `--table` prints the
+rows of every run saved there.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import tempfile
 import time
@@ -33,6 +40,9 @@ SCENARIOS = [
     ("redundant replace lidar_rear", "redundant.arch", ["replace", "lidar_rear"]),
     ("chain5 replace stage0", "chain5.arch", ["replace", "stage0"]),
     ("chatter migrate", "chatter.arch", ["migrate", str(EX / "chatter.arch"), str(EX / "chatter_migrated.arch")]),
+    # nodes reconf does not build, driven through adapters (docs/adapter.md)
+    ("unmodified replace plain talker by lifecycle talker", "unmodified.arch", ["replace", "talker"]),
+    ("unmodified remove plain talker", "unmodified.arch", ["remove", "talker"]),
 ]
 
 
@@ -160,6 +170,23 @@ def row(name: str, runs: list[dict[str, Any]]) -> str:
             f"{stat('lost', '{:.0f}')} | {stat('steps_degraded', '{:.0f}')} | {stat('seconds_degraded')} |")
 
 
+HEADER = ("| scenario | runs | failed or violated | plan wall s | step s | largest gap / period | "
+          "lost | steps degraded | s degraded |\n|---|---|---|---|---|---|---|---|---|")
+
+
+def saved_table(path: Path) -> None:
+    """The rows of the runs `--save` wrote to `path`, one per scenario and strategy, in order."""
+    rows: dict[str, list[dict[str, Any]]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        run = json.loads(line)
+        rows.setdefault(run.pop("row"), []).append(run)
+    if not rows:
+        raise SystemExit(f"{path}: no run saved")
+    print(HEADER)
+    for name, runs in rows.items():
+        print(row(name, runs))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=20)
@@ -167,13 +194,18 @@ def main() -> None:
     ap.add_argument("--strategies", default="default,paper")
     ap.add_argument("--big-runs", type=int, default=5)
     ap.add_argument("--big-n", type=int, default=50)
+    ap.add_argument("--save", default="", help="append each scenario run's figures to this file (JSON lines)")
+    ap.add_argument("--table", default="", help="print the rows of the runs saved in this file, and nothing else")
     ap.add_argument("--big-how", default="script,manager,manager-full",
                     help="big-system rows: script (the plan script on its own), manager (through a running "
                          "manager); -full: nodes with every standard service, not lean")
     args = ap.parse_args()
-    print("| scenario | runs | failed or violated | plan wall s | step s | largest gap / period | "
-          "lost | steps degraded | s degraded |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    if args.table:
+        saved_table(Path(args.table))
+        return
+    if args.runs > 0 and not any(args.only in name for name, _, _ in SCENARIOS):
+        raise SystemExit(f"--only {args.only!r} matches no scenario: " + "; ".join(n for n, _, _ in SCENARIOS))
+    print(HEADER)
     with tempfile.TemporaryDirectory() as tmp:
         for k, (name, arch, plan_args) in enumerate(SCENARIOS):
             if args.only not in name or args.runs < 1:
@@ -182,6 +214,9 @@ def main() -> None:
                 runs = []
                 for i in range(args.runs):
                     r = measure(arch, plan_args, strategy, Path(tmp) / f"row{k}-{strategy}-{i}")
+                    if args.save:
+                        with open(args.save, "a", encoding="utf-8") as fh:
+                            fh.write(json.dumps({"row": f"{name} ({strategy})", **r}) + "\n")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
                         for line in r["seen"]:

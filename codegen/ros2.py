@@ -33,22 +33,26 @@ from typing import Any, Optional
 from reconf_dsl.ir import (
     Component,
     Connector,
+    Effect,
     EnvGuarantee,
     Functionality,
     Guarantee,
     Host,
     MessageType,
     Mode,
+    NodeMode,
+    NodeTopic,
     Port,
     PortRef,
     Predicate,
     Rate,
+    RosNode,
     System,
 )
 from reconf_ros.executor import EMBEDDED
 from reconf_ros.executor.plan_states import PlanStates
 
-__all__ = ["FORMAT_VERSION", "model_data", "render_plan_script", "system_at", "system_from_model_data",
+__all__ = ["FORMAT_VERSION", "model_data", "node_back", "node_data", "render_plan_script", "system_at", "system_from_model_data",
            "state_at"]
 
 FORMAT_VERSION = 2
@@ -75,10 +79,31 @@ def _functionality(f: Functionality) -> dict[str, Any]:
 
 
 def _component(c: Component, deployed: bool) -> dict[str, Any]:
-    return {"name": c.name, "deployed": deployed, "replaces": c.replaces, "run": c.run, "host": c.host,
-            "ports": [{"name": p.name, "kind": p.kind, "message": p.message, "assumption": _predicate(p.assumption)}
-                      for p in c.ports],
-            "functionalities": [_functionality(f) for f in c.functionalities]}
+    out = {"name": c.name, "deployed": deployed, "replaces": c.replaces, "run": c.run, "host": c.host,
+           "ports": [{"name": p.name, "kind": p.kind, "message": p.message, "assumption": _predicate(p.assumption)}
+                     for p in c.ports],
+           "functionalities": [_functionality(f) for f in c.functionalities]}
+    if c.node is not None:          # not a reconf node: how its adapter drives it (docs/adapter.md)
+        out["node"] = node_data(c.node)
+    return out
+
+
+def node_data(n: RosNode) -> dict[str, Any]:
+    """A `node` block as plain data (the executor starts such a component through its adapter)."""
+    return {"name": n.name, "lifecycle": n.lifecycle, "topics": {t.port: t.ros_name for t in n.topics},
+            "modes": [{"functionality": m.functionality, "mode": m.mode,
+                       "effects": [{"kind": e.kind, "param": e.param, "value": e.value} for e in m.effects]}
+                      for m in n.modes]}
+
+
+def node_back(d: Optional[dict[str, Any]]) -> Optional[RosNode]:
+    """The inverse of `node_data`."""
+    if d is None:
+        return None
+    return RosNode(d["name"], d["lifecycle"], tuple(NodeTopic(p, r) for p, r in d["topics"].items()),
+                   tuple(NodeMode(m["functionality"], m["mode"],
+                                  tuple(Effect(e["kind"], e["param"], e["value"]) for e in m["effects"]))
+                         for m in d["modes"]))
 
 
 def _connector(c: Connector) -> dict[str, Any]:
@@ -223,7 +248,8 @@ def system_from_model_data(model: dict[str, Any]) -> System:
         ports = tuple(Port(p["name"], p["kind"], p["message"], _predicate_back(p["assumption"])) for p in c["ports"])
         funcs = tuple(Functionality(f["name"], tuple(f["ports"]), mode(f["normal"], "normal"),
                                     mode(f["degraded"], "degraded"), f["criticality"]) for f in c["functionalities"])
-        return Component(c["name"], ports, funcs, c.get("run"), c.get("host"), c.get("replaces"))
+        return Component(c["name"], ports, funcs, c.get("run"), c.get("host"), c.get("replaces"),
+                         node=node_back(c.get("node")))
 
     conns = tuple(Connector(k["name"], k["kind"], _predicate_back(k["guarantee"]), k["single"],  # type: ignore[arg-type]
                             tuple(PortRef(c, p) for c, p in k["publishers"]),

@@ -78,6 +78,18 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC125", "bad-resource", "bad resource (CPUs, bandwidth)"),
     ("RC126", "nothing-asked", "`nothing` as an assumption or connector guarantee"),
     ("RC127", "output-named-assume", "an output named `assume`"),
+    ("RC128", "node-unknown-name", "a `node` block names a port or functionality its component does not have"),
+    ("RC129", "node-port-name", "a port of a `node` component without its ROS name, with two, or sharing one with "
+                                "another port"),
+    ("RC130", "node-mode-effect", "a `node` block's mode line that cannot be: `deactivate` on a node not declared "
+                                  "`lifecycle`, `deactivate` or `hold` in a normal mode, a deactivation that "
+                                  "silences another functionality's outputs, two lines for one mode, two `node` "
+                                  "blocks"),
+    ("RC131", "node-parameter", "a parameter a `node` block sets: a value ROS 2 cannot hold (a number, a string, "
+                                "`true` or `false`), set in one mode of a functionality and not in the other, set "
+                                "twice, or by two functionalities"),
+    ("RC132", "node-on-service", "a port of a `node` component on a `service` connector (its adapter relays "
+                                 "topics)"),
     ("RC201", "assumption-not-satisfied", "an assumption does not hold (from `check`)"),
     ("RC300", "engines-disagree", "the Python engine and Alloy disagree (a bug in reconf; both verdicts are shown)"),
     ("RC301", "alloy-unavailable", "Java or the Alloy jar missing"),
@@ -142,6 +154,9 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC617", "drift-lifecycle", "`reconf drift`: a component's node is not active (or does not answer)"),
     ("RC618", "drift-model", "`reconf drift`: a component's node runs another model than the architecture's "
                              "(its `reconf.model`: ports, message types, functionalities, modes' predicates)"),
+    ("RC619", "drift-no-control-interface", "`reconf drift`: a component's node does not implement the control "
+                                            "interface (a node not started through its adapter, or not a reconf "
+                                            "node): its modes and attachments cannot be read"),
     ("RC621", "smh-not-yaml", "`reconf modes import`: the model file is not YAML"),
     ("RC622", "smh-not-a-model", "`reconf modes import`: YAML, but not an SMH model file of ROS 2 system_modes (a "
                                  "part without modes, a first mode other than `__DEFAULT__`, a node mode without "

@@ -155,6 +155,8 @@ def _component(out: _Out, c: ir.Component) -> None:
         out.emit(_at(_span_of(c.run, c.span)), 1, f"run {quote(c.run)}")
     if c.host is not None:
         out.emit(_at(_span_of(c.host, c.span)), 1, f"host {c.host}")
+    if c.node is not None:
+        _node(out, c.node)
     if c.faults:
         out.emit(_at(_span_of(c.faults, c.span)), 1, "faults " + ", ".join(c.faults))
     if c.application:
@@ -188,6 +190,40 @@ def _component(out: _Out, c: ir.Component) -> None:
                 _block(out, _at(mode.span), 2, mode.kind, body, _brace(mode.span))
         out.emit(_brace(f.span), 1, "}", closing=True)
     out.emit(_brace(c.span), 0, "}", closing=True)
+
+
+def _node(out: _Out, n: ir.RosNode) -> None:
+    _block(out, _at(n.span), 1, node_head(n), [(_at(span), text) for span, text in node_body(n)], _brace(n.span))
+
+
+def node_head(n: ir.RosNode) -> str:
+    return f"node {n.name}" + (" lifecycle" if n.lifecycle else "")
+
+
+def node_body(n: ir.RosNode) -> list[tuple[Span, str]]:
+    """A `node` block's lines: the ports' ROS names, then what each mode means for the node."""
+    return [(t.span, f"{t.port} = {t.ros_name}") for t in n.topics] + \
+        [(m.span, f"{m.functionality} {m.mode}: " + ", ".join(effect_text(e) for e in m.effects)) for m in n.modes]
+
+
+def node_block(n: ir.RosNode, indent: str = INDENT) -> list[str]:
+    """The `node` block as canonical lines, its first at no indent (a component's text puts it in)."""
+    body = [indent + text for _, text in node_body(n)]
+    return [node_head(n) + " {", *body, "}"] if body else [node_head(n) + " { }"]
+
+
+def effect_text(e: ir.Effect) -> str:
+    """`deactivate`, `hold` or `set NAME = VALUE`, as the language writes it."""
+    return e.kind if e.kind != "set" else f"set {e.param} = {param_text(e.value)}"
+
+
+def param_text(value: ir.ParamValue) -> str:
+    """A parameter value as the language writes it: `true`, `3`, `0.5`, `"text"`."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value) if isinstance(value, int) else quote(value)
 
 
 Group = list[Comment]  # comments on one line: the first, then those glued to it

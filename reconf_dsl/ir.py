@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import cached_property, lru_cache
-from typing import Literal, Optional
+from typing import Literal, Optional, Union
 
 from .span import NO_SPAN, Span
 
@@ -166,6 +166,62 @@ class FtmDecl:
     span: Span = _span()
 
 
+ParamValue = Union[bool, int, float, str]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """What one mode of a functionality does to a node not built with reconf: `deactivate` it (a
+    lifecycle node), `hold` back what the mode guarantees nothing on (the adapter does, whatever
+    else the mode does), or `set` one of its parameters (`param`) to `value`."""
+
+    kind: Literal["deactivate", "hold", "set"]
+    param: str = ""
+    value: ParamValue = ""
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class NodeTopic:
+    """A port's ROS name inside the node's executable (`out = /chatter`), which reconf remaps."""
+
+    port: str
+    ros_name: str
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class NodeMode:
+    """What a mode of one functionality means for the node (`talk degraded: deactivate`)."""
+
+    functionality: str
+    mode: ModeKind
+    effects: tuple[Effect, ...] = ()
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class RosNode:
+    """A component that is not a reconf node: the ROS node `name` of its `run` command, driven by
+    an adapter that implements the control interface on its behalf (docs/adapter.md)."""
+
+    name: str
+    lifecycle: bool = False
+    topics: tuple[NodeTopic, ...] = ()
+    modes: tuple[NodeMode, ...] = ()
+    span: Span = _span()
+
+    def ros_name(self, port: str) -> Optional[str]:
+        return next((t.ros_name for t in self.topics if t.port == port), None)
+
+    def effects(self, functionality: str, mode: str) -> tuple[Effect, ...]:
+        """What `mode` of `functionality` does to the node; a degraded mode without a line holds."""
+        for m in self.modes:
+            if m.functionality == functionality and m.mode == mode:
+                return m.effects
+        return (Effect("hold"),) if mode == "degraded" else ()
+
+
 @dataclass(frozen=True)
 class Component:
     name: str
@@ -178,6 +234,7 @@ class Component:
     application: tuple[str, ...] = ()
     resources: tuple[ResourceSetting, ...] = ()
     ftm: Optional[FtmDecl] = None
+    node: Optional[RosNode] = None     # not a reconf node: how its adapter drives it
     span: Span = _span()
 
     def port(self, name: str) -> Optional[Port]:

@@ -108,6 +108,9 @@ class _ToIR:
         fields: dict[str, Any] = {"ports": [], "functionalities": []}
         for stmt in c[1:]:
             kind, value = stmt
+            if kind == "node" and "node" in fields:
+                self.sink.add(error("RC130", "a component is one node: a second `node` block", value.span,
+                                    related=(Related(fields["node"].span, "the first one"),)))
             if kind in ("ports", "functionalities"):
                 fields[kind].append(value)
             elif kind in ("faults", "application", "resources") and kind in fields:
@@ -126,6 +129,52 @@ class _ToIR:
 
     def host_stmt(self, meta: Any, c: list[Token]) -> tuple[str, str]:
         return ("host", Located(str(c[0]), self.span_of(meta)))
+
+    def node_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.RosNode]:
+        lifecycle = len(c) > 1 and c[1] == ("lifecycle",)
+        items = c[2:] if lifecycle else c[1:]
+        return ("node", ir.RosNode(str(c[0]), lifecycle, tuple(x for x in items if isinstance(x, ir.NodeTopic)),
+                                   tuple(x for x in items if isinstance(x, ir.NodeMode)), self.span_of(meta)))
+
+    def node_kind(self, meta: Any, c: list[Any]) -> tuple[str]:
+        return ("lifecycle",)
+
+    def node_topic(self, meta: Any, c: list[Any]) -> ir.NodeTopic:
+        return ir.NodeTopic(str(c[0]), str(c[1]), self.span_of(meta))
+
+    def node_mode(self, meta: Any, c: list[Any]) -> ir.NodeMode:
+        return ir.NodeMode(str(c[0]), str(c[1]), tuple(c[2:]), self.span_of(meta))  # type: ignore[arg-type]
+
+    def effect_deactivate(self, meta: Any, c: list[Any]) -> ir.Effect:
+        return ir.Effect("deactivate", span=self.span_of(meta))
+
+    def effect_hold(self, meta: Any, c: list[Any]) -> ir.Effect:
+        return ir.Effect("hold", span=self.span_of(meta))
+
+    def effect_set(self, meta: Any, c: list[Any]) -> ir.Effect:
+        return ir.Effect("set", c[0], c[1], self.span_of(meta))
+
+    def param_name(self, meta: Any, c: list[Token]) -> str:
+        return ".".join(str(t) for t in c)
+
+    def param_value(self, meta: Any, c: list[Token]) -> ir.ParamValue:
+        tok = c[0]
+        text = str(tok)
+        if tok.type == "STRING":
+            return unquote(tok)
+        if tok.type == "NAME":
+            if text in ("true", "false"):
+                return text == "true"
+            self.sink.add(error("RC131", f"a parameter value is a number, a \"string\", true or false, not "
+                                         f"{shorten(text, 40)}", self.tok(tok)))
+            return text
+        value = param_number(text)
+        if value is None:
+            self.sink.add(error("RC131", f"'{shorten(text, MAX_NUMBER_CHARS)}' is not a parameter value ROS 2 can "
+                                         "hold", self.tok(tok),
+                                notes=("a whole number fits in 64 bits, any other is a finite double",)))
+            return 0
+        return value
 
     def input_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.Port]:
         pred: ir.Predicate = c[1]
@@ -285,6 +334,21 @@ def number(text: str) -> Optional[Fraction]:
         return None
 
 
+INT64 = 2 ** 63
+
+
+def param_number(text: str) -> Optional[int | float]:
+    """A NUMBER as a parameter value: an integer (int64) without `.` or an exponent, else a finite
+    double; None when ROS 2 cannot hold it."""
+    if len(text) > MAX_NUMBER_CHARS:
+        return None
+    if any(ch in text for ch in ".eE"):
+        value = float(text)
+        return value if abs(value) != float("inf") else None
+    whole = int(text)
+    return whole if -INT64 <= whole < INT64 else None
+
+
 # Terminals that carry meaning; every other token (keywords, punctuation) only marks position.
 MEANINGFUL = frozenset({"NAME", "ROS_NAME", "ROS_TYPE", "NUMBER", "STRING", "MODE_KIND", "NOTHING", "SINGLE",
                         "ARROW"})
@@ -322,7 +386,9 @@ class _Callbacks:
     """What Lark calls while parsing: one attribute per rule or alias of the grammar."""
 
     RULES = ("start", "system_decl", "include_decl", "message_decl", "environment_decl", "host_decl",
-             "resource_item", "component_decl", "replaces", "run_stmt", "host_stmt", "input_stmt", "output_stmt",
+             "resource_item", "component_decl", "replaces", "run_stmt", "host_stmt", "node_stmt", "node_kind",
+             "node_topic", "node_mode", "effect_deactivate", "effect_hold", "effect_set", "param_name", "param_value",
+             "input_stmt", "output_stmt",
              "faults_stmt", "application_stmt", "resources_stmt", "ftm_stmt", "ftm_hosts", "ftm_expr",
              "functionality", "criticality", "mode", "assume_stmt", "guarantee_stmt", "nothing", "data", "rate",
              "topic_decl", "service_decl", "conn_name", "attachment", "portref_list", "portref", "name_list")

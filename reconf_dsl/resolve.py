@@ -149,6 +149,86 @@ def _check_component(sink: DiagnosticSink, c: ir.Component, msgs: set[str], host
                 sink.add(error("RC101", f"unknown host '{h}'", c.ftm.span))
     for func in c.functionalities:
         _check_functionality(sink, c, func, ports, msgs)
+    if c.node is not None:
+        _check_node(sink, c, c.node, ports)
+
+
+def _check_node(sink: DiagnosticSink, c: ir.Component, node: ir.RosNode, ports: dict[str, ir.Port]) -> None:
+    """A `node` block: every port has one ROS name of its own, every mode line is about a
+    functionality of the component and does what its node can (docs/adapter.md#the-rules)."""
+    named: dict[str, ir.NodeTopic] = {}
+    by_ros: dict[str, ir.NodeTopic] = {}
+    for t in node.topics:
+        if t.port not in ports:
+            sink.add(error("RC128", f"the node block names port '{t.port}', which '{c.name}' does not have", t.span,
+                           notes=(_suggest(t.port, ports, f"'{c.name}' declares: " + (", ".join(ports) or "no ports")),)))
+        elif t.port in named:
+            sink.add(error("RC129", f"port '{t.port}' is given two ROS names", t.span,
+                           related=(Related(named[t.port].span, "first named here"),)))
+        elif t.ros_name in by_ros:
+            sink.add(error("RC129", f"ports '{by_ros[t.ros_name].port}' and '{t.port}' have one ROS name, "
+                                    f"{t.ros_name}: remapping it moves both", t.span))
+        else:
+            named[t.port], by_ros[t.ros_name] = t, t
+    for p in ports.values():
+        if p.name not in named:
+            sink.add(error("RC129", f"port '{p.name}' of '{c.name}' has no ROS name in its node block", p.span,
+                           notes=(f"say what the node calls it, e.g. `{p.name} = /{p.name}`: reconf remaps that "
+                                  "name to connect the port",)))
+    _check_node_modes(sink, c, node)
+
+
+def _check_node_modes(sink: DiagnosticSink, c: ir.Component, node: ir.RosNode) -> None:
+    funcs = {f.name: f for f in c.functionalities}
+    seen: dict[tuple[str, str], ir.NodeMode] = {}
+    setters: dict[str, str] = {}            # parameter -> the functionality whose modes set it
+    for m in node.modes:
+        f = funcs.get(m.functionality)
+        if f is None:
+            sink.add(error("RC128", f"the node block names functionality '{m.functionality}', which '{c.name}' "
+                                    "does not have", m.span, notes=(_suggest(m.functionality, funcs, "no such"),)))
+            continue
+        if (m.functionality, m.mode) in seen:
+            sink.add(error("RC130", f"two lines for the {m.mode} mode of '{m.functionality}'", m.span,
+                           related=(Related(seen[(m.functionality, m.mode)].span, "first here"),)))
+            continue
+        seen[(m.functionality, m.mode)] = m
+        _check_effects(sink, c, node, f, m, setters)
+    for (fname, mode), m in seen.items():
+        other = "normal" if mode == "degraded" else "degraded"
+        back = {e.param for e in node.effects(fname, other) if e.kind == "set"}
+        for e in m.effects:
+            if e.kind == "set" and e.param not in back:
+                sink.add(error("RC131", f"the {mode} mode of '{fname}' sets parameter {e.param}, which its {other} "
+                                        "mode does not set", e.span,
+                               notes=(f"say its value in both modes (`{fname} {other}: set {e.param} = ...`), as "
+                                      "system_modes does: each mode gives the node all of its values",)))
+
+
+def _check_effects(sink: DiagnosticSink, c: ir.Component, node: ir.RosNode, f: ir.Functionality, m: ir.NodeMode,
+                   setters: dict[str, str]) -> None:
+    params: set[str] = set()
+    for e in m.effects:
+        if e.kind == "set":
+            if e.param in params:
+                sink.add(error("RC131", f"parameter {e.param} is set twice in one mode", e.span))
+            elif setters.setdefault(e.param, f.name) != f.name:
+                sink.add(error("RC131", f"parameter {e.param} is set by the modes of '{setters[e.param]}' and of "
+                                        f"'{f.name}': which value holds would depend on the order of the steps",
+                               e.span))
+            params.add(e.param)
+        elif m.mode == "normal":
+            sink.add(error("RC130", f"`{e.kind}` in a normal mode: a normal mode runs the node as it is", e.span,
+                           notes=(f"`{e.kind}` is what a degraded mode does",)))
+        elif e.kind == "deactivate" and not node.lifecycle:
+            sink.add(error("RC130", f"`deactivate` on node {node.name}, which is not declared a lifecycle node",
+                           e.span, notes=(f"write `node {node.name} lifecycle` if it is one",)))
+        elif e.kind == "deactivate":
+            silenced = sorted(p.name for p in c.outputs if p.name not in f.ports)
+            if silenced:
+                sink.add(error("RC130", f"degrading '{f.name}' deactivates node {node.name}, which silences "
+                                        f"{', '.join(silenced)}: not outputs of '{f.name}'", e.span,
+                               notes=("an inactive lifecycle node publishes nothing on its lifecycle publishers",)))
 
 
 def _check_functionality(sink: DiagnosticSink, c: ir.Component, f: ir.Functionality,
@@ -233,6 +313,10 @@ def _check_connector(sink: DiagnosticSink, conn: ir.Connector, msgs: set[str], c
                                ref.span, related=(Related(prev.span, "already attached here"),)))
                 continue
             attached[key] = conn
+            if conn.kind == "service" and comp.node is not None:
+                sink.add(error("RC132", f"'{ref}' is a port of node {comp.node.name}, which reconf does not build: "
+                                        f"its adapter relays topics, not service '{conn.name}'", ref.span,
+                               related=(Related(comp.node.span, "declared here"),)))
             if conn.guarantee.message is not None and port.message != conn.guarantee.message:
                 sink.add(error("RC106", f"type mismatch: '{ref}' carries {port.message}, {conn.kind} "
                                         f"'{conn.name}' carries {conn.guarantee.message}", ref.span,

@@ -88,6 +88,9 @@ TALKER = ("component talker {\n  output out: String\n  functionality talk (out) 
           "    normal { out: String @ %s }\n    degraded { out: nothing }\n  }\n}\n")
 LISTENER = ("component listener {\n  input in: String @ 10 Hz\n  functionality listen (in) {\n"
             "    normal { assume String @ 10 Hz }\n    degraded { }\n  }\n}\n")
+# A component that is not a reconf node (its `node` block), with the block's lines from line 5 on.
+NODE = ("component talker {\n  node talker {\n%s\n  }\n  output out: String\n"
+        "  functionality talk (out) { normal { out: String @ 10 Hz } degraded { out: nothing } }\n}\n")
 # The client/server of tests/support/ftm.py: its `ftm` line is line 9 (10 with resources).
 UNSERVED = "service /compute: Reply @ 10 Hz { server.reply -> client.reply }"
 
@@ -112,6 +115,15 @@ TEXTS: dict[str, tuple[str | dict[str, str], int, list[tuple[str, str]]]] = {
                        "    degraded { }\n  }\n}\n", 2, [("RC126", "6:21")]),
     "output_named_assume": (M + "component c {\n  output assume: String\n  functionality f (assume) {\n"
                             "    normal { }\n    degraded { }\n  }\n}\n", 2, [("RC127", "4:3")]),
+    "node_unknown_port": (M + NODE % "    out = /chatter  extra = /x", 2, [("RC128", "5:21")]),
+    "node_port_without_ros_name": (M + NODE % "", 2, [("RC129", "7:3")]),
+    "node_deactivate_plain": (M + NODE % "    out = /chatter\n    talk degraded: deactivate", 2, [("RC130", "6:20")]),
+    "node_parameter_in_one_mode": (M + NODE % "    out = /chatter\n    talk degraded: set rate = 0.0", 2,
+                                   [("RC131", "6:20")]),
+    "node_parameter_value": (M + NODE % "    out = /chatter\n    talk degraded: set on = maybe\n"
+                                        "    talk normal: set on = true", 2, [("RC131", "6:29")]),
+    "node_on_a_service": (M + NODE % "    out = /add" + "service /add: String { talker.out -> }\n", 2,
+                          [("RC132", "10:24")]),
     "assumption_not_satisfied": (M + TALKER % "5 Hz" + LISTENER
                                  + "topic /chatter: String { talker.out -> listener.in }\n",
                                  1, [("RC201", "13:21")]),

@@ -148,7 +148,10 @@ def plan_migrate(old: System, new: System, strategy: str = "default",
         conn_taken.add(target)
         conn_names[conn.name] = target
         conns.append(dc_replace(conn, name=target, publishers=(), subscribers=()))
-    system = dc_replace(old, versions=tuple(versions), connectors=tuple(conns))
+    # the message types the new architecture adds: its new components' ports carry them
+    known = {m.name for m in old.messages}
+    messages = old.messages + tuple(m for m in new.messages if m.name not in known)
+    system = dc_replace(old, messages=messages, versions=tuple(versions), connectors=tuple(conns))
     start = _start(old, config)
     roles: set[Role] = {(conn_names[conn.name], comp_names[r.component], r.port) for conn in new.connectors
                         for r in conn.roles}

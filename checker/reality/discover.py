@@ -170,6 +170,7 @@ def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:
     outs: list[tuple[str, str]] = []
     used: set[str] = set()
     skipped: list[str] = []
+    names: list[str] = []          # `port = /topic`: the node block's lines
     for eps, output in ((node.publishers, True), (node.servers, True), (node.subscribers, False),
                         (node.clients, False)):
         for k, types in sorted(eps.items()):
@@ -179,6 +180,7 @@ def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:
             alias = b.alias(types[0])
             port = _name(k.rsplit("/", 1)[1], used)
             lines.append(f"  {'output' if output else 'input'} {port}: {alias}")
+            names.append(f"    {port} = {k}")
             ports.append(port)
             if output:
                 outs.append((port, alias))
@@ -190,12 +192,28 @@ def _plain(b: _Build, node: NodeInfo, taken: set[str], why: str = "") -> None:
     degraded = " ".join(f"{p}: nothing" for p, _ in outs)
     head = f"node {node.fqn} did not answer ({node.unanswered}), so what it is is not known" if node.unanswered \
         else f"node {node.fqn} has no reconf.model" + (f" ({why})" if why else "")
+    block, said = _node_block(node, names, ports, b, why)
     note = head + \
-        ": its topics as ports, no rates, one functionality" + \
+        ": its topics as ports, no rates, one functionality" + said + \
         (f"; left out: {', '.join(skipped)}" if skipped else "")
-    b.blocks.append("\n".join([PLACEHOLDER + note, f"component {comp} {{", *lines,
+    b.blocks.append("\n".join([PLACEHOLDER + note, f"component {comp} {{", *block, *lines,
                                f"  functionality main ({', '.join(ports)}) {{",
                                f"    normal {{ {normal} }}", f"    degraded {{ {degraded} }}", "  }", "}"]))
+
+
+def _node_block(node: NodeInfo, names: list[str], ports: list[str], b: _Build, why: str) -> tuple[list[str], str]:
+    """The `node` block of a node that is not a reconf node, so that reconf can drive it through
+    an adapter once it knows how to start it (docs/adapter.md): its name, lifecycle or not, its
+    topics' real names, and `main` degraded by deactivating a lifecycle node, else by holding
+    its outputs back. None for a node that did not answer, is a reconf node whose model is
+    unusable, or has services (an adapter relays topics)."""
+    if node.unanswered or why or node.servers or node.clients:
+        return [], ""
+    lifecycle = node.lifecycle is not None
+    effect = "deactivate" if lifecycle else "hold"
+    block = [f"  node {node.name}{' lifecycle' if lifecycle else ''} {{", *names,
+             *([f"    main degraded: {effect}"] if ports else []), "  }"]
+    return block, "; driven through an adapter: add the `run` line that starts it"
 
 
 def _environment(b: _Build) -> list[str]:

@@ -24,7 +24,7 @@ __all__ = ["drift", "deployed", "locate", "KINDS"]
 
 KINDS = {"RC611": "component missing", "RC612": "component extra", "RC613": "attachment",
          "RC614": "message type", "RC615": "mode", "RC616": "publishers on a single connector",
-         "RC617": "lifecycle", "RC618": "model"}
+         "RC617": "lifecycle", "RC618": "model", "RC619": "no control interface"}
 
 
 def _d(code: str, message: str, span: Span, *notes: str) -> Diagnostic:
@@ -74,10 +74,22 @@ def drift(system: System, snap: Snapshot) -> list[Diagnostic]:
             out.append(_d("RC617", f"{comp.name}'s node {node.fqn} is {node.lifecycle}, not active", comp.span,
                           "an inactive node is isolated: its attachments and modes are not compared"))
         else:
+            if node.model is None:
+                out.append(_uncontrolled(comp, node))
             live = _model(system, comp, node, out)
             out += _modes(config, comp, node) + _ports(system, config, comp, node, live)
     out += _extra(system, snap, nodes) + _types(system, snap) + _single(system, snap)
     return sorted(out, key=lambda d: (d.span.file, d.span.line, d.span.col, d.code, d.message))
+
+
+def _uncontrolled(comp: Component, node: NodeInfo) -> Diagnostic:
+    """RC619: the node that stands for `comp` has no control interface, so its modes and
+    attachments are not known (its topics are still compared)."""
+    why = ("it runs without its adapter: start it as the model does (`reconf up`, or `reconf-node --arch`), "
+           "which renames the node and relays its topics" if comp.node is not None else
+           "it is not a reconf node: declare how reconf drives it with a `node` block (docs/adapter.md)")
+    return _d("RC619", f"{comp.name}'s node {node.fqn} does not implement the control interface (no reconf.model): "
+                       "its modes and attachments cannot be read", comp.span, why)
 
 
 def _modes(config: Configuration, comp: Component, node: NodeInfo) -> list[Diagnostic]:

@@ -19,7 +19,7 @@ from .context import Context, Started
 from .observe import wait_status
 from .plan_states import State
 from .processes import command, start, wait_exit
-from .runtime import StepFailed
+from .runtime import NOT_A_RECONF_NODE, StepFailed
 from .status import CREATED_ENV
 from .steps import Step
 
@@ -97,10 +97,12 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
     cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
+    plain: dict[str, float] = {}
     while not cli.service_is_ready():
         if proc.poll() is not None:
             raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                              f"(see {log})")
+        _not_a_lifecycle_node(ctx, comp, fqn, plain)
         ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
     t_up = time.monotonic()
     if ctx.rt.nodes().count(fqn) > 1:
@@ -114,6 +116,22 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
     ctx.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
             f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
+
+
+NOT_LIFECYCLE_AFTER = 1.5   # s a new node may serve parameters without lifecycle services before it is called plain
+
+
+def _not_a_lifecycle_node(ctx: Context, comp: str, fqn: str, seen: dict[str, float]) -> None:
+    """Fail at once, not at the step's timeout, when the process's node runs and serves its
+    parameters but has had no lifecycle services for NOT_LIFECYCLE_AFTER s: not a reconf node."""
+    node = ctx.rt.node
+    if fqn in ctx.rt.nodes() and node.count_services(f"{fqn}/get_parameters") and \
+            not node.count_services(f"{fqn}/get_state"):
+        if time.monotonic() - seen.setdefault("since", time.monotonic()) > NOT_LIFECYCLE_AFTER:
+            raise StepFailed(f"{comp}'s process runs node {fqn}, which serves no lifecycle services: not a reconf "
+                             f"node; {NOT_A_RECONF_NODE}")
+    else:
+        seen.pop("since", None)
 
 
 def remove(ctx: Context, step: Step) -> None:

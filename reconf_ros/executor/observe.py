@@ -7,14 +7,15 @@ from typing import Callable, Iterable
 
 from .context import Context
 from .plan_states import State
-from .runtime import StepFailed
+from .runtime import NoControlInterface, StepFailed
 from .status import Status
 
 
 @dataclass
 class Observed:
     """What the executor saw of one component's node: `lifecycle` is its state's label,
-    `absent` (not in the graph, or finalized) or `unresponsive` (in the graph, not answering)."""
+    `absent` (not in the graph, or finalized), `unresponsive` (in the graph, not answering) or
+    `not a reconf node` (answering, without the lifecycle services)."""
     comp: str
     lifecycle: str
     modes: dict[str, str] = field(default_factory=dict)
@@ -44,7 +45,8 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive")
+            seen[c] = Observed(c, "not a reconf node" if isinstance(lc, NoControlInterface)
+                               else "absent" if _exited(ctx, c) else "unresponsive")
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:

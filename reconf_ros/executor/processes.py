@@ -22,9 +22,15 @@ from .status import CREATED_ENV
 
 def command(ctx: Context, comp: str) -> list[str]:
     """The component's run line, or, when it has none, a model-driven node of the architecture
-    the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
+    the plan reaches (`reconf-node --plan`); with the node's name and namespace. A component
+    that is not a reconf node (its `node` block) is started by its adapter, `reconf-node --plan`
+    too, which runs the run line itself (docs/adapter.md)."""
     run, names = ctx.runs.get(comp), ctx.names
-    argv = shlex.split(run) if run else ["reconf-node", "--plan", plan_path(ctx), comp]
+    adapted = "node" in ctx.model.comps.get(comp, {})
+    if adapted and not run:
+        raise StepFailed(f"{comp} is a node reconf does not build (its `node` block) and has no run line: "
+                         "reconf cannot start it")
+    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan_path(ctx), comp]
     exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
     if exe is None:
         raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")

@@ -24,6 +24,15 @@ class StepFailed(Exception):
     """A step (or a read of the live system) could not be carried out; the message says why."""
 
 
+class NoControlInterface(StepFailed):
+    """A node answered, but without the control interface's parameters: not a reconf node (nor an
+    adapter), so there are no modes or attachments to read (docs/control-interface.md)."""
+
+
+NOT_A_RECONF_NODE = ("a node not built with reconf is driven through an adapter: declare it in its component "
+                     "(`node NAME { ... }`, docs/adapter.md)")
+
+
 def one(answers: dict[str, Any], key: str) -> Any:
     """The answer for `key` of a call to many; its StepFailed raised."""
     answer = answers[key]
@@ -199,10 +208,18 @@ class Runtime:
         return answers
 
     def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
-        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer)."""
-        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns})
-        return {n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
-                for n, r in res.items()}
+        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer). A
+        node that serves its parameters and no lifecycle services is a NoControlInterface at once,
+        not a timeout: it is not a reconf node."""
+        fqns = list(fqns)
+        plain = {f for f in fqns if self.node.count_services(f"{f}/get_parameters")
+                 and not self.node.count_services(f"{f}/get_state")}
+        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns if f not in plain})
+        out: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
+                               for f in plain}
+        out.update({n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                    for n, r in res.items()})
+        return out
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
@@ -236,6 +253,15 @@ class Runtime:
         return dict(one(self.get_many({fqn: names}), fqn))
 
     def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
+        """The answer to get_parameters(`names`) as values. A name without a value is not a value:
+        rclpy answers a request naming an undeclared parameter with no value at all, rclcpp with
+        NOT_SET; either way the node does not implement the control interface (NoControlInterface)."""
+        missing = names[len(res.values):] if len(res.values) < len(names) else \
+            [n for n, v in zip(names, res.values) if v.type == self.ParameterType.PARAMETER_NOT_SET]
+        if missing:
+            shown = ", ".join(missing[:3]) + (", …" if len(missing) > 3 else "")
+            raise NoControlInterface(f"{fqn} does not implement the control interface: no value for {shown}; "
+                                     f"{NOT_A_RECONF_NODE}")
         values: dict[str, Any] = {}
         for n, v in zip(names, res.values):
             if v.type == self.ParameterType.PARAMETER_STRING:

@@ -15,7 +15,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable, Optional
 
-from .runtime import Runtime, StepFailed
+from .runtime import NoControlInterface, Runtime, StepFailed
 from .status import STATUS_FRESH, find_node, tool_node
 
 __all__ = ["MODEL_PARAM", "ModelNames", "NodeInfo", "RosUnavailable", "Snapshot", "read_snapshot"]
@@ -196,6 +196,9 @@ def _read_reconf(rt: Runtime, snap: Snapshot, model_names: ModelNames) -> None:
     wanted: dict[str, list[str]] = {}
     for fqn, values in models.items():
         info = snap.nodes[fqn]
+        if isinstance(values, NoControlInterface):   # it answered: no model, so not a reconf node
+            info.model = None
+            continue
         if isinstance(values, StepFailed):       # a reconf node or not: nobody can say
             info.model, info.unanswered = None, info.unanswered or f"{MODEL_PARAM}: {values}"
             continue

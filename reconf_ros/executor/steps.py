@@ -54,6 +54,7 @@ class ComponentDoc(TypedDict, total=False):
     host: Optional[str]
     ports: list[PortDoc]
     functionalities: list[FunctionalityDoc]
+    node: dict[str, Any]               # not a reconf node: how its adapter drives it (docs/adapter.md)
 
 
 class ConnectorDoc(TypedDict, total=False):

@@ -339,6 +339,10 @@ class Component:
         self.lean = False         # serve only the control interface's four services (docs/runtime.md#cost)
         self.node_name: Optional[str] = None    # the node's name when not the component's (docs/executor.md#names)
         self.node: Any = None     # the running ComponentNode, once started
+        # Not a reconf node: the architecture's `node` block (its IR, and its canonical lines), which
+        # an adapter runs (reconf_ros.nodes.adapter, docs/adapter.md).
+        self.wraps: Any = None
+        self.node_block: list[str] = []
 
     # --- the API of paper 001 §5.2 ---
     def create_input(self, name: str, msg_type: MsgType, rate: RateLike = None, *,
@@ -454,6 +458,7 @@ class Component:
             lines.append(f"  run {_quote(self.run)}")
         if self.host:
             lines.append(f"  host {self.host}")
+        lines.extend(f"  {line}" for line in self.node_block)
         for p in self.ports:
             if isinstance(p, Input):
                 lines.append(f"  input {p.name}: {p.assumption}")

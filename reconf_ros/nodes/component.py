@@ -23,7 +23,7 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
 
 from ..executor.snapshot import MODEL_PARAM
 from ..executor.status import CREATED_ENV, STATUS_PREFIX
@@ -46,6 +46,11 @@ DATA_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=Re
 # 1000 replies in a burst, and with a depth of 100 the client's reader lost 195 of them.
 VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.VOLATILE)
+# An input's companion reader, made when a publisher on its connector offers volatile data (any
+# node with the default QoS): a transient-local reader never matches one. What both readers
+# deliver (a transient-local publisher's data) is taken once, by its publisher and sequence number.
+HEARS_VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+                                durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 MODES = ("normal", "degraded")
 TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silence a gap
@@ -94,6 +99,9 @@ class ComponentNode(LifecycleNode):
         self.attached: dict[str, list[str]] = {p.name: [] for p in component.ports}
         self.pubs: dict[tuple[str, str], Any] = {}
         self.subs: dict[tuple[str, str], Any] = {}
+        self.companions: dict[tuple[str, str], Any] = {}     # an input's reader of volatile publishers
+        self.matched_in: dict[tuple[str, str], list[int]] = {}   # publishers matched: [main reader, companion]
+        self.raw = False           # True: subscriptions deliver serialized messages (an adapter relays them)
         self.matched_out: dict[tuple[str, str], int] = {}
         self.req_pubs: dict[tuple[str, str], Any] = {}    # a service client's requests
         self.req_subs: dict[tuple[str, str], Any] = {}    # a service server's requests
@@ -105,21 +113,9 @@ class ComponentNode(LifecycleNode):
         self.errors: list[str] = []
         self.gid_nodes: dict[bytes, str] = {}
         self.deployed = deployed        # attachments to make at start (see run_components)
+        self.exit_status = 0            # the process's, once every node is finalized (run_components)
         self._internal = False
-        for f in component.functionalities:
-            self.declare_parameter(f"reconf.mode.{f.name}", Parameter.Type.STRING,
-                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING,
-                                                       description=f"mode of {f.name}: normal or degraded"))
-        for p in component.ports:
-            # rclpy 9 types an empty list as BYTE_ARRAY: declare the type, then set the value.
-            self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
-                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
-                                                       description=f"connectors {p.name} is attached to"))
-        # the component's model, read-only, for `reconf discover` (docs/control-interface.md#the-model)
-        self.declare_parameter(MODEL_PARAM, self._model_text(),
-                               ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
-                                                   description="the component as .arch text"))
-        self._store_params()
+        self._declare_interface()
         self.add_on_set_parameters_callback(self._on_set)
         self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
         # No polling: a silence timer per rated input, restarted by each arrival, fires only when
@@ -134,6 +130,23 @@ class ComponentNode(LifecycleNode):
         self._dirty = False
         self._flush = self.create_guard_condition(self._tick)
         self._changed()
+
+    def _declare_interface(self) -> None:
+        """The control interface's parameters (docs/control-interface.md#parameters), and the model."""
+        for f in self.component.functionalities:
+            self.declare_parameter(f"reconf.mode.{f.name}", Parameter.Type.STRING,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING,
+                                                       description=f"mode of {f.name}: normal or degraded"))
+        for p in self.component.ports:
+            # rclpy 9 types an empty list as BYTE_ARRAY: declare the type, then set the value.
+            self.declare_parameter(f"reconf.port.{p.name}", Parameter.Type.STRING_ARRAY,
+                                   ParameterDescriptor(type=ParameterType.PARAMETER_STRING_ARRAY,
+                                                       description=f"connectors {p.name} is attached to"))
+        # the component's model, read-only, for `reconf discover` (docs/control-interface.md#the-model)
+        self.declare_parameter(MODEL_PARAM, self._model_text(),
+                               ParameterDescriptor(type=ParameterType.PARAMETER_STRING, read_only=True,
+                                                   description="the component as .arch text"))
+        self._store_params()
 
     def _model_text(self) -> str:
         try:
@@ -197,8 +210,7 @@ class ComponentNode(LifecycleNode):
                 return f"no functionality {name}"
             if p.type_ != Parameter.Type.STRING or p.value not in MODES:
                 return f"a mode is 'normal' or 'degraded', not {p.value!r}"
-            self.set_mode(name, p.value)
-            return None
+            return self.set_mode(name, p.value)
         if kind == "port":
             if name not in self.attached:
                 return f"no port {name}"
@@ -212,9 +224,10 @@ class ComponentNode(LifecycleNode):
         """The component's functionality `name`; StopIteration when it has none of that name."""
         return next(f for f in self.component.functionalities if f.name == name)
 
-    def set_mode(self, name: str, mode: str) -> None:
+    def set_mode(self, name: str, mode: str) -> Optional[str]:
         """Run functionality `name` in `mode` ("normal" or "degraded", not checked here: the
-        parameter callback refuses anything else) from now on.
+        parameter callback refuses anything else) from now on; returns why not if it cannot
+        (None: done; an adapter's node may fail to apply a mode's actions to the node it drives).
 
         A mode with a callback and a rate gets a timer at that rate, replacing the previous mode's;
         a mode without a rate runs its callback on each message of its inputs; a mode without a
@@ -226,7 +239,7 @@ class ComponentNode(LifecycleNode):
         m = self.functionality(name).mode(mode)
         timed = m.rate is not None and m.callback is not None
         if self.modes[name] == mode and (name in self.mode_timers) == timed:
-            return      # already so (a first activation still starts a timed degraded mode)
+            return None     # already so (a first activation still starts a timed degraded mode)
         old = self.mode_timers.pop(name, None)
         if old is not None:
             self.destroy_timer(old)
@@ -236,6 +249,7 @@ class ComponentNode(LifecycleNode):
             self.mode_timers[name] = self.create_timer(1.0 / float(m.rate.hz), self._runner(name, m.callback))
         self.get_logger().info(f"{name} is {mode}")
         self._changed()
+        return None
 
     def _runner(self, name: str, callback: Callable[..., Any]) -> Callable[[], None]:
         def run() -> None:
@@ -284,6 +298,9 @@ class ComponentNode(LifecycleNode):
                     self.destroy_subscription(self.req_subs.pop((port, k)))
             else:
                 self.destroy_subscription(self.subs.pop((port, k)))
+                if (port, k) in self.companions:
+                    self.destroy_subscription(self.companions.pop((port, k)))
+                self.matched_in.pop((port, k), None)
                 self.monitor.inputs[port].publishers.pop(k, None)
                 if (port, k) in self.req_pubs:
                     self.destroy_publisher(self.req_pubs.pop((port, k)))
@@ -298,10 +315,8 @@ class ComponentNode(LifecycleNode):
                     cls, k, qos, event_callbacks=PublisherEventCallbacks(matched=on_out))
             else:
                 self.monitor.inputs[port].publishers[k] = 0
-                on_msg = functools.partial(self._on_message, (port, k))
-                on_in = functools.partial(self._matched_in, (port, k))
-                self.subs[(port, k)] = self.create_subscription(
-                    cls, k, on_msg, qos, event_callbacks=SubscriptionEventCallbacks(matched=on_in))
+                self.matched_in[(port, k)] = [0, 0]
+                self.subs[(port, k)] = self._reader(port, k, qos, 0)
                 if p.service:
                     self.req_pubs[(port, k)] = self.create_publisher(cls, f"{k}/request", VOLATILE_QOS)
         self.attached[port] = sorted(set(wanted))
@@ -309,15 +324,34 @@ class ComponentNode(LifecycleNode):
         self._changed()
         return None
 
+    def _reader(self, port: str, k: str, qos: QoSProfile, which: int) -> Any:
+        """A subscription of input `port` on `k`: the main one (`which` 0) or its companion (1)."""
+        p = self.component.port(port)
+        events = SubscriptionEventCallbacks(matched=functools.partial(self._matched_in, (port, k), which),
+                                            incompatible_qos=functools.partial(self._incompatible, (port, k)))
+        return self.create_subscription(p.message_class, k, functools.partial(self._on_message, (port, k)), qos,
+                                        event_callbacks=events, raw=self.raw)
+
+    def _incompatible(self, key: tuple[str, str], info: Any) -> None:
+        """A publisher on the connector that this input's reader cannot match: a companion reader
+        hears one that offers volatile data; any other mismatch is said in the log."""
+        if info.last_policy_kind == QoSPolicyKind.DURABILITY and key in self.subs and key not in self.companions:
+            self.get_logger().info(f"{key[1]} has a publisher of volatile data: {key[0]} hears it too")
+            self.companions[key] = self._reader(key[0], key[1], HEARS_VOLATILE_QOS, 1)
+        elif info.last_policy_kind != QoSPolicyKind.DURABILITY:
+            self.get_logger().warning(f"{key[0]} cannot hear a publisher on {key[1]}: it offers another "
+                                      f"{QoSPolicyKind(info.last_policy_kind).name.lower()} (reconf reads reliable data)")
+
     def _matched_out(self, key: tuple[str, str], info: Any) -> None:
         if key in self.matched_out:
             self.matched_out[key] = info.current_count
             self._changed()
 
-    def _matched_in(self, key: tuple[str, str], info: Any) -> None:
-        pubs = self.monitor.inputs[key[0]].publishers
-        if key[1] in pubs:
-            pubs[key[1]] = info.current_count
+    def _matched_in(self, key: tuple[str, str], which: int, info: Any) -> None:
+        pubs, counts = self.monitor.inputs[key[0]].publishers, self.matched_in.get(key)
+        if key[1] in pubs and counts is not None:
+            counts[which] = info.current_count
+            pubs[key[1]] = max(counts)     # the companion matches every publisher the main reader does
             self._changed()
 
     def _source(self, topic: str, gid: bytes) -> str:
@@ -339,6 +373,9 @@ class ComponentNode(LifecycleNode):
         now = received / 1e9 if received else time.time()     # when the middleware received it
         gid = bytes(info.get("publisher_gid", {}).get("data", b""))
         seq = info.get("publication_sequence_number")
+        if key in self.companions and self.monitor.duplicate(port, gid, seq):
+            return              # both readers had it
+        self._pass_on(port, msg)
         self._check(now)      # a gap that ends now is judged, exactly, before the message closes it
         fresh_before = self.monitor.fresh_sources(port, now)
         self.monitor.on_message(port, now, gid, seq, self._source(topic, gid))
@@ -360,6 +397,9 @@ class ComponentNode(LifecycleNode):
                     m.callback(msg)
                 except Exception as e:
                     self._fault(f.name, e)
+
+    def _pass_on(self, port: str, msg: Any) -> None:
+        """Where a message goes before it is measured: nowhere here (an adapter hands it to its node)."""
 
     def _on_request(self, port: str, msg: Any) -> None:
         if not self.active:     # buffered, handed over on activation (docs/control-interface.md)
@@ -424,7 +464,7 @@ class ComponentNode(LifecycleNode):
     def _publish(self, port: str, msg: Any, pubs: dict[tuple[str, str], Any]) -> None:
         """`msg` (or a message of the port's type with it as `data`) on each connector of `port`."""
         p = self.component.port(port)
-        if not isinstance(msg, p.message_class):
+        if not isinstance(msg, (p.message_class, bytes)):     # bytes: a serialized message, relayed as it is
             msg = p.message_class(data=msg)
         for k in self.attached[port]:
             pubs[(port, k)].publish(msg)
@@ -593,16 +633,19 @@ class ComponentNode(LifecycleNode):
 
 def run_components(components: Sequence[Component], *, args: Optional[list[str]] = None, namespace: str = "",
                    deployed: Optional[dict[str, dict[str, list[str]]]] = None, gap_factor: float = GAP_FACTOR,
-                   linger: float = 0.5, lean: bool = False) -> int:
-    """Run `components` in this process until every one is finalized (or SIGINT/SIGTERM).
+                   linger: float = 0.5, lean: bool = False,
+                   make_node: Callable[..., "ComponentNode"] = ComponentNode) -> int:
+    """Run `components` in this process until every one is finalized (or SIGINT/SIGTERM); the
+    highest of the nodes' `exit_status` (0 unless something failed under a node).
 
     With `deployed` (component -> port -> connectors), each node configures and activates
     itself, attaches as given and turns each functionality normal once its assumptions are met
-    on the wire; otherwise nodes wait unconfigured for a plan's `create`.
+    on the wire; otherwise nodes wait unconfigured for a plan's `create`. `make_node` makes
+    each component's node (an adapter's for a component that is not a reconf node).
 
-    Calls `rclpy.init(args=args)` (so once per process), makes one `ComponentNode` per component
+    Calls `rclpy.init(args=args)` (so once per process), makes one node per component
     (`lean` for all, or per component), spins them on one single-threaded executor, and replaces
-    the SIGINT and SIGTERM handlers with ones that end the loop. Returns 0 `linger` seconds after
+    the SIGINT and SIGTERM handlers with ones that end the loop. Returns `linger` seconds after
     every node is finalized, or at a signal, having destroyed the nodes and shut rclpy down.
     Whatever `rclpy.init` or a node's construction raises is not caught."""
     rclpy.init(args=args)
@@ -613,17 +656,16 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     executor = SingleThreadedExecutor()
-    nodes = []
-    for c in components:
-        node = ComponentNode(c, namespace=namespace, gap_factor=gap_factor,
-                             deployed=None if deployed is None else dict(deployed.get(c.name, {})),
-                             lean=lean or c.lean)
-        executor.add_node(node)
-        nodes.append(node)
-        if deployed is not None:
-            node.trigger_configure()
-            node.trigger_activate()
+    nodes: list[ComponentNode] = []
     try:
+        for c in components:
+            node = make_node(c, namespace=namespace, gap_factor=gap_factor,
+                             deployed=None if deployed is None else dict(deployed.get(c.name, {})), lean=lean or c.lean)
+            executor.add_node(node)
+            nodes.append(node)
+            if deployed is not None:
+                node.trigger_configure()
+                node.trigger_activate()
         done_at: Optional[float] = None
         while not stop["now"]:
             executor.spin_once(timeout_sec=0.05)
@@ -638,5 +680,5 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             rclpy.shutdown()
         except Exception:
             pass
-    return 0
+    return max((n.exit_status for n in nodes), default=0)
 

@@ -29,8 +29,9 @@ def _publisher(outputs: list[Output]) -> Any:
     return publish
 
 
-def from_architecture(system: System, name: str) -> Component:
-    """The component `name` of `system` (deployed or a version) as a model-driven Component."""
+def from_architecture(system: System, name: str, behaviour: bool = True) -> Component:
+    """The component `name` of `system` (deployed or a version) as a model-driven Component;
+    without `behaviour`, its model alone (an adapter's: the node it drives behaves)."""
     ir: Optional[IrComponent] = system.component(name)
     if ir is None:
         raise KeyError(f"{system.name} declares no component {name}")
@@ -55,7 +56,7 @@ def from_architecture(system: System, name: str) -> Component:
             gs: dict[Output, Any] = {ports[g.port]: _rate(g.predicate) for g in mode.guarantees
                                      if not g.predicate.is_nothing}
             hz = max((r.hz for r in gs.values() if r is not None), default=DEFAULT_HZ)
-            callback = _publisher(list(gs)) if gs else None
+            callback = _publisher(list(gs)) if gs and behaviour else None
             for a in mode.assumptions:      # an environment's type (no port has it) is in the model too
                 if a.message in types:
                     comp.message(a.message, types[a.message])
@@ -64,8 +65,9 @@ def from_architecture(system: System, name: str) -> Component:
                                    assumes=[str(a) for a in mode.assumptions])
             else:
                 fn.set_degraded_mode(callback, rate=hz if gs else None, outputs=gs)
-    from .ftm import install
-    install(comp, system)
+    if behaviour:
+        from .ftm import install
+        install(comp, system)
     return comp
 
 

@@ -53,7 +53,8 @@ class InputStats:
     last: Optional[float] = None
     received: int = 0
     window: deque[float] = field(default_factory=deque)
-    max_gap: float = 0.0             # largest wait while a normal functionality relied on it
+    max_gap: float = 0.0             # largest wait while a normal functionality relied on it, judged exactly
+    open_gap: float = 0.0            # the wait a timer saw since the last arrival (provisional, as its violations)
     needed_since: Optional[float] = None
     publishers: dict[str, int] = field(default_factory=dict)   # connector -> matched publishers
     owed: deque[float] = field(default_factory=deque)   # on-demand input: when each owed message was asked
@@ -99,6 +100,12 @@ class Monitor:
         if st.owed:
             st.owed.popleft()
 
+    def duplicate(self, port: str, gid: bytes, seq: Optional[int]) -> bool:
+        """Whether the message `seq` of publisher `gid` on `port` was taken already (two readers of
+        one input both deliver a transient-local publisher's data)."""
+        src = self.inputs[port].sources.get(gid)
+        return seq is not None and src is not None and seq <= src.last_seq
+
     def on_message(self, port: str, now: float, gid: bytes, seq: Optional[int], node: str = "?") -> None:
         st = self.inputs[port]
         if st.port.on_demand:
@@ -109,6 +116,7 @@ class Monitor:
                     st.max_gap = max(st.max_gap, waited)
         elif st.needed_since is not None:
             st.max_gap = max(st.max_gap, st.waited(now))
+        st.open_gap = 0.0                  # the arrival judged the wait exactly
         now = max(now, st.last or now)     # reception order, in case timestamps disagree by a hair
         st.last, st.received = now, st.received + 1
         st.window.append(now)
@@ -215,10 +223,13 @@ class Monitor:
             if name in needed:
                 if st.needed_since is None:
                     st.needed_since = now
-                if not st.port.on_demand:
-                    st.max_gap = max(st.max_gap, st.waited(now))
-                elif st.owed:
-                    st.max_gap = max(st.max_gap, now - st.owed_since())
+                # a timer's look (grace > 0) may run while a message that came in time waits for its
+                # callback: it stays open until the next arrival judges the wait, as its violation does
+                wait = st.waited(now) if not st.port.on_demand else now - st.owed_since() if st.owed else 0.0
+                if exact:
+                    st.max_gap = max(st.max_gap, wait)
+                else:
+                    st.open_gap = max(st.open_gap, wait)
             else:
                 st.needed_since = None
         return changed
@@ -233,7 +244,7 @@ class Monitor:
             out[f"in.{name}.received"] = str(st.received)
             out[f"in.{name}.lost"] = str(sum(s.lost for s in st.sources.values()))
             out[f"in.{name}.missed_head"] = str(sum(s.missed_head for s in st.sources.values()))
-            out[f"in.{name}.max_gap_s"] = f"{st.max_gap:.3f}"
+            out[f"in.{name}.max_gap_s"] = f"{max(st.max_gap, st.open_gap):.3f}"
             out[f"in.{name}.rate_hz"] = f"{self.rate(name, now):.2f}"
             out[f"in.{name}.age_s"] = "" if st.last is None else f"{now - st.last:.3f}"
             out[f"in.{name}.fresh"] = ",".join(self.fresh_sources(name, now))

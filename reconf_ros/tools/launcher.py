@@ -119,7 +119,7 @@ def serve(fd: int) -> int:
     from codegen.ros2 import system_at  # noqa: F401
     from reconf_dsl.loader import load  # noqa: F401
 
-    from ..nodes import component, generic  # noqa: F401
+    from ..nodes import adapter, component, generic  # noqa: F401
     from . import runner  # noqa: F401
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}

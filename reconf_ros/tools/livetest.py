@@ -194,7 +194,7 @@ class LiveSystem:
         for name in names:
             comp = system.component(name)
             assert comp is not None, name
-            if generic or not comp.run:
+            if generic or not comp.run or comp.node is not None:    # a `node` block: its adapter
                 argvs.append(["reconf-node", "--arch", os.path.abspath(arch), name])
             else:
                 argvs.append(shlex.split(comp.run))

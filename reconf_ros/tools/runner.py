@@ -32,7 +32,7 @@ def _factory(target: str) -> Component:
     if not attr:
         raise click.UsageError(f"{target!r}: say MODULE:FACTORY, e.g. reconf_ros.demo.chatter:talker")
     try:
-        made = getattr(importlib.import_module(module), attr)
+        made = getattr(_import(module), attr)
     except (ImportError, AttributeError) as e:
         raise click.UsageError(f"cannot load {target}: {e}") from None
     comp = made() if callable(made) else made
@@ -41,6 +41,19 @@ def _factory(target: str) -> Component:
     if comp.run is None:
         comp.run = f"reconf-node {target}"
     return comp
+
+
+def _import(module: str) -> Any:
+    """`module`, from the installed packages, else from the current directory, as `python -m`
+    finds it: a node module next to the architecture, where a plan or `reconf up` is run."""
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        here = os.getcwd()
+        if e.name != module.split(".")[0] or here in sys.path:
+            raise
+        sys.path.append(here)
+        return importlib.import_module(module)
 
 
 def _node_remap(ros_args: list[str]) -> Optional[str]:
@@ -52,8 +65,12 @@ def _node_remap(ros_args: list[str]) -> Optional[str]:
 
 def _from_architecture(system: "System", name: str) -> Component:
     """A component of the architecture: its own code when its run line is a `reconf-node`
-    factory (named as the architecture names it, e.g. a replica's copy), else model-driven."""
+    factory (named as the architecture names it, e.g. a replica's copy), an adapter of the node
+    its run line starts when it has a `node` block (docs/adapter.md), else model-driven."""
     ir = system.component(name)
+    if ir is not None and ir.node is not None:
+        from ..nodes.adapter import from_architecture as adapted
+        return adapted(system, name)
     argv = shlex.split(ir.run) if ir is not None and ir.run else []
     if len(argv) >= 2 and argv[0] == "reconf-node" and ":" in argv[1]:
         comp = _factory(argv[1])
@@ -207,8 +224,13 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
             for r in conn.roles:
                 if r.component in plan:
                     plan[r.component].setdefault(r.port, []).append(conn.name)
+    options: dict[str, Any] = {"args": [sys.argv[0]] + ros_args, "deployed": plan, "gap_factor": gap_factor,
+                               "lean": lean}
+    if any(c.wraps is not None for c in comps):         # an adapter's node starts its node's process first
+        from ..nodes.adapter import run_nodes
+        sys.exit(run_nodes(comps, **options))
     from ..nodes.component import run_components
-    sys.exit(run_components(comps, args=[sys.argv[0]] + ros_args, deployed=plan, gap_factor=gap_factor, lean=lean))
+    sys.exit(run_components(comps, **options))
 
 
 if __name__ == "__main__":

@@ -28,6 +28,19 @@ data_preds = st.builds(ir.Predicate, names, st.none() | rates)
 preds = st.one_of(data_preds, st.just(ir.NOTHING))
 
 
+param_values = st.one_of(st.booleans(), st.integers(-2 ** 63, 2 ** 63 - 1),
+                         st.floats(allow_nan=False, allow_infinity=False),
+                         st.text(alphabet=st.characters(blacklist_categories=("Cs", "Cc")), max_size=8))
+effects = st.one_of(st.builds(ir.Effect, st.sampled_from(["deactivate", "hold"])),
+                    st.builds(ir.Effect, st.just("set"), st.lists(names, min_size=1, max_size=3).map(".".join),
+                              param_values))
+ros_nodes = st.builds(ir.RosNode, names, st.booleans(),
+                      st.lists(st.builds(ir.NodeTopic, names, names | ros_names), max_size=3).map(tuple),
+                      st.lists(st.builds(ir.NodeMode, names, st.sampled_from(["normal", "degraded"]),
+                                         st.lists(effects, min_size=1, max_size=3).map(tuple)),
+                               max_size=3).map(tuple))
+
+
 @st.composite
 def components(draw: st.DrawFn) -> ir.Component:
     port_names = draw(st.lists(names, max_size=4, unique=True))
@@ -57,7 +70,7 @@ def components(draw: st.DrawFn) -> ir.Component:
         faults=tuple(draw(st.lists(names, max_size=2))), application=tuple(draw(st.lists(names, max_size=2))),
         resources=tuple(ir.ResourceSetting(k, v) for k, v in draw(st.lists(
             st.tuples(names, names | st.integers(0, 64).map(str)), max_size=2))),
-        ftm=ftm)
+        ftm=ftm, node=draw(st.none() | ros_nodes))
 
 
 portrefs = st.builds(ir.PortRef, names, names)

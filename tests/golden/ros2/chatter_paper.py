@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 7 steps, strategy paper.
 
-Architecture fingerprint: sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981
+Architecture fingerprint: sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
     python3 this_file.py               apply the plan to the running system (needs rclpy)
@@ -89,6 +89,7 @@ class ComponentDoc(TypedDict, total=False):
     host: Optional[str]
     ports: list[PortDoc]
     functionalities: list[FunctionalityDoc]
+    node: dict[str, Any]               # not a reconf node: how its adapter drives it (docs/adapter.md)
 
 
 class ConnectorDoc(TypedDict, total=False):
@@ -509,6 +510,15 @@ class StepFailed(Exception):
     """A step (or a read of the live system) could not be carried out; the message says why."""
 
 
+class NoControlInterface(StepFailed):
+    """A node answered, but without the control interface's parameters: not a reconf node (nor an
+    adapter), so there are no modes or attachments to read (docs/control-interface.md)."""
+
+
+NOT_A_RECONF_NODE = ("a node not built with reconf is driven through an adapter: declare it in its component "
+                     "(`node NAME { ... }`, docs/adapter.md)")
+
+
 def one(answers: dict[str, Any], key: str) -> Any:
     """The answer for `key` of a call to many; its StepFailed raised."""
     answer = answers[key]
@@ -684,10 +694,18 @@ class Runtime:
         return answers
 
     def lifecycles(self, fqns: Iterable[str]) -> dict[str, Any]:
-        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer)."""
-        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns})
-        return {n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
-                for n, r in res.items()}
+        """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer). A
+        node that serves its parameters and no lifecycle services is a NoControlInterface at once,
+        not a timeout: it is not a reconf node."""
+        fqns = list(fqns)
+        plain = {f for f in fqns if self.node.count_services(f"{f}/get_parameters")
+                 and not self.node.count_services(f"{f}/get_state")}
+        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns if f not in plain})
+        out: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
+                               for f in plain}
+        out.update({n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                    for n, r in res.items()})
+        return out
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
@@ -721,6 +739,15 @@ class Runtime:
         return dict(one(self.get_many({fqn: names}), fqn))
 
     def values(self, fqn: str, names: list[str], res: Any) -> dict[str, Any]:
+        """The answer to get_parameters(`names`) as values. A name without a value is not a value:
+        rclpy answers a request naming an undeclared parameter with no value at all, rclcpp with
+        NOT_SET; either way the node does not implement the control interface (NoControlInterface)."""
+        missing = names[len(res.values):] if len(res.values) < len(names) else \
+            [n for n, v in zip(names, res.values) if v.type == self.ParameterType.PARAMETER_NOT_SET]
+        if missing:
+            shown = ", ".join(missing[:3]) + (", …" if len(missing) > 3 else "")
+            raise NoControlInterface(f"{fqn} does not implement the control interface: no value for {shown}; "
+                                     f"{NOT_A_RECONF_NODE}")
         values: dict[str, Any] = {}
         for n, v in zip(names, res.values):
             if v.type == self.ParameterType.PARAMETER_STRING:
@@ -1017,7 +1044,8 @@ def replay(doc: dict[str, Any], out: Writer) -> bool:
 @dataclass
 class Observed:
     """What the executor saw of one component's node: `lifecycle` is its state's label,
-    `absent` (not in the graph, or finalized) or `unresponsive` (in the graph, not answering)."""
+    `absent` (not in the graph, or finalized), `unresponsive` (in the graph, not answering) or
+    `not a reconf node` (answering, without the lifecycle services)."""
     comp: str
     lifecycle: str
     modes: dict[str, str] = field(default_factory=dict)
@@ -1047,7 +1075,8 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive")
+            seen[c] = Observed(c, "not a reconf node" if isinstance(lc, NoControlInterface)
+                               else "absent" if _exited(ctx, c) else "unresponsive")
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
@@ -1266,9 +1295,15 @@ def wire_after(ctx: Context, step: Step, will: State) -> None:
 
 def command(ctx: Context, comp: str) -> list[str]:
     """The component's run line, or, when it has none, a model-driven node of the architecture
-    the plan reaches (`reconf-node --plan`); with the node's name and namespace."""
+    the plan reaches (`reconf-node --plan`); with the node's name and namespace. A component
+    that is not a reconf node (its `node` block) is started by its adapter, `reconf-node --plan`
+    too, which runs the run line itself (docs/adapter.md)."""
     run, names = ctx.runs.get(comp), ctx.names
-    argv = shlex.split(run) if run else ["reconf-node", "--plan", plan_path(ctx), comp]
+    adapted = "node" in ctx.model.comps.get(comp, {})
+    if adapted and not run:
+        raise StepFailed(f"{comp} is a node reconf does not build (its `node` block) and has no run line: "
+                         "reconf cannot start it")
+    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan_path(ctx), comp]
     exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
     if exe is None:
         raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
@@ -1516,10 +1551,12 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
     cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
+    plain: dict[str, float] = {}
     while not cli.service_is_ready():
         if proc.poll() is not None:
             raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
                              f"(see {log})")
+        _not_a_lifecycle_node(ctx, comp, fqn, plain)
         ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
     t_up = time.monotonic()
     if ctx.rt.nodes().count(fqn) > 1:
@@ -1533,6 +1570,22 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     ctx.rt.transition(fqn, ctx.rt.Transition.TRANSITION_ACTIVATE, "activate")
     ctx.say(f"      {comp}'s services seen after {t_up - t0:.2f} s (process start and discovery), first answer "
             f"{t_state - t_up:.2f} s later, configured and activated in {time.monotonic() - t_state:.2f} s")
+
+
+NOT_LIFECYCLE_AFTER = 1.5   # s a new node may serve parameters without lifecycle services before it is called plain
+
+
+def _not_a_lifecycle_node(ctx: Context, comp: str, fqn: str, seen: dict[str, float]) -> None:
+    """Fail at once, not at the step's timeout, when the process's node runs and serves its
+    parameters but has had no lifecycle services for NOT_LIFECYCLE_AFTER s: not a reconf node."""
+    node = ctx.rt.node
+    if fqn in ctx.rt.nodes() and node.count_services(f"{fqn}/get_parameters") and \
+            not node.count_services(f"{fqn}/get_state"):
+        if time.monotonic() - seen.setdefault("since", time.monotonic()) > NOT_LIFECYCLE_AFTER:
+            raise StepFailed(f"{comp}'s process runs node {fqn}, which serves no lifecycle services: not a reconf "
+                             f"node; {NOT_A_RECONF_NODE}")
+    else:
+        seen.pop("since", None)
 
 
 def remove(ctx: Context, step: Step) -> None:
@@ -2066,7 +2119,7 @@ DOC = json.loads(r"""{
  "evidence": {
   "python_engine": "all 8 states valid"
  },
- "fingerprint": "sha256:031278264f8066602fcba333e91cc6f82459189e5ae0477d78be2d543c022981",
+ "fingerprint": "sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26",
  "format_version": 2,
  "model": {
   "components": [
