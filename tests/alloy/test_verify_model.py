@@ -114,7 +114,7 @@ PLANTED = [
     (("-- Configurations ---", "fact { no Kinds.singles + Kinds.services }\n-- Configurations ---"),
      {"SingleTopicPublisher", "ServiceServer", "SecondPublisherRefused"}),
     (("-- Configurations ---", "fact { all f: Functionality | no f.nasms }\n-- Configurations ---"),
-     {"TalkerListener", "PortOnTwoConnectors", "SingleTopicPublisher"}),
+     {"TalkerListener", "PortOnTwoConnectors", "SingleTopicPublisher", "RecoverBreaksAReader"}),
 ]
 
 
