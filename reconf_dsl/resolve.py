@@ -155,7 +155,7 @@ def _check_component(sink: DiagnosticSink, c: ir.Component, msgs: set[str], host
 
 def _check_node(sink: DiagnosticSink, c: ir.Component, node: ir.RosNode, ports: dict[str, ir.Port]) -> None:
     """A `node` block: every port has one ROS name of its own, every mode line is about a
-    functionality of the component and does what its node can (docs/adapter.md#the-rules)."""
+    functionality of the component and does what its node can (docs/adapter.md#declaring-one)."""
     named: dict[str, ir.NodeTopic] = {}
     by_ros: dict[str, ir.NodeTopic] = {}
     for t in node.topics:

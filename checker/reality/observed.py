@@ -20,8 +20,8 @@ from fractions import Fraction
 from typing import Any, Optional
 
 from checker.model.config import Configuration, FuncId, Role
-from checker.reality.naming import unique
 from checker.reality.node_text import parse_model
+from checker.reality.unique_names import unique
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Component, Connector, ConnectorKind, MessageType, Mode, Predicate, Rate, System
 from reconf_dsl.span import Span

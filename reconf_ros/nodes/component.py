@@ -425,6 +425,9 @@ class ComponentNode(LifecycleNode):
         self.monitor.expect(port, time.time())
 
     def give_up(self, port: str) -> None:
+        """Note that the oldest message owed on input `port` will not come (its asker gave the
+        request up): the monitor stops waiting for it, and the status is marked changed. KeyError
+        for a port that is not an input."""
         self.monitor.give_up(port)
         self._changed()
 
