@@ -68,6 +68,9 @@ def test_degraded_mode_rule_is_needed(bridge: AlloyBridge) -> None:
     assert not outcome.satisfiable
     (outcome,) = bridge.run({MAIN: without(modules[MAIN], "upgrade.connectors")}, MAIN, "SafeUpgrade")
     assert outcome.satisfiable
+    # and a recovery's prefix may then mend by degrading (one more degraded satisfies more)
+    (outcome,) = bridge.run(modules, MAIN, "RecoverMonotone")
+    assert outcome.satisfiable
 
 
 # A plausible slip in each join encoding of a quantified precondition (plan modules use the
