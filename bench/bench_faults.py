@@ -90,7 +90,8 @@ class Run:
     kind: str
     step: int = 0                 # the step the fault was injected at
     target: str = ""              # the component (or "script")
-    late: bool = False            # the fault struck once the script had ended (its report was true before it)
+    late: bool = False            # the fault struck once the script had read the system for its report
+    struck_at: float = 0.0        # when (wall clock)
     plan_exit: Optional[int] = None
     outcome: str = ""             # the script's report's outcome, or "no report"
     recovery: str = ""            # "report", "report --back", "live", "none"
@@ -273,7 +274,7 @@ def inject(run: Run, rng: random.Random, script: Script, steps: list[dict[str, A
         run.problems.append(f"the script never reached step {run.step}")
         return lambda: None
     time.sleep(delay)
-    run.late = script.proc.poll() is not None
+    run.late, run.struck_at = script.proc.poll() is not None, time.time()
     if run.kind.startswith("script"):
         run.target = "script"
         os.kill(script.proc.pid, signal.SIGINT if run.kind == "script-sigint" else signal.SIGKILL)
@@ -392,6 +393,10 @@ def one_run(seed: int, work: Path, cache: dict[str, Path], only: set[str], use_a
         live.pids |= started
         report = live.report()
         run.outcome = report.get("outcome", "no report")
+        # a fault after the reading the report gives (its observed_at) is not in it: the report
+        # was true when read, and the recovery starts from what the probe sees
+        run.late = run.late or (run.struck_at > 0 and report.get("observed_at") is not None
+                                and run.struck_at >= report["observed_at"])
         first = probe(live, "probe-after-plan")
         if report.get("observed") and not run.late:
             check_report(run, report, first, "the run's report")

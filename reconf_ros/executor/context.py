@@ -112,6 +112,7 @@ class Context:
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
+    read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])

@@ -2,6 +2,7 @@
 configuration the semantics can judge, after discovery has settled; the monitors' counters."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
@@ -33,7 +34,9 @@ def _control_parameters(ctx: Context, comp: str) -> list[str]:
 
 
 def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
-    """Read each component's node: lifecycle state, modes, attachments; every node at once."""
+    """Read each component's node: lifecycle state, modes, attachments; every node at once.
+    `ctx.read_at` is when the reading began (what happens to a node after may not be in it)."""
+    ctx.read_at = round(time.time(), 3)
     comps, names = sorted(comps), ctx.names
     graph = set(ctx.rt.nodes())
     names.locate(comps, graph)

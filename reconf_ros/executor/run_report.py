@@ -27,6 +27,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "observed_at": None if observed is None else ctx.read_at,    # when that reading began (wall clock)
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],

@@ -942,6 +942,7 @@ class Context:
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
+    read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -1063,7 +1064,9 @@ def _control_parameters(ctx: Context, comp: str) -> list[str]:
 
 
 def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
-    """Read each component's node: lifecycle state, modes, attachments; every node at once."""
+    """Read each component's node: lifecycle state, modes, attachments; every node at once.
+    `ctx.read_at` is when the reading began (what happens to a node after may not be in it)."""
+    ctx.read_at = round(time.time(), 3)
     comps, names = sorted(comps), ctx.names
     graph = set(ctx.rt.nodes())
     names.locate(comps, graph)
@@ -1678,6 +1681,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
         "observed": None if observed is None else observed.to_doc(),
+        "observed_at": None if observed is None else ctx.read_at,    # when that reading began (wall clock)
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
