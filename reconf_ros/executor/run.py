@@ -90,7 +90,9 @@ class Executor:
             return refused
         if ctx.interrupts.stop:
             return interrupted(ctx, 0)
-        end_orphans(ctx)
+        why = end_orphans(ctx)
+        if why:
+            return failed(ctx, 0, None, f"before the first step: {why}")
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step

@@ -62,18 +62,6 @@ def reconf_on(live: LiveSystem, *args: str, report: str) -> subprocess.Completed
     return res
 
 
-def commands_on(live: LiveSystem, host: str) -> list[str]:
-    """The command lines of the processes running on `host` of the lab."""
-    assert live.lab is not None
-    out = []
-    for pid in live.lab.pids(host):
-        try:
-            out.append(Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace"))
-        except OSError:
-            pass            # it ended meanwhile
-    return out
-
-
 def test_up_starts_each_component_on_its_host_by_its_agent_and_a_replace_runs_through_it(
         on_hosts: Callable[..., LiveSystem]) -> None:
     live = on_hosts(["robot", "station"], home="station")
@@ -114,6 +102,7 @@ def test_a_step_on_a_host_whose_agent_cannot_be_reached_fails_naming_the_host(
     assert live.lab is not None
     hosts_file = live.agents()
     arch = example("chatter_hosts.arch")
+    running = {h: set(live.lab.pids(h)) for h in ("robot", "station")}     # the agents (and their launchers)
     live.partition("robot")         # the robot cut off: its agent cannot be reached
     t0 = time.monotonic()
     up = reconf_on(live, "up", arch, "--hosts", str(hosts_file), "--timeout", "2", report="unreachable.json")
@@ -126,7 +115,7 @@ def test_a_step_on_a_host_whose_agent_cannot_be_reached_fails_naming_the_host(
     assert re.search(rf"step 1 \(create talker.*?\) FAILED: host robot \({re.escape(address)}\) cannot be reached",
                      up.stderr), up.stderr
     assert report["started"] == {}      # nothing started, here or elsewhere
-    assert not [c for h in ("robot", "station") for c in commands_on(live, h) if "chatter:talker" in c]
+    assert {h: set(live.lab.pids(h)) for h in running} == running
     live.heal("robot")
     # a hosts file that does not name the robot: the same, never a start on this host instead
     partial = live.dir / "agents" / "station-only.json"
@@ -137,7 +126,15 @@ def test_a_step_on_a_host_whose_agent_cannot_be_reached_fails_naming_the_host(
     assert up.returncode == 1 and report["failed_host"] == "robot", up.stdout + up.stderr
     assert report["reason"] == f"host robot is not in the hosts file {partial} (it names station)", report["reason"]
     assert report["started"] == {}
-    assert not [c for h in ("robot", "station") for c in commands_on(live, h) if "chatter:talker" in c]
+    assert {h: set(live.lab.pids(h)) for h in running} == running
+    # with every host reachable, up and then down: each remove waits for its agent's report of the exit
+    assert reconf_on(live, "up", arch, "--hosts", str(hosts_file), report="up.json").returncode == 0
+    pids = {c: int(s["pid"]) for c, s in live.report("up.json")["started"].items()}
+    down = reconf_on(live, "down", arch, "--hosts", str(hosts_file), report="down.json")
+    assert down.returncode == 0, down.stdout + down.stderr
+    for comp, host in (("talker", "robot"), ("listener", "station")):
+        assert f"{comp}: its process (pid {pids[comp]} on host {host}) exited with status 0" in down.stdout, down.stdout
+    assert {h: set(live.lab.pids(h)) for h in running} == running, "a process outlived reconf down"
 
 
 def test_discover_and_drift_on_one_host_read_every_hosts_nodes(on_hosts: Callable[..., LiveSystem]) -> None:

@@ -1644,6 +1644,20 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
     return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
 
 
+def _end_remote(ctx: Context, fqn: str, comp: str, pid: int) -> Optional[str]:
+    """An orphan's process on an agent's host, waited for (and ended) by that agent: its exit
+    status as words; None where the component runs on this machine. Raises StepFailed when the
+    agent cannot be reached or did not start it (its end is then not known)."""
+    try:
+        agent = host_agent(ctx, comp)
+        if agent is None:
+            return None
+        return f"exited with status {wait_exit(RemoteProcess(agent, pid, ''), ctx.args.timeout)} on host {agent.host}"
+    except HostError as e:
+        ctx.failed_host = e.host
+        raise StepFailed(f"the orphan {fqn} (pid {pid}): {e}") from None
+
+
 def _on(host: str) -> str:
     return f" on host {host}" if host else ""
 
@@ -1745,7 +1759,8 @@ def _wait_gone(pid: int, mark: str, seconds: float) -> bool:
 def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     """End a node a plan started that is in no configuration (docs/executor.md#recovering-from-the-live-system):
     down its lifecycle to finalized (a reconf node then exits), its process signalled if it does
-    not exit (only a process of this host that carries the node's creation mark). What was done."""
+    not exit (only a process of this host that carries the node's creation mark; on an agent's
+    host, by that agent: `_end_remote`). What was done."""
     fqn, pid, mark = orphan["node"], orphan.get("pid"), orphan.get("created", "")
     transition = ctx.rt.Transition
     try:
@@ -1762,6 +1777,9 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
         except StepFailed as e:
             lc = f"{lc}, shutdown refused ({e})"
     ctx.rt.forget(fqn)
+    remote = _end_remote(ctx, fqn, str(orphan.get("component") or ""), int(pid)) if pid is not None else None
+    if remote is not None:
+        return f"{lc} → finalized, {remote}" if lc in ("unconfigured", "inactive") else f"{lc}, {remote}"
     if pid is None or _wait_gone(pid, mark, ctx.args.timeout):
         return f"{lc} → finalized, exited" if lc in ("unconfigured", "inactive") else f"{lc}"
     for sig in (signal.SIGTERM, signal.SIGKILL):
@@ -1772,12 +1790,17 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     raise StepFailed(f"the orphan {fqn} (pid {pid}) did not exit")
 
 
-def end_orphans(ctx: Context) -> None:
-    """End every orphan a recovery's plan lists, before its first step."""
+def end_orphans(ctx: Context) -> str:
+    """End every orphan a recovery's plan lists, before its first step; why one could not be
+    ended ("": every one was)."""
     for orphan in ctx.orphans:
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
-        how = end_orphan(ctx, orphan)
+        try:
+            how = end_orphan(ctx, orphan)
+        except StepFailed as e:
+            return str(e)
         ctx.say(f"ended the orphan {orphan['node']} (pid {orphan.get('pid') or 'unknown'}): {how}")
+    return ""
 
 
 # --- reconf_ros/executor/handlers.py ---
@@ -2165,7 +2188,9 @@ class Executor:
             return refused
         if ctx.interrupts.stop:
             return interrupted(ctx, 0)
-        end_orphans(ctx)
+        why = end_orphans(ctx)
+        if why:
+            return failed(ctx, 0, None, f"before the first step: {why}")
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
