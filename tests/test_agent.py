@@ -130,3 +130,56 @@ def test_the_hosts_of_a_hosts_file(agent: tuple[str, bytes, Path], tmp_path: Pat
     out = subprocess.run([sys.executable, "-m", "reconf_ros.tools.agent", "--hosts", str(tmp_path / "hosts.json"),
                           "--tail", f"robot:{proc.pid}"], capture_output=True, text=True, timeout=30)
     assert out.returncode == 0 and out.stdout.split() == [os.environ.get("ROS_DOMAIN_ID", "0"), "m"], out.stderr
+
+
+ROOT = Path(__file__).resolve().parents[1]
+CHATTER_HOSTS = ROOT / "examples" / "chatter_hosts.arch"
+
+
+def _up_doc() -> dict[str, object]:
+    from checker.planning.bringup import plan_up
+    from checker.reports.plan_document import plan_document
+    from reconf_dsl.loader import load
+    system = load([str(CHATTER_HOSTS)])
+    plan = plan_up(system)
+    return plan_document("bring chatter_hosts up", system, plan, {"python_engine": "valid"}, model=True)
+
+
+def test_a_plan_refuses_a_hosts_file_it_cannot_read(tmp_path: Path) -> None:
+    """`--hosts` is read when the options are: a missing or wrong file is a usage error (exit 2)
+    naming it, before anything is applied, from a plan script and from `reconf up` alike."""
+    from codegen.ros2 import render_plan_script
+    script = tmp_path / "up.py"
+    script.write_text(render_plan_script(_up_doc()))
+    (tmp_path / "agentless.json").write_text(json.dumps({"hosts": {"robot": "127.0.0.1:7411"}}))
+    for name, says in (("missing.json", "missing.json: No such file or directory"),
+                       ("agentless.json", "a hosts file with agents names their token_file")):
+        res = subprocess.run([sys.executable, str(script), "--dry-run", "--hosts", str(tmp_path / name)],
+                             capture_output=True, text=True, timeout=60)
+        assert res.returncode == 2 and f"error: --hosts: {tmp_path}" in res.stderr and says in res.stderr, res.stderr
+    res = subprocess.run([str(Path(sys.executable).with_name("reconf")), "up", str(CHATTER_HOSTS), "--no-alloy",
+                          "--yes", "--hosts", str(tmp_path / "missing.json")], capture_output=True, text=True,
+                         timeout=120, cwd=tmp_path)
+    assert res.returncode == 2 and "Error: --hosts:" in res.stderr and "Traceback" not in res.stderr, res.stderr
+
+
+def test_a_create_on_a_host_the_hosts_file_does_not_name_fails_naming_it(tmp_path: Path) -> None:
+    """The executor asks the hosts file for the component's host before anything else: one it does
+    not name fails, naming the host and the file, and nothing is started here instead."""
+    import argparse
+
+    from reconf_ros.executor.context import Context
+    from reconf_ros.executor.processes import launch, on_agent
+    from reconf_ros.executor.remote import HostError
+    (tmp_path / "t").write_text("tok\n")
+    hosts = tmp_path / "hosts.json"
+    hosts.write_text(json.dumps({"hosts": {"station": "local", "arm": "127.0.0.1:1"}, "token_file": "t"}))
+    args = argparse.Namespace(hosts=str(hosts), timeout=2.0, log_dir=str(tmp_path / "logs"))
+    ctx = Context(_up_doc(), args, sys.stdout, sys.stderr)
+    assert on_agent(ctx, "talker") and not on_agent(ctx, "listener")     # robot: not in the file; station: here
+    with pytest.raises(HostError, match=f"host robot is not in the hosts file {hosts} \\(it names arm, station\\)") \
+            as failed:
+        launch(ctx, "talker")
+    assert failed.value.host == "robot"
+    assert not (tmp_path / "logs").exists()
+    assert Context(_up_doc(), argparse.Namespace(timeout=2.0, log_dir=""), sys.stdout, sys.stderr).hosts is None

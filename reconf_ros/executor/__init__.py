@@ -11,13 +11,14 @@ Each module is one concern, readable in one sitting:
 - `semantics`: satisfaction, the safety property and the actions' structural preconditions and
   effects over a plan's model (`Model`), the executor's own copy of `checker.model`'s;
 - `status`: the status protocol the nodes publish on `/diagnostics`, and finding a component's node;
+- `remote`: the per-host agents a hosts file names, and their processes (docs/hosts.md);
 - `runtime`: the ROS side (`Runtime`): services with retries, the graph, the statuses;
 - `naming`: which node is a component's (`Names`);
 - `context`: what one run carries (`Context`);
 - `replay`: the dry run;
 - `observe`: reading the live system as a configuration;
 - `conditions`: what a step waits for on the wire;
-- `processes`: starting and stopping a component's process;
+- `processes`: starting and stopping a component's process, here or by its host's agent;
 - `handlers`: the six actions, one handler each (`HANDLERS`);
 - `run_report`: the run report, and what a failure says;
 - `run`: a run of a plan (`Executor`);
@@ -28,5 +29,5 @@ it reads the system through the same `Runtime`; plan scripts do not embed it.
 """
 from __future__ import annotations
 
-EMBEDDED = ("steps", "plan_states", "semantics", "status", "runtime", "naming", "context", "replay", "observe",
+EMBEDDED = ("steps", "plan_states", "semantics", "status", "remote", "runtime", "naming", "context", "replay", "observe",
             "conditions", "processes", "handlers", "run_report", "run", "script")

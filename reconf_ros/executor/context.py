@@ -12,6 +12,7 @@ from typing import Any, Callable, Optional, Protocol
 
 from .naming import Names
 from .plan_states import PlanStates
+from .remote import Hosts
 from .semantics import Model
 from .steps import Step, plan_steps
 
@@ -31,11 +32,13 @@ class Started:
     log: str
     command: str
     node: str
-    proc: Any                        # its subprocess.Popen, or the launcher's handle
+    proc: Any                        # its subprocess.Popen, the launcher's handle, or an agent's RemoteProcess
     ended: Optional[int] = None      # its exit status, once a remove has waited for it
+    host: str = ""                   # the host whose agent started it ("": this machine; its pid and log are there)
 
     def to_doc(self) -> dict[str, Any]:
-        doc = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
+        doc: dict[str, Any] = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
+        doc.update({"host": self.host} if self.host else {})
         return doc if self.ended is None else {**doc, "ended": self.ended}
 
 
@@ -113,6 +116,7 @@ class Context:
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
+    failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -125,6 +129,9 @@ class Context:
         recovery = self.doc["plan"].get("recovery") or {}
         self.placed: dict[str, str] = dict(recovery.get("placed") or {})
         self.orphans: list[dict[str, Any]] = list(recovery.get("orphans") or [])
+        hosts_file = getattr(self.args, "hosts", "")
+        # the agents of the hosts file (--hosts): each reached on first use
+        self.hosts: Optional[Hosts] = Hosts(hosts_file, self.args.timeout) if hosts_file else None
 
     @property
     def names(self) -> Names:

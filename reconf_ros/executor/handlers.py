@@ -9,7 +9,6 @@ when the node is not as the plan expects or refuses; it returns once the node ha
 that the change is made."""
 from __future__ import annotations
 
-import os
 import shlex
 import time
 from typing import Callable
@@ -18,9 +17,9 @@ from .conditions import wire_after, wire_before
 from .context import Context, Started
 from .observe import wait_status
 from .plan_states import State
-from .processes import command, start, wait_exit
+from .processes import launch, on_agent, wait_removed
+from .remote import RemoteProcess
 from .runtime import NOT_A_RECONF_NODE, StepFailed
-from .status import CREATED_ENV
 from .steps import Step
 
 
@@ -86,13 +85,11 @@ def baseline(ctx: Context, comp: str) -> None:
 
 
 def _start(ctx: Context, comp: str, fqn: str) -> None:
-    """Start the component's process as `fqn`, wait for its lifecycle services, configure and activate it."""
-    names = ctx.names
-    argv = command(ctx, comp)
-    os.makedirs(ctx.log_dir, exist_ok=True)
-    log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
-    proc, how = start(ctx, argv, log, {CREATED_ENV: names.created_mark(comp)})
-    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc)
+    """Start the component's process as `fqn` (here, or on its host by its agent: `launch`),
+    wait for its lifecycle services, configure and activate it."""
+    proc, argv, log, how = launch(ctx, comp)
+    host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
+    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
@@ -135,7 +132,9 @@ def _not_a_lifecycle_node(ctx: Context, comp: str, fqn: str, seen: dict[str, flo
 
 
 def remove(ctx: Context, step: Step) -> None:
-    """Take an isolated node down its lifecycle to finalized; wait for a process this run started."""
+    """Take an isolated node down its lifecycle to finalized; wait for a process this run started,
+    and, for a component on an agent's host, for the agent's report of its process's exit
+    (`wait_removed`: an agent that cannot be reached fails the step, naming the host)."""
     comp = step.component
     fqn, transition = ctx.names.fqn(comp), ctx.rt.Transition
     lc = ctx.rt.lifecycle(fqn)
@@ -146,6 +145,7 @@ def remove(ctx: Context, step: Step) -> None:
     if attached:
         raise StepFailed(f"before the step, {comp} is not isolated: "
                          + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
+    pid = (ctx.rt.status(fqn) or {}).get("pid") if on_agent(ctx, comp) else None
     if lc == "active":
         ctx.rt.transition(fqn, transition.TRANSITION_DEACTIVATE, "deactivate")
     ctx.rt.transition(fqn, transition.TRANSITION_CLEANUP, "cleanup")
@@ -157,9 +157,10 @@ def remove(ctx: Context, step: Step) -> None:
         lc = "finalized"
     if lc != "finalized":
         raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
-    info = ctx.started.get(comp)
-    if info is not None:
-        info.ended = wait_exit(info.proc, max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    seen = wait_removed(ctx, comp, int(str(pid)) if str(pid or "").isdigit() else None,
+                        max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    if seen:
+        ctx.say(f"      {comp}: {seen}")
     ctx.rt.forget(fqn)
 
 

@@ -1,12 +1,14 @@
 """The processes a plan starts and stops: a component's command line (its `run`, or a
 model-driven `reconf-node` of the architecture the plan reaches), with its node's name and
 namespace; started in a session of its own with its own log, forked by a manager's launcher
-where it can be (docs/executor.md#launcher)."""
+where it can be (docs/executor.md#launcher); or, with a hosts file (`--hosts`), on the host the
+component's architecture names, by that host's agent (`remote`, docs/hosts.md)."""
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import re
 import shlex
 import shutil
 import signal
@@ -16,22 +18,25 @@ import time
 from typing import Any, Iterable, Optional
 
 from .context import Context
+from .remote import LOCAL, Agent, HostError, HostRefused, RemoteProcess
 from .runtime import StepFailed
 from .status import CREATED_ENV
 
 
-def command(ctx: Context, comp: str) -> list[str]:
+def command(ctx: Context, comp: str, remote: bool = False) -> list[str]:
     """The component's run line, or, when it has none, a model-driven node of the architecture
     the plan reaches (`reconf-node --plan`); with the node's name and namespace. A component
     that is not a reconf node (its `node` block) is started by its adapter, `reconf-node --plan`
-    too, which runs the run line itself (docs/adapter.md)."""
+    too, which runs the run line itself (docs/adapter.md). `remote`: for an agent on another host,
+    which finds the program there; the plan file is then named by `remote_plan` (shipped with the start)."""
     run, names = ctx.runs.get(comp), ctx.names
     adapted = "node" in ctx.model.comps.get(comp, {})
     if adapted and not run:
         raise StepFailed(f"{comp} is a node reconf does not build (its `node` block) and has no run line: "
                          "reconf cannot start it")
-    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan_path(ctx), comp]
-    exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
+    plan = remote_plan(ctx)[0] if remote else ""
+    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan or plan_path(ctx), comp]
+    exe = argv[0] if remote else shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
     if exe is None:
         raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
     argv[0] = exe
@@ -47,12 +52,17 @@ def command(ctx: Context, comp: str) -> list[str]:
     return argv
 
 
-def plan_path(ctx: Context) -> str:
-    """The plan document in the log directory, for the nodes that read it; named by its
-    content, so a log directory shared by several plans gives each node its own plan."""
+def _plan_text(ctx: Context) -> tuple[str, str]:
+    """The plan document as the nodes read it, and its file's name, named by its content (so a
+    log directory shared by several plans gives each node its own plan)."""
     text = json.dumps(ctx.doc, sort_keys=True)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = os.path.abspath(os.path.join(ctx.log_dir, f"plan-{digest}.json"))
+    return f"plan-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json", text
+
+
+def plan_path(ctx: Context) -> str:
+    """The plan document in the log directory, for the nodes that read it."""
+    name, text = _plan_text(ctx)
+    path = os.path.abspath(os.path.join(ctx.log_dir, name))
     if not os.path.exists(path):
         os.makedirs(ctx.log_dir, exist_ok=True)
         tmp = f"{path}.tmp{os.getpid()}"
@@ -60,6 +70,18 @@ def plan_path(ctx: Context) -> str:
             fh.write(text)
         os.replace(tmp, path)
     return path
+
+
+def run_name(ctx: Context) -> str:
+    """This run's directory under an agent's log directory: the last part of the log directory,
+    in the characters an agent accepts in a file name."""
+    return re.sub(r"[^\w.-]", "_", os.path.basename(os.path.abspath(ctx.log_dir))).lstrip(".") or "run"
+
+
+def remote_plan(ctx: Context) -> tuple[str, str]:
+    """The plan file's name under an agent's log directory, and its text."""
+    name, text = _plan_text(ctx)
+    return f"{run_name(ctx)}/{name}", text
 
 
 def start(ctx: Context, argv: list[str], log: str, env: dict[str, str]) -> tuple[Any, str]:
@@ -77,13 +99,90 @@ def start(ctx: Context, argv: list[str], log: str, env: dict[str, str]) -> tuple
     return proc, ""
 
 
+def host_agent(ctx: Context, comp: str) -> Optional[Agent]:
+    """The agent that starts and stops `comp`'s process: None where the process runs on this
+    machine (no hosts file, no `host` for the component, or the file's "local"). Raises
+    `HostError` (an OSError naming the host) when the hosts file does not name its host: a
+    component is never started elsewhere than where its architecture places it."""
+    host = ctx.model.comps.get(comp, {}).get("host")
+    if ctx.hosts is None or not host:
+        return None
+    agent: Optional[Agent] = ctx.hosts.agent(host)
+    return agent
+
+
+def on_agent(ctx: Context, comp: str) -> bool:
+    """Whether `comp`'s process is an agent's (or its host is not in the hosts file)."""
+    host = ctx.model.comps.get(comp, {}).get("host")
+    return ctx.hosts is not None and bool(host) and ctx.hosts.where.get(str(host)) != LOCAL
+
+
+def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
+    """Start `comp`'s process where it runs, with its creation mark in its environment: here
+    (`start`), or by its host's agent, which is sent the plan file when the node reads it and
+    adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
+    path on its host) and how it was started, for the step's line. Raises StepFailed, or a
+    `HostError` naming the host when its agent cannot be reached or refuses."""
+    env = {CREATED_ENV: ctx.names.created_mark(comp)}
+    agent = host_agent(ctx, comp)
+    if agent is None or ctx.hosts is None:
+        argv = command(ctx, comp)
+        os.makedirs(ctx.log_dir, exist_ok=True)
+        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
+        proc, how = start(ctx, argv, log, env)
+        return proc, argv, log, how
+    argv = command(ctx, comp, remote=True)
+    plan, text = remote_plan(ctx)
+    files = {plan: text} if plan in argv else {}
+    remote = ctx.hosts.start(agent, argv, f"{run_name(ctx)}/{ctx.names.node_name(comp)}.log", env, files)
+    return remote, argv, remote.log, f" on host {agent.host}{remote.how}"
+
+
+def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) -> str:
+    """After `comp`'s node is finalized, wait up to `seconds` for its process to exit (then
+    SIGTERM, then SIGKILL: `wait_exit`): a process this run started, wherever it runs, or, for
+    a component on an agent's host, the process its status named (`pid`), by that agent. What
+    was seen, for the step's line ("" for a process of this machine another run started, as
+    before). Raises `HostError` naming the host when its agent cannot be reached."""
+    info = ctx.started.get(comp)
+    if info is not None:
+        info.ended = wait_exit(info.proc, seconds)
+        return f"its process (pid {info.pid}{_on(info.host)}) exited with status {info.ended}" if info.host else ""
+    agent = host_agent(ctx, comp)
+    if agent is None or pid is None:
+        return ""
+    try:
+        status = wait_exit(RemoteProcess(agent, pid, ""), seconds)
+    except HostRefused as e:    # not a process the agent started (one started by hand there)
+        return f"its process (pid {pid}) is not host {agent.host}'s agent's, which says: {e}"
+    return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
+
+
+def _end_remote(ctx: Context, fqn: str, comp: str, pid: int) -> Optional[str]:
+    """An orphan's process on an agent's host, waited for (and ended) by that agent: its exit
+    status as words; None where the component runs on this machine. Raises StepFailed when the
+    agent cannot be reached or did not start it (its end is then not known)."""
+    try:
+        agent = host_agent(ctx, comp)
+        if agent is None:
+            return None
+        return f"exited with status {wait_exit(RemoteProcess(agent, pid, ''), ctx.args.timeout)} on host {agent.host}"
+    except HostError as e:
+        ctx.failed_host = e.host
+        raise StepFailed(f"the orphan {fqn} (pid {pid}): {e}") from None
+
+
+def _on(host: str) -> str:
+    return f" on host {host}" if host else ""
+
+
 def warm(ctx: Context, first: int, last: int) -> None:
     """Let the launcher parse what the steps' new nodes will read, while the live system is
     checked."""
     if ctx.launcher is None:
         return
     for step in ctx.steps[first - 1:last]:
-        if step.action != "create":
+        if step.action != "create" or on_agent(ctx, step.component):
             continue
         try:
             argv = command(ctx, step.component)
@@ -120,24 +219,30 @@ def _stop(proc: Any) -> None:
 
 
 def list_started(ctx: Context, stop: bool, present: Optional[Iterable[str]] = None) -> None:
-    """Name every process this run started (pid, state, log); with `stop`, end the ones still
-    running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component is not
-    in the `present` ones observed: never activated, they are in no configuration and would
-    only stand in the way of a run or a recovery that starts them again."""
+    """Name every process this run started (pid, host, state, log); with `stop`, end the ones
+    still running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component
+    is not in the `present` ones observed: never activated, they are in no configuration and
+    would only stand in the way of a run or a recovery that starts them again. A process whose
+    host's agent cannot be reached is named with that reason, its state unknown."""
     if not ctx.started:
         return
     keep = None if present is None else set(present)
     ctx.warn("Processes this run started:")
     for c, info in sorted(ctx.started.items()):
-        alive = info.proc.poll() is None
-        if alive and (stop or (keep is not None and c not in keep)):
-            _stop(info.proc)
-            info.ended = info.proc.returncode
-            why = "--stop-started" if stop else "never active: in no configuration"
-            ctx.warn(f"  {c}: pid {info.pid} stopped ({why}), log {info.log}")
-        else:
-            state = "running" if alive else f"exited with status {info.proc.returncode}"
-            ctx.warn(f"  {c}: pid {info.pid} {state}, log {info.log}")
+        where = f"pid {info.pid}{_on(info.host)}"
+        try:
+            alive = info.proc.poll() is None
+            if alive and (stop or (keep is not None and c not in keep)):
+                _stop(info.proc)
+                info.ended = info.proc.returncode
+                why = "--stop-started" if stop else "never active: in no configuration"
+                ctx.warn(f"  {c}: {where} stopped ({why}), log {info.log}")
+                continue
+        except HostError as e:
+            ctx.warn(f"  {c}: {where}, state not known ({e}), log {info.log}")
+            continue
+        state = "running" if alive else f"exited with status {info.proc.returncode}"
+        ctx.warn(f"  {c}: {where} {state}, log {info.log}")
 
 
 def _process(pid: Optional[int], mark: str) -> Optional[bool]:
@@ -168,7 +273,8 @@ def _wait_gone(pid: int, mark: str, seconds: float) -> bool:
 def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     """End a node a plan started that is in no configuration (docs/executor.md#recovering-from-the-live-system):
     down its lifecycle to finalized (a reconf node then exits), its process signalled if it does
-    not exit (only a process of this host that carries the node's creation mark). What was done."""
+    not exit (only a process of this host that carries the node's creation mark; on an agent's
+    host, by that agent: `_end_remote`). What was done."""
     fqn, pid, mark = orphan["node"], orphan.get("pid"), orphan.get("created", "")
     transition = ctx.rt.Transition
     try:
@@ -185,6 +291,9 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
         except StepFailed as e:
             lc = f"{lc}, shutdown refused ({e})"
     ctx.rt.forget(fqn)
+    remote = _end_remote(ctx, fqn, str(orphan.get("component") or ""), int(pid)) if pid is not None else None
+    if remote is not None:
+        return f"{lc} → finalized, {remote}" if lc in ("unconfigured", "inactive") else f"{lc}, {remote}"
     if pid is None or _wait_gone(pid, mark, ctx.args.timeout):
         return f"{lc} → finalized, exited" if lc in ("unconfigured", "inactive") else f"{lc}"
     for sig in (signal.SIGTERM, signal.SIGKILL):
@@ -195,9 +304,14 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     raise StepFailed(f"the orphan {fqn} (pid {pid}) did not exit")
 
 
-def end_orphans(ctx: Context) -> None:
-    """End every orphan a recovery's plan lists, before its first step."""
+def end_orphans(ctx: Context) -> str:
+    """End every orphan a recovery's plan lists, before its first step; why one could not be
+    ended ("": every one was)."""
     for orphan in ctx.orphans:
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
-        how = end_orphan(ctx, orphan)
+        try:
+            how = end_orphan(ctx, orphan)
+        except StepFailed as e:
+            return str(e)
         ctx.say(f"ended the orphan {orphan['node']} (pid {orphan.get('pid') or 'unknown'}): {how}")
+    return ""

@@ -28,7 +28,7 @@ import hmac
 import json
 import os
 import secrets
-import signal as signals
+import signal
 import socket
 import subprocess
 import time
@@ -39,8 +39,23 @@ LOCAL = "local"              # a hosts file's value for this machine: no agent
 MAX_WAIT = 20.0              # s an agent waits for an exit in one request
 
 
-class HostUnreachable(OSError):
-    """A host's agent could not be reached, or broke off; the message names the host and why."""
+class HostError(OSError):
+    """A host's agent failed a request: the message names the host and why; `host` is its name."""
+
+    def __init__(self, host: str, message: str) -> None:
+        super().__init__(message)
+        self.host = host
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+class HostUnreachable(HostError):
+    """A host's agent could not be reached, or broke off."""
+
+
+class HostRefused(HostError):
+    """A host's agent answered a request with a refusal (its reason in the message)."""
 
 
 def proof(token: bytes, role: str, challenge: str) -> str:
@@ -85,18 +100,18 @@ class Agent:
         try:
             sock = socket.create_connection((addr or self.address, int(port or AGENT_PORT)), timeout=self.timeout)
         except (OSError, ValueError) as e:
-            raise HostUnreachable(f"{self.where()} cannot be reached: {getattr(e, 'strerror', None) or e}") from None
+            raise HostUnreachable(self.host, f"{self.where()} cannot be reached: {getattr(e, 'strerror', None) or e}") from None
         self.sock, self.stream = sock, sock.makefile("rwb")
         hello = self._read()
         if hello.get("agent") != self.host:
             self.close()
-            raise HostUnreachable(f"{self.where()}: the agent there is host {hello.get('agent')!r}'s")
+            raise HostUnreachable(self.host, f"{self.where()}: the agent there is host {hello.get('agent')!r}'s")
         mine = secrets.token_hex(16)
         self._write({"proof": proof(self.token, "client", str(hello.get("challenge"))), "challenge": mine})
         answer = self._read()
         if not hmac.compare_digest(str(answer.get("proof", "")), proof(self.token, "agent", mine)):
             self.close()
-            raise HostUnreachable(f"{self.where()}: the agent refused the token, or does not hold it "
+            raise HostUnreachable(self.host, f"{self.where()}: the agent refused the token, or does not hold it "
                                   f"({answer.get('error', 'no proof')})")
 
     def _write(self, doc: dict[str, Any]) -> None:
@@ -129,9 +144,9 @@ class Agent:
             except (OSError, ValueError) as e:
                 self.close()
                 if attempt == 2 or doc.get("op") == "start":    # a start is never sent twice
-                    raise HostUnreachable(f"{self.where()} broke off: {getattr(e, 'strerror', None) or e}") from None
+                    raise HostUnreachable(self.host, f"{self.where()} broke off: {getattr(e, 'strerror', None) or e}") from None
         if "error" in answer:
-            raise OSError(f"{self.where()} refused: {answer['error']}")
+            raise HostRefused(self.host, f"{self.where()} refused: {answer['error']}")
         return answer
 
     def close(self) -> None:
@@ -147,8 +162,8 @@ class Agent:
 class RemoteProcess:
     """A process an agent started on its host: what an executor needs of a `subprocess.Popen`."""
 
-    def __init__(self, agent: Agent, pid: int, log: str) -> None:
-        self.agent, self.pid, self.log = agent, pid, log
+    def __init__(self, agent: Agent, pid: int, log: str, how: str = "") -> None:
+        self.agent, self.pid, self.log, self.how = agent, pid, log, how
         self.returncode: Optional[int] = None
 
     def poll(self) -> Optional[int]:
@@ -174,10 +189,10 @@ class RemoteProcess:
             self.returncode = None if status is None else int(status)
 
     def terminate(self) -> None:
-        self.send_signal(signals.SIGTERM)
+        self.send_signal(signal.SIGTERM)
 
     def kill(self) -> None:
-        self.send_signal(signals.SIGKILL)
+        self.send_signal(signal.SIGKILL)
 
     def tail(self, size: int = 2000) -> str:
         """The end of its log, read on its host."""
@@ -200,7 +215,7 @@ class Hosts:
             return None
         address = self.where.get(host)
         if address is None:
-            raise OSError(f"host {host} is not in the hosts file {self.path} (it names "
+            raise HostError(host, f"host {host} is not in the hosts file {self.path} (it names "
                           f"{', '.join(sorted(self.where)) or 'no host'})")
         if address == LOCAL:
             return None
@@ -216,7 +231,7 @@ class Hosts:
         argument naming one of them given its path there."""
         env = {"ROS_DOMAIN_ID": os.environ.get("ROS_DOMAIN_ID", "0"), **env}
         answer = agent.request({"op": "start", "argv": argv, "log": log, "env": env, "files": files or {}})
-        return RemoteProcess(agent, int(answer["pid"]), str(answer["log"]))
+        return RemoteProcess(agent, int(answer["pid"]), str(answer["log"]), str(answer.get("how", "")))
 
     def close(self) -> None:
         for agent in self.agents.values():

@@ -24,6 +24,7 @@ from .observe import (
     wait_statuses,
 )
 from .processes import end_orphans, warm
+from .remote import HostError
 from .run_report import failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
 from .steps import EXIT_FAILED, EXIT_OK, plan_steps, plural
@@ -75,6 +76,8 @@ class Executor:
         except KeyboardInterrupt:       # a second signal: at once, wherever the run was
             return interrupted(ctx, ctx.step, at_once=True)
         finally:
+            if ctx.hosts is not None:
+                ctx.hosts.close()
             if self.own_runtime:
                 ctx.rt.close()
 
@@ -87,7 +90,9 @@ class Executor:
             return refused
         if ctx.interrupts.stop:
             return interrupted(ctx, 0)
-        end_orphans(ctx)
+        why = end_orphans(ctx)
+        if why:
+            return failed(ctx, 0, None, f"before the first step: {why}")
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
@@ -134,8 +139,9 @@ class Executor:
             perform(ctx, step, ctx.states[i - 1], ctx.states[i])
             ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
             check_touched(ctx, ctx.states[i], f"after step {i}")
-        except (StepFailed, OSError) as e:
+        except (StepFailed, OSError) as e:     # OSError: a host's agent (HostError, naming the host), a file
             ctx.failure = str(e)
+            ctx.failed_host = e.host if isinstance(e, HostError) else ""
             ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
             return False
         except KeyboardInterrupt:

@@ -26,6 +26,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
+        "failed_host": ctx.failed_host or None,     # the host whose agent failed the step (docs/hosts.md)
         "observed": None if observed is None else observed.to_doc(),
         "observed_at": None if observed is None else ctx.read_at,    # when that reading began (wall clock)
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known

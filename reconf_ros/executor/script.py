@@ -11,6 +11,7 @@ import signal
 import sys
 from typing import Any, Optional
 
+from .remote import read_hosts
 from .replay import replay
 from .run import Executor, confirmed
 from .steps import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, orphans, plural
@@ -78,6 +79,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                     help="write the run's report (JSON) here; on failure one is always written")
     ap.add_argument("--stop-started", action="store_true",
                     help="on failure, stop the processes this run started (they are named either way)")
+    ap.add_argument("--hosts", default="", metavar="FILE",
+                    help="a hosts file: each component whose host it names (not \"local\") is started and stopped "
+                         "by that host's agent (docs/hosts.md)")
     ap.add_argument("--manager", nargs="?", const="default", default="", metavar="SOCKET",
                     help="let a running reconf manager apply the plan (default socket: this ROS domain's)")
     ap.add_argument("--quiet-list", action="store_true", help=argparse.SUPPRESS)
@@ -101,6 +105,13 @@ def parse(doc: dict[str, Any], argv: Optional[list[str]],
         ap.error("--to-step: the plan has no step")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
+    if args.hosts:
+        try:
+            read_hosts(args.hosts)
+        except OSError as e:
+            ap.error(f"--hosts: {e.filename or args.hosts}: {e.strerror or e}")
+        except ValueError as e:
+            ap.error(f"--hosts: {e}")
     return args
 
 
@@ -140,7 +151,7 @@ def _main(doc: dict[str, Any], argv: Optional[list[str]]) -> int:
     if args.manager:
         forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
             "from_step", "to_step", "timeout", "step_timeout", "wire_timeout", "discovery_timeout", "namespace")]
-        forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report")
+        forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report", "hosts")
                       if getattr(args, k)]      # the manager writes them: absolute paths
         forwarded += ["--stop-started"] if args.stop_started else []
         return via_manager(doc, forwarded, args,

@@ -1,10 +1,12 @@
 """Hosts as real network endpoints (reconf_ros.tools.netlab): each host a network namespace of
-its own on a bridge, every node of a host in its namespace, DDS across the hosts' network; and
-faults of hosts and links: a host crashed (every process of it killed), cut off (its link down)
+its own on a bridge, every node of a host in its namespace, DDS across the hosts' network; plans
+that start and stop each component on its host by the host's agent (`--hosts`); and faults of hosts and links: a host crashed (every process of it killed), cut off (its link down)
 or losing packets (nftables). The FTM of paper 000 survives a crash and a partition of the
 primary's host, and the old primary, healed, answers nothing: it fenced itself."""
 from __future__ import annotations
 
+import json
+import re
 import subprocess
 import sys
 import time
@@ -47,6 +49,92 @@ def test_two_hosts_talk_over_their_network_and_a_partition_cuts_them(on_hosts: C
     live.heal("robot")
     live.wait_ready(["listener"], timeout=30)
     assert received(live) > before
+
+
+def reconf_on(live: LiveSystem, *args: str, report: str) -> subprocess.CompletedProcess[str]:
+    """`reconf ARGS` on the lab's home host (a plan applied with its logs and its report here);
+    the processes its report names are ended with the system."""
+    argv = [str(Path(sys.executable).with_name("reconf")), *args, "--no-alloy", "--yes",
+            "--log-dir", str(live.dir / "logs"), "--report", str(live.dir / report)]
+    res = subprocess.run(live.on_host(None, argv), capture_output=True, text=True, env=live.env, cwd=live.dir,
+                         timeout=180)
+    live.pids.update(int(s["pid"]) for s in live.report(report).get("started", {}).values())
+    return res
+
+
+def test_up_starts_each_component_on_its_host_by_its_agent_and_a_replace_runs_through_it(
+        on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    assert live.lab is not None
+    hosts_file = live.agents()
+    arch = example("chatter_hosts.arch")
+    up = reconf_on(live, "up", arch, "--hosts", str(hosts_file), report="up.json")
+    assert up.returncode == 0, up.stdout + up.stderr
+    started = live.report("up.json")["started"]
+    assert {c: s.get("host") for c, s in started.items()} == {"talker": "robot", "listener": "station"}
+    for comp, host, other in (("talker", "robot", "station"), ("listener", "station", "robot")):
+        pid = int(started[comp]["pid"])
+        assert pid in live.lab.pids(host) and pid not in live.lab.pids(other), (comp, host)
+        assert started[comp]["log"].startswith(str(hosts_file.parent / host)), started[comp]     # the agent's log
+        assert re.search(rf"started {comp}: pid {pid} on host {host}", up.stdout + up.stderr), up.stdout
+    statuses = live.settle_status(["talker", "listener"])
+    assert int(statuses["/talker"]["values"]["pid"]) == int(started["talker"]["pid"])
+    assert live.violations(statuses) == {}
+    # the replace of the robot's talker, run on the station: the robot's agent starts talker_v2
+    # and reports the old talker's exit
+    script = live.plan_script(["replace", "talker", "-f", arch, "--with", "talker_v2"])
+    res = live.run_plan(script, "--hosts", str(hosts_file), timeout=120)
+    report = live.report()
+    assert res.returncode == 0 and report["outcome"] == "done", res.stdout + res.stderr
+    v2 = report["started"]["talker_v2"]
+    assert v2["host"] == "robot" and int(v2["pid"]) in live.lab.pids("robot"), v2
+    assert re.search(rf"talker: its process \(pid {started['talker']['pid']} on host robot\) exited with status 0",
+                     res.stdout), res.stdout
+    assert int(started["talker"]["pid"]) not in live.lab.pids("robot")
+    assert re.search(r"none of the \d+ monitors heard from saw a normal mode's assumption violated", res.stdout), \
+        res.stdout
+    assert live.violations(live.settle_status(["listener"])) == {}
+
+
+def test_a_step_on_a_host_whose_agent_cannot_be_reached_fails_naming_the_host(
+        on_hosts: Callable[..., LiveSystem]) -> None:
+    live = on_hosts(["robot", "station"], home="station")
+    assert live.lab is not None
+    hosts_file = live.agents()
+    arch = example("chatter_hosts.arch")
+    running = {h: set(live.lab.pids(h)) for h in ("robot", "station")}     # the agents (and their launchers)
+    live.partition("robot")         # the robot cut off: its agent cannot be reached
+    t0 = time.monotonic()
+    up = reconf_on(live, "up", arch, "--hosts", str(hosts_file), "--timeout", "2", report="unreachable.json")
+    report = live.report("unreachable.json")
+    assert up.returncode == 1 and report["outcome"] == "failed", up.stdout + up.stderr
+    assert time.monotonic() - t0 < 60
+    address = json.loads(hosts_file.read_text())["hosts"]["robot"]
+    assert report["failed_step"] == 1 and report["failed_host"] == "robot", report["reason"]
+    assert report["reason"].startswith(f"host robot ({address}) cannot be reached: "), report["reason"]
+    assert re.search(rf"step 1 \(create talker.*?\) FAILED: host robot \({re.escape(address)}\) cannot be reached",
+                     up.stderr), up.stderr
+    assert report["started"] == {}      # nothing started, here or elsewhere
+    assert {h: set(live.lab.pids(h)) for h in running} == running
+    live.heal("robot")
+    # a hosts file that does not name the robot: the same, never a start on this host instead
+    partial = live.dir / "agents" / "station-only.json"
+    doc = json.loads(hosts_file.read_text())
+    partial.write_text(json.dumps({**doc, "hosts": {"station": doc["hosts"]["station"]}}))
+    up = reconf_on(live, "up", arch, "--hosts", str(partial), report="unnamed.json")
+    report = live.report("unnamed.json")
+    assert up.returncode == 1 and report["failed_host"] == "robot", up.stdout + up.stderr
+    assert report["reason"] == f"host robot is not in the hosts file {partial} (it names station)", report["reason"]
+    assert report["started"] == {}
+    assert {h: set(live.lab.pids(h)) for h in running} == running
+    # with every host reachable, up and then down: each remove waits for its agent's report of the exit
+    assert reconf_on(live, "up", arch, "--hosts", str(hosts_file), report="up.json").returncode == 0
+    pids = {c: int(s["pid"]) for c, s in live.report("up.json")["started"].items()}
+    down = reconf_on(live, "down", arch, "--hosts", str(hosts_file), report="down.json")
+    assert down.returncode == 0, down.stdout + down.stderr
+    for comp, host in (("talker", "robot"), ("listener", "station")):
+        assert f"{comp}: its process (pid {pids[comp]} on host {host}) exited with status 0" in down.stdout, down.stdout
+    assert {h: set(live.lab.pids(h)) for h in running} == running, "a process outlived reconf down"
 
 
 def test_discover_and_drift_on_one_host_read_every_hosts_nodes(on_hosts: Callable[..., LiveSystem]) -> None:

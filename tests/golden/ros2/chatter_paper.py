@@ -27,11 +27,15 @@ from __future__ import annotations
 import argparse
 import datetime
 import hashlib
+import hmac
 import json
 import os
+import re
+import secrets
 import shlex
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -494,6 +498,212 @@ def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Stat
     return found[0] if len(found) == 1 else None
 
 
+# --- reconf_ros/executor/remote.py ---
+
+AGENT_PORT = 7411            # the agent's default TCP port
+LOCAL = "local"              # a hosts file's value for this machine: no agent
+MAX_WAIT = 20.0              # s an agent waits for an exit in one request
+
+
+class HostError(OSError):
+    """A host's agent failed a request: the message names the host and why; `host` is its name."""
+
+    def __init__(self, host: str, message: str) -> None:
+        super().__init__(message)
+        self.host = host
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+class HostUnreachable(HostError):
+    """A host's agent could not be reached, or broke off."""
+
+
+class HostRefused(HostError):
+    """A host's agent answered a request with a refusal (its reason in the message)."""
+
+
+def proof(token: bytes, role: str, challenge: str) -> str:
+    """What a side ("client" or "agent") sends to show it holds `token`."""
+    return hmac.new(token, f"{role}:{challenge}".encode(), hashlib.sha256).hexdigest()
+
+
+def read_hosts(path: str) -> tuple[dict[str, str], bytes]:
+    """A hosts file: host -> "ADDRESS:PORT" (or "local"), and the agents' token. Raises
+    ValueError with what is wrong, OSError when a file cannot be read."""
+    with open(path, encoding="utf-8") as fh:
+        doc = json.load(fh)
+    hosts = doc.get("hosts") if isinstance(doc, dict) else None
+    if not isinstance(hosts, dict) or not all(isinstance(v, str) for v in hosts.values()):
+        raise ValueError(f"{path}: not a hosts file (want {{\"hosts\": {{\"NAME\": \"ADDRESS:PORT\"}}, "
+                         "\"token_file\": \"FILE\"}})")
+    token = b""
+    if any(v != LOCAL for v in hosts.values()):
+        name = doc.get("token_file")
+        if not isinstance(name, str):
+            raise ValueError(f"{path}: a hosts file with agents names their token_file")
+        with open(os.path.join(os.path.dirname(os.path.abspath(path)), name), "rb") as fh:
+            token = fh.read().strip()
+        if not token:
+            raise ValueError(f"{path}: the token file {name} is empty")
+    return {str(k): str(v) for k, v in hosts.items()}, token
+
+
+class Agent:
+    """One host's agent, over one connection made on first use (and again once if it breaks)."""
+
+    def __init__(self, host: str, address: str, token: bytes, timeout: float) -> None:
+        self.host, self.address, self.token, self.timeout = host, address, token, timeout
+        self.sock: Optional[socket.socket] = None
+        self.stream: Any = None
+
+    def where(self) -> str:
+        return f"host {self.host} ({self.address})"
+
+    def _connect(self) -> None:
+        addr, _, port = self.address.rpartition(":")
+        try:
+            sock = socket.create_connection((addr or self.address, int(port or AGENT_PORT)), timeout=self.timeout)
+        except (OSError, ValueError) as e:
+            raise HostUnreachable(self.host, f"{self.where()} cannot be reached: {getattr(e, 'strerror', None) or e}") from None
+        self.sock, self.stream = sock, sock.makefile("rwb")
+        hello = self._read()
+        if hello.get("agent") != self.host:
+            self.close()
+            raise HostUnreachable(self.host, f"{self.where()}: the agent there is host {hello.get('agent')!r}'s")
+        mine = secrets.token_hex(16)
+        self._write({"proof": proof(self.token, "client", str(hello.get("challenge"))), "challenge": mine})
+        answer = self._read()
+        if not hmac.compare_digest(str(answer.get("proof", "")), proof(self.token, "agent", mine)):
+            self.close()
+            raise HostUnreachable(self.host, f"{self.where()}: the agent refused the token, or does not hold it "
+                                  f"({answer.get('error', 'no proof')})")
+
+    def _write(self, doc: dict[str, Any]) -> None:
+        self.stream.write(json.dumps(doc).encode() + b"\n")
+        self.stream.flush()
+
+    def _read(self) -> dict[str, Any]:
+        line = self.stream.readline()
+        if not line:
+            raise ConnectionResetError("the connection closed")
+        doc = json.loads(line)
+        if not isinstance(doc, dict):
+            raise ValueError(f"not an answer: {line[:200]!r}")
+        return doc
+
+    def request(self, doc: dict[str, Any], wait: float = 0.0) -> dict[str, Any]:
+        """Send one request and return its answer (a refusal raises OSError with the reason);
+        `wait`: how much longer than the timeout the agent may take (a wait for an exit)."""
+        for attempt in (1, 2):
+            try:
+                if self.sock is None:
+                    self._connect()
+                assert self.sock is not None
+                self.sock.settimeout(self.timeout + wait)
+                self._write(doc)
+                answer = self._read()
+                break
+            except HostUnreachable:
+                raise
+            except (OSError, ValueError) as e:
+                self.close()
+                if attempt == 2 or doc.get("op") == "start":    # a start is never sent twice
+                    raise HostUnreachable(self.host, f"{self.where()} broke off: {getattr(e, 'strerror', None) or e}") from None
+        if "error" in answer:
+            raise HostRefused(self.host, f"{self.where()} refused: {answer['error']}")
+        return answer
+
+    def close(self) -> None:
+        for part in (self.stream, self.sock):
+            try:
+                if part is not None:
+                    part.close()
+            except OSError:
+                pass
+        self.sock = self.stream = None
+
+
+class RemoteProcess:
+    """A process an agent started on its host: what an executor needs of a `subprocess.Popen`."""
+
+    def __init__(self, agent: Agent, pid: int, log: str, how: str = "") -> None:
+        self.agent, self.pid, self.log, self.how = agent, pid, log, how
+        self.returncode: Optional[int] = None
+
+    def poll(self) -> Optional[int]:
+        if self.returncode is None:
+            status = self.agent.request({"op": "poll", "pid": self.pid}).get("status")
+            self.returncode = None if status is None else int(status)
+        return self.returncode
+
+    def wait(self, timeout: Optional[float] = None) -> int:
+        end = None if timeout is None else time.monotonic() + timeout
+        while self.returncode is None:
+            left = MAX_WAIT if end is None else end - time.monotonic()
+            if left <= 0:
+                raise subprocess.TimeoutExpired(f"pid {self.pid} on {self.agent.where()}", timeout or 0.0)
+            chunk = min(left, MAX_WAIT)
+            status = self.agent.request({"op": "wait", "pid": self.pid, "timeout": chunk}, wait=chunk).get("status")
+            self.returncode = None if status is None else int(status)
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        if self.returncode is None:
+            status = self.agent.request({"op": "signal", "pid": self.pid, "signal": int(sig)}).get("status")
+            self.returncode = None if status is None else int(status)
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+    def tail(self, size: int = 2000) -> str:
+        """The end of its log, read on its host."""
+        return str(self.agent.request({"op": "tail", "pid": self.pid, "bytes": size}).get("text", ""))
+
+
+class Hosts:
+    """The agents a hosts file names (`read_hosts`), each reached on first use. A host the file
+    does not name fails, naming the host and the file: a component is never started elsewhere
+    than where its architecture places it."""
+
+    def __init__(self, path: str, timeout: float) -> None:
+        self.path, self.timeout = path, timeout
+        self.where, self.token = read_hosts(path)
+        self.agents: dict[str, Agent] = {}
+
+    def agent(self, host: Optional[str]) -> Optional[Agent]:
+        """The agent of `host`; None for this machine (no host, or the file's "local")."""
+        if not host:
+            return None
+        address = self.where.get(host)
+        if address is None:
+            raise HostError(host, f"host {host} is not in the hosts file {self.path} (it names "
+                          f"{', '.join(sorted(self.where)) or 'no host'})")
+        if address == LOCAL:
+            return None
+        if host not in self.agents:
+            self.agents[host] = Agent(host, address, self.token, self.timeout)
+        return self.agents[host]
+
+    def start(self, agent: Agent, argv: list[str], log: str, env: dict[str, str],
+              files: Optional[dict[str, str]] = None) -> RemoteProcess:
+        """Start `argv` on the agent's host: its log `log` (a relative name) in the agent's log
+        directory, `env` added to the agent's environment (with this process's ROS domain, which
+        the nodes must share), `files` (relative name -> text) written there first, and an
+        argument naming one of them given its path there."""
+        env = {"ROS_DOMAIN_ID": os.environ.get("ROS_DOMAIN_ID", "0"), **env}
+        answer = agent.request({"op": "start", "argv": argv, "log": log, "env": env, "files": files or {}})
+        return RemoteProcess(agent, int(answer["pid"]), str(answer["log"]), str(answer.get("how", "")))
+
+    def close(self) -> None:
+        for agent in self.agents.values():
+            agent.close()
+
+
 # --- reconf_ros/executor/runtime.py ---
 
 # Fast DDS announces each participant every 3 s. A participant that starts seconds after
@@ -861,11 +1071,13 @@ class Started:
     log: str
     command: str
     node: str
-    proc: Any                        # its subprocess.Popen, or the launcher's handle
+    proc: Any                        # its subprocess.Popen, the launcher's handle, or an agent's RemoteProcess
     ended: Optional[int] = None      # its exit status, once a remove has waited for it
+    host: str = ""                   # the host whose agent started it ("": this machine; its pid and log are there)
 
     def to_doc(self) -> dict[str, Any]:
-        doc = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
+        doc: dict[str, Any] = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
+        doc.update({"host": self.host} if self.host else {})
         return doc if self.ended is None else {**doc, "ended": self.ended}
 
 
@@ -943,6 +1155,7 @@ class Context:
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
+    failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -955,6 +1168,9 @@ class Context:
         recovery = self.doc["plan"].get("recovery") or {}
         self.placed: dict[str, str] = dict(recovery.get("placed") or {})
         self.orphans: list[dict[str, Any]] = list(recovery.get("orphans") or [])
+        hosts_file = getattr(self.args, "hosts", "")
+        # the agents of the hosts file (--hosts): each reached on first use
+        self.hosts: Optional[Hosts] = Hosts(hosts_file, self.args.timeout) if hosts_file else None
 
     @property
     def names(self) -> Names:
@@ -1296,18 +1512,20 @@ def wire_after(ctx: Context, step: Step, will: State) -> None:
 
 # --- reconf_ros/executor/processes.py ---
 
-def command(ctx: Context, comp: str) -> list[str]:
+def command(ctx: Context, comp: str, remote: bool = False) -> list[str]:
     """The component's run line, or, when it has none, a model-driven node of the architecture
     the plan reaches (`reconf-node --plan`); with the node's name and namespace. A component
     that is not a reconf node (its `node` block) is started by its adapter, `reconf-node --plan`
-    too, which runs the run line itself (docs/adapter.md)."""
+    too, which runs the run line itself (docs/adapter.md). `remote`: for an agent on another host,
+    which finds the program there; the plan file is then named by `remote_plan` (shipped with the start)."""
     run, names = ctx.runs.get(comp), ctx.names
     adapted = "node" in ctx.model.comps.get(comp, {})
     if adapted and not run:
         raise StepFailed(f"{comp} is a node reconf does not build (its `node` block) and has no run line: "
                          "reconf cannot start it")
-    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan_path(ctx), comp]
-    exe = shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
+    plan = remote_plan(ctx)[0] if remote else ""
+    argv = shlex.split(run) if run and not adapted else ["reconf-node", "--plan", plan or plan_path(ctx), comp]
+    exe = argv[0] if remote else shutil.which(argv[0]) or shutil.which(argv[0], path=os.path.dirname(sys.executable))
     if exe is None:
         raise StepFailed(f"{argv[0]!r} (the run command of {comp}) is not found")
     argv[0] = exe
@@ -1323,12 +1541,17 @@ def command(ctx: Context, comp: str) -> list[str]:
     return argv
 
 
-def plan_path(ctx: Context) -> str:
-    """The plan document in the log directory, for the nodes that read it; named by its
-    content, so a log directory shared by several plans gives each node its own plan."""
+def _plan_text(ctx: Context) -> tuple[str, str]:
+    """The plan document as the nodes read it, and its file's name, named by its content (so a
+    log directory shared by several plans gives each node its own plan)."""
     text = json.dumps(ctx.doc, sort_keys=True)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = os.path.abspath(os.path.join(ctx.log_dir, f"plan-{digest}.json"))
+    return f"plan-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json", text
+
+
+def plan_path(ctx: Context) -> str:
+    """The plan document in the log directory, for the nodes that read it."""
+    name, text = _plan_text(ctx)
+    path = os.path.abspath(os.path.join(ctx.log_dir, name))
     if not os.path.exists(path):
         os.makedirs(ctx.log_dir, exist_ok=True)
         tmp = f"{path}.tmp{os.getpid()}"
@@ -1336,6 +1559,18 @@ def plan_path(ctx: Context) -> str:
             fh.write(text)
         os.replace(tmp, path)
     return path
+
+
+def run_name(ctx: Context) -> str:
+    """This run's directory under an agent's log directory: the last part of the log directory,
+    in the characters an agent accepts in a file name."""
+    return re.sub(r"[^\w.-]", "_", os.path.basename(os.path.abspath(ctx.log_dir))).lstrip(".") or "run"
+
+
+def remote_plan(ctx: Context) -> tuple[str, str]:
+    """The plan file's name under an agent's log directory, and its text."""
+    name, text = _plan_text(ctx)
+    return f"{run_name(ctx)}/{name}", text
 
 
 def start(ctx: Context, argv: list[str], log: str, env: dict[str, str]) -> tuple[Any, str]:
@@ -1353,13 +1588,90 @@ def start(ctx: Context, argv: list[str], log: str, env: dict[str, str]) -> tuple
     return proc, ""
 
 
+def host_agent(ctx: Context, comp: str) -> Optional[Agent]:
+    """The agent that starts and stops `comp`'s process: None where the process runs on this
+    machine (no hosts file, no `host` for the component, or the file's "local"). Raises
+    `HostError` (an OSError naming the host) when the hosts file does not name its host: a
+    component is never started elsewhere than where its architecture places it."""
+    host = ctx.model.comps.get(comp, {}).get("host")
+    if ctx.hosts is None or not host:
+        return None
+    agent: Optional[Agent] = ctx.hosts.agent(host)
+    return agent
+
+
+def on_agent(ctx: Context, comp: str) -> bool:
+    """Whether `comp`'s process is an agent's (or its host is not in the hosts file)."""
+    host = ctx.model.comps.get(comp, {}).get("host")
+    return ctx.hosts is not None and bool(host) and ctx.hosts.where.get(str(host)) != LOCAL
+
+
+def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
+    """Start `comp`'s process where it runs, with its creation mark in its environment: here
+    (`start`), or by its host's agent, which is sent the plan file when the node reads it and
+    adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
+    path on its host) and how it was started, for the step's line. Raises StepFailed, or a
+    `HostError` naming the host when its agent cannot be reached or refuses."""
+    env = {CREATED_ENV: ctx.names.created_mark(comp)}
+    agent = host_agent(ctx, comp)
+    if agent is None or ctx.hosts is None:
+        argv = command(ctx, comp)
+        os.makedirs(ctx.log_dir, exist_ok=True)
+        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
+        proc, how = start(ctx, argv, log, env)
+        return proc, argv, log, how
+    argv = command(ctx, comp, remote=True)
+    plan, text = remote_plan(ctx)
+    files = {plan: text} if plan in argv else {}
+    remote = ctx.hosts.start(agent, argv, f"{run_name(ctx)}/{ctx.names.node_name(comp)}.log", env, files)
+    return remote, argv, remote.log, f" on host {agent.host}{remote.how}"
+
+
+def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) -> str:
+    """After `comp`'s node is finalized, wait up to `seconds` for its process to exit (then
+    SIGTERM, then SIGKILL: `wait_exit`): a process this run started, wherever it runs, or, for
+    a component on an agent's host, the process its status named (`pid`), by that agent. What
+    was seen, for the step's line ("" for a process of this machine another run started, as
+    before). Raises `HostError` naming the host when its agent cannot be reached."""
+    info = ctx.started.get(comp)
+    if info is not None:
+        info.ended = wait_exit(info.proc, seconds)
+        return f"its process (pid {info.pid}{_on(info.host)}) exited with status {info.ended}" if info.host else ""
+    agent = host_agent(ctx, comp)
+    if agent is None or pid is None:
+        return ""
+    try:
+        status = wait_exit(RemoteProcess(agent, pid, ""), seconds)
+    except HostRefused as e:    # not a process the agent started (one started by hand there)
+        return f"its process (pid {pid}) is not host {agent.host}'s agent's, which says: {e}"
+    return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
+
+
+def _end_remote(ctx: Context, fqn: str, comp: str, pid: int) -> Optional[str]:
+    """An orphan's process on an agent's host, waited for (and ended) by that agent: its exit
+    status as words; None where the component runs on this machine. Raises StepFailed when the
+    agent cannot be reached or did not start it (its end is then not known)."""
+    try:
+        agent = host_agent(ctx, comp)
+        if agent is None:
+            return None
+        return f"exited with status {wait_exit(RemoteProcess(agent, pid, ''), ctx.args.timeout)} on host {agent.host}"
+    except HostError as e:
+        ctx.failed_host = e.host
+        raise StepFailed(f"the orphan {fqn} (pid {pid}): {e}") from None
+
+
+def _on(host: str) -> str:
+    return f" on host {host}" if host else ""
+
+
 def warm(ctx: Context, first: int, last: int) -> None:
     """Let the launcher parse what the steps' new nodes will read, while the live system is
     checked."""
     if ctx.launcher is None:
         return
     for step in ctx.steps[first - 1:last]:
-        if step.action != "create":
+        if step.action != "create" or on_agent(ctx, step.component):
             continue
         try:
             argv = command(ctx, step.component)
@@ -1396,24 +1708,30 @@ def _stop(proc: Any) -> None:
 
 
 def list_started(ctx: Context, stop: bool, present: Optional[Iterable[str]] = None) -> None:
-    """Name every process this run started (pid, state, log); with `stop`, end the ones still
-    running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component is not
-    in the `present` ones observed: never activated, they are in no configuration and would
-    only stand in the way of a run or a recovery that starts them again."""
+    """Name every process this run started (pid, host, state, log); with `stop`, end the ones
+    still running (SIGTERM, then SIGKILL after 3 s); and, whatever `stop`, those whose component
+    is not in the `present` ones observed: never activated, they are in no configuration and
+    would only stand in the way of a run or a recovery that starts them again. A process whose
+    host's agent cannot be reached is named with that reason, its state unknown."""
     if not ctx.started:
         return
     keep = None if present is None else set(present)
     ctx.warn("Processes this run started:")
     for c, info in sorted(ctx.started.items()):
-        alive = info.proc.poll() is None
-        if alive and (stop or (keep is not None and c not in keep)):
-            _stop(info.proc)
-            info.ended = info.proc.returncode
-            why = "--stop-started" if stop else "never active: in no configuration"
-            ctx.warn(f"  {c}: pid {info.pid} stopped ({why}), log {info.log}")
-        else:
-            state = "running" if alive else f"exited with status {info.proc.returncode}"
-            ctx.warn(f"  {c}: pid {info.pid} {state}, log {info.log}")
+        where = f"pid {info.pid}{_on(info.host)}"
+        try:
+            alive = info.proc.poll() is None
+            if alive and (stop or (keep is not None and c not in keep)):
+                _stop(info.proc)
+                info.ended = info.proc.returncode
+                why = "--stop-started" if stop else "never active: in no configuration"
+                ctx.warn(f"  {c}: {where} stopped ({why}), log {info.log}")
+                continue
+        except HostError as e:
+            ctx.warn(f"  {c}: {where}, state not known ({e}), log {info.log}")
+            continue
+        state = "running" if alive else f"exited with status {info.proc.returncode}"
+        ctx.warn(f"  {c}: {where} {state}, log {info.log}")
 
 
 def _process(pid: Optional[int], mark: str) -> Optional[bool]:
@@ -1444,7 +1762,8 @@ def _wait_gone(pid: int, mark: str, seconds: float) -> bool:
 def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     """End a node a plan started that is in no configuration (docs/executor.md#recovering-from-the-live-system):
     down its lifecycle to finalized (a reconf node then exits), its process signalled if it does
-    not exit (only a process of this host that carries the node's creation mark). What was done."""
+    not exit (only a process of this host that carries the node's creation mark; on an agent's
+    host, by that agent: `_end_remote`). What was done."""
     fqn, pid, mark = orphan["node"], orphan.get("pid"), orphan.get("created", "")
     transition = ctx.rt.Transition
     try:
@@ -1461,6 +1780,9 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
         except StepFailed as e:
             lc = f"{lc}, shutdown refused ({e})"
     ctx.rt.forget(fqn)
+    remote = _end_remote(ctx, fqn, str(orphan.get("component") or ""), int(pid)) if pid is not None else None
+    if remote is not None:
+        return f"{lc} → finalized, {remote}" if lc in ("unconfigured", "inactive") else f"{lc}, {remote}"
     if pid is None or _wait_gone(pid, mark, ctx.args.timeout):
         return f"{lc} → finalized, exited" if lc in ("unconfigured", "inactive") else f"{lc}"
     for sig in (signal.SIGTERM, signal.SIGKILL):
@@ -1471,12 +1793,17 @@ def end_orphan(ctx: Context, orphan: dict[str, Any]) -> str:
     raise StepFailed(f"the orphan {fqn} (pid {pid}) did not exit")
 
 
-def end_orphans(ctx: Context) -> None:
-    """End every orphan a recovery's plan lists, before its first step."""
+def end_orphans(ctx: Context) -> str:
+    """End every orphan a recovery's plan lists, before its first step; why one could not be
+    ended ("": every one was)."""
     for orphan in ctx.orphans:
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
-        how = end_orphan(ctx, orphan)
+        try:
+            how = end_orphan(ctx, orphan)
+        except StepFailed as e:
+            return str(e)
         ctx.say(f"ended the orphan {orphan['node']} (pid {orphan.get('pid') or 'unknown'}): {how}")
+    return ""
 
 
 # --- reconf_ros/executor/handlers.py ---
@@ -1543,13 +1870,11 @@ def baseline(ctx: Context, comp: str) -> None:
 
 
 def _start(ctx: Context, comp: str, fqn: str) -> None:
-    """Start the component's process as `fqn`, wait for its lifecycle services, configure and activate it."""
-    names = ctx.names
-    argv = command(ctx, comp)
-    os.makedirs(ctx.log_dir, exist_ok=True)
-    log = os.path.join(ctx.log_dir, f"{names.node_name(comp)}.log")
-    proc, how = start(ctx, argv, log, {CREATED_ENV: names.created_mark(comp)})
-    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc)
+    """Start the component's process as `fqn` (here, or on its host by its agent: `launch`),
+    wait for its lifecycle services, configure and activate it."""
+    proc, argv, log, how = launch(ctx, comp)
+    host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
+    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
@@ -1592,7 +1917,9 @@ def _not_a_lifecycle_node(ctx: Context, comp: str, fqn: str, seen: dict[str, flo
 
 
 def remove(ctx: Context, step: Step) -> None:
-    """Take an isolated node down its lifecycle to finalized; wait for a process this run started."""
+    """Take an isolated node down its lifecycle to finalized; wait for a process this run started,
+    and, for a component on an agent's host, for the agent's report of its process's exit
+    (`wait_removed`: an agent that cannot be reached fails the step, naming the host)."""
     comp = step.component
     fqn, transition = ctx.names.fqn(comp), ctx.rt.Transition
     lc = ctx.rt.lifecycle(fqn)
@@ -1603,6 +1930,7 @@ def remove(ctx: Context, step: Step) -> None:
     if attached:
         raise StepFailed(f"before the step, {comp} is not isolated: "
                          + ", ".join(f"{n}={v!r}" for n, v in sorted(attached.items())))
+    pid = (ctx.rt.status(fqn) or {}).get("pid") if on_agent(ctx, comp) else None
     if lc == "active":
         ctx.rt.transition(fqn, transition.TRANSITION_DEACTIVATE, "deactivate")
     ctx.rt.transition(fqn, transition.TRANSITION_CLEANUP, "cleanup")
@@ -1614,9 +1942,10 @@ def remove(ctx: Context, step: Step) -> None:
         lc = "finalized"
     if lc != "finalized":
         raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
-    info = ctx.started.get(comp)
-    if info is not None:
-        info.ended = wait_exit(info.proc, max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    seen = wait_removed(ctx, comp, int(str(pid)) if str(pid or "").isdigit() else None,
+                        max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
+    if seen:
+        ctx.say(f"      {comp}: {seen}")
     ctx.rt.forget(fqn)
 
 
@@ -1680,6 +2009,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "format_version": 1, "tool": "reconf", "kind": "run-report", "outcome": outcome,
         "system": ctx.doc["system"], "fingerprint": ctx.doc["fingerprint"], "from_step": first,
         "failed_step": failed_step, "reason": why,
+        "failed_host": ctx.failed_host or None,     # the host whose agent failed the step (docs/hosts.md)
         "observed": None if observed is None else observed.to_doc(),
         "observed_at": None if observed is None else ctx.read_at,    # when that reading began (wall clock)
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
@@ -1848,6 +2178,8 @@ class Executor:
         except KeyboardInterrupt:       # a second signal: at once, wherever the run was
             return interrupted(ctx, ctx.step, at_once=True)
         finally:
+            if ctx.hosts is not None:
+                ctx.hosts.close()
             if self.own_runtime:
                 ctx.rt.close()
 
@@ -1860,7 +2192,9 @@ class Executor:
             return refused
         if ctx.interrupts.stop:
             return interrupted(ctx, 0)
-        end_orphans(ctx)
+        why = end_orphans(ctx)
+        if why:
+            return failed(ctx, 0, None, f"before the first step: {why}")
         wait_statuses(ctx, hood & ctx.states[first - 1].components)
         # every monitor heard from, not only the neighbourhood's: a step can reach further on the
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
@@ -1907,8 +2241,9 @@ class Executor:
             perform(ctx, step, ctx.states[i - 1], ctx.states[i])
             ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
             check_touched(ctx, ctx.states[i], f"after step {i}")
-        except (StepFailed, OSError) as e:
+        except (StepFailed, OSError) as e:     # OSError: a host's agent (HostError, naming the host), a file
             ctx.failure = str(e)
+            ctx.failed_host = e.host if isinstance(e, HostError) else ""
             ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
             return False
         except KeyboardInterrupt:
@@ -2033,6 +2368,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                     help="write the run's report (JSON) here; on failure one is always written")
     ap.add_argument("--stop-started", action="store_true",
                     help="on failure, stop the processes this run started (they are named either way)")
+    ap.add_argument("--hosts", default="", metavar="FILE",
+                    help="a hosts file: each component whose host it names (not \"local\") is started and stopped "
+                         "by that host's agent (docs/hosts.md)")
     ap.add_argument("--manager", nargs="?", const="default", default="", metavar="SOCKET",
                     help="let a running reconf manager apply the plan (default socket: this ROS domain's)")
     ap.add_argument("--quiet-list", action="store_true", help=argparse.SUPPRESS)
@@ -2056,6 +2394,13 @@ def parse(doc: dict[str, Any], argv: Optional[list[str]],
         ap.error("--to-step: the plan has no step")
     if min(args.timeout, args.step_timeout, args.wire_timeout, args.discovery_timeout) <= 0:
         ap.error("timeouts must be positive")
+    if args.hosts:
+        try:
+            read_hosts(args.hosts)
+        except OSError as e:
+            ap.error(f"--hosts: {e.filename or args.hosts}: {e.strerror or e}")
+        except ValueError as e:
+            ap.error(f"--hosts: {e}")
     return args
 
 
@@ -2095,7 +2440,7 @@ def _main(doc: dict[str, Any], argv: Optional[list[str]]) -> int:
     if args.manager:
         forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
             "from_step", "to_step", "timeout", "step_timeout", "wire_timeout", "discovery_timeout", "namespace")]
-        forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report")
+        forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report", "hosts")
                       if getattr(args, k)]      # the manager writes them: absolute paths
         forwarded += ["--stop-started"] if args.stop_started else []
         return via_manager(doc, forwarded, args,
