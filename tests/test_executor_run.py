@@ -16,8 +16,9 @@ from checker.reports.plan_document import plan_document
 from reconf_dsl.loader import load
 from reconf_ros.executor.conditions import wire_before
 from reconf_ros.executor.context import Context, Interrupts
+from reconf_ros.executor.observe import observe
 from reconf_ros.executor.run import counted
-from reconf_ros.executor.runtime import StepFailed
+from reconf_ros.executor.runtime import NoControlInterface, StepFailed
 from reconf_ros.executor.script import arguments, parse
 from tests.examples_table import ROOT
 
@@ -97,3 +98,29 @@ def test_a_plan_of_no_step_parses() -> None:
     assert parse(doc, ["--yes"]).to_step == 0
     with pytest.raises(SystemExit):
         parse(doc, ["--to-step", "2"])
+
+
+class AnsweringRuntime(Runtime):
+    """Every node active; `lacking` answers get_parameters without the parameters asked for."""
+
+    def __init__(self, statuses: dict[str, dict[str, str]], lacking: str) -> None:
+        super().__init__(statuses)
+        self.lacking = lacking
+
+    def lifecycles(self, fqns: Any) -> dict[str, Any]:
+        return {f: "active" for f in fqns}
+
+    def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
+        return {f: NoControlInterface(f"{f} does not implement the control interface") if f == self.lacking
+                else {n: ("normal" if n.startswith("reconf.mode.") else []) for n in names}
+                for f, names in wanted.items()}
+
+
+def test_a_node_without_the_components_parameters_is_not_taken_for_it() -> None:
+    """A node by a component's name that answers without its parameters (another version of it,
+    or no reconf node) is observed as not a reconf node: not present, and no run stops on it."""
+    ctx = context({"/listener": {}, "/talker": {}})
+    ctx.rt = AnsweringRuntime({"/listener": {}, "/talker": {}}, lacking="/talker")
+    seen = observe(ctx, ["listener", "talker"])
+    assert seen["talker"].lifecycle == "not a reconf node" and not seen["talker"].present
+    assert seen["listener"].present

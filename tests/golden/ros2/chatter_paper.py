@@ -1262,7 +1262,8 @@ def replay(doc: dict[str, Any], out: Writer) -> bool:
 class Observed:
     """What the executor saw of one component's node: `lifecycle` is its state's label,
     `absent` (not in the graph, or finalized), `unresponsive` (in the graph, not answering) or
-    `not a reconf node` (answering, without the lifecycle services)."""
+    `not a reconf node` (answering, without the lifecycle services, or without this component's
+    parameters: a node of another version of it, or no reconf node)."""
     comp: str
     lifecycle: str
     modes: dict[str, str] = field(default_factory=dict)
@@ -1304,6 +1305,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     for c in comps:
         values = params.get(names.fqn(c))
         if values is None:
+            continue
+        if isinstance(values, NoControlInterface):  # it answered, without the parameters of this
+            seen[c] = Observed(c, "not a reconf node")  # component (another version, or no reconf node)
             continue
         if isinstance(values, StepFailed):
             raise values
