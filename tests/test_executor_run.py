@@ -123,4 +123,5 @@ def test_a_node_without_the_components_parameters_is_not_taken_for_it() -> None:
     ctx.rt = AnsweringRuntime({"/listener": {}, "/talker": {}}, lacking="/talker")
     seen = observe(ctx, ["listener", "talker"])
     assert seen["talker"].lifecycle == "not a reconf node" and not seen["talker"].present
+    assert seen["talker"].why == "/talker does not implement the control interface"   # said, as it answered
     assert seen["listener"].present

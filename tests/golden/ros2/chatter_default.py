@@ -1268,6 +1268,7 @@ class Observed:
     lifecycle: str
     modes: dict[str, str] = field(default_factory=dict)
     ports: dict[str, list[str]] = field(default_factory=dict)
+    why: str = ""                   # what the node answered, when that is why it is not the component
 
     @property
     def present(self) -> bool:
@@ -1307,7 +1308,7 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if values is None:
             continue
         if isinstance(values, NoControlInterface):  # it answered, without the parameters of this
-            seen[c] = Observed(c, "not a reconf node")  # component (another version, or no reconf node)
+            seen[c] = Observed(c, "not a reconf node", why=str(values))  # component (another version?)
             continue
         if isinstance(values, StepFailed):
             raise values
@@ -1396,14 +1397,14 @@ def check_touched(ctx: Context, expected: State, when: str) -> None:
     seen = observe(ctx, ctx.touched)
     diffs = ctx.model.differences(expected, as_state(ctx, seen), ctx.touched)
     if diffs:
-        raise StepFailed(f"{when}: " + "; ".join(diffs))
+        raise StepFailed(f"{when}: " + "; ".join(diffs + [o.why for _, o in sorted(seen.items()) if o.why]))
 
 
 def unusual(ctx: Context, seen: dict[str, Observed]) -> None:
     """Say which nodes are neither absent nor active (inactive, unresponsive, …)."""
     for c, o in sorted(seen.items()):
         if o.lifecycle not in ("absent", "active"):
-            ctx.warn(f"    ({c} is {o.lifecycle}: not counted as present)")
+            ctx.warn(f"    ({c} is {o.lifecycle}: not counted as present{': ' + o.why if o.why else ''})")
 
 
 # --- reconf_ros/executor/conditions.py ---
