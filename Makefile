@@ -34,12 +34,22 @@ system-deps:
 		echo "nftables could not be installed: the tests of packet loss will skip"; \
 	fi
 
-# The tests that need no live ROS 2 graph run in two processes (the machine's two cores); the
-# live ones (marker `ros`) run alone, as their timing is real.
+# The tests that need no live ROS 2 graph run in two processes (the machine's two cores). The
+# live ones (marker `ros`) run one at a time, as their timing is real; the host lab's
+# (tests/ros/test_live_hosts.py) run beside them, since their DDS traffic stays in network
+# namespaces of their own, and so does mypy: the live tests mostly wait on the wire. Their
+# output is printed once each is done (build/test-*.log).
+HOSTS_TESTS := tests/ros/test_live_hosts.py
 test: $(STAMP) system-deps
 	$(BIN)/python -m pytest -n 2 -m "not ros"
-	$(BIN)/python -m pytest -m ros
-	$(BIN)/python -m mypy
+	@mkdir -p build
+	@$(BIN)/python -m mypy > build/test-mypy.log 2>&1 & mypy=$$!; \
+	$(BIN)/python -m pytest -m ros $(HOSTS_TESTS) > build/test-hosts.log 2>&1 & hosts=$$!; \
+	$(BIN)/python -m pytest -m ros --ignore=$(HOSTS_TESTS); live=$$?; \
+	wait $$hosts; hosts_rc=$$?; wait $$mypy; mypy_rc=$$?; \
+	echo "== the host lab's live tests ($(HOSTS_TESTS)):"; cat build/test-hosts.log; \
+	echo "== mypy:"; cat build/test-mypy.log; \
+	test $$live = 0 && test $$hosts_rc = 0 && test $$mypy_rc = 0
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.bench_check
