@@ -140,7 +140,7 @@ def as_configuration(seen: dict[str, Any], comps: set[str], placed: dict[str, st
         mark = (info.get("created") or "").split(" ", 1)[-1] if info.get("created") else ""
         comp = by_node.get(name) or (mark if mark in comps else "") or (name if name in comps else "")
         if not info.get("answered"):
-            problems.append(f"{fqn} did not answer the probe")
+            problems.append(f"{fqn} did not answer the probe ({info.get('why', '')})")
             continue
         if info.get("model") is None:
             continue                # not a reconf node (a tool of the test)

@@ -6,7 +6,9 @@ It waits for discovery (4 s, then the node list unchanged for 1.5 s, 12 s at mos
 `/diagnostics` for each node's status (the component it declares, its creation mark, its pid),
 and asks every node that is not hidden (a name starting with `_`): its lifecycle state
 (`get_state`), its `reconf.model`, and the `reconf.mode.*` and `reconf.port.*` that model names.
-A node that does not answer within 3 tries of 2 s is written as such, never guessed at.
+A node that does not answer (its service not offered, or no reply) within 12 s is asked again
+once every other node has been read (a loaded machine can take that long to match a new
+participant's endpoints); one that still does not is written as such, with why, never guessed at.
 
     python -m bench.probe [--out FILE]      # JSON: {"nodes": {fqn: {...}}, "seconds": ...}
 """
@@ -22,7 +24,7 @@ from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.ir import Component
 from reconf_dsl.parser import parse_text
 
-TRIES, WAIT = 3, 2.0
+PATIENCE, WAIT = 12.0, 2.0     # per call: all the time given, each wait within it
 
 
 def _names(model: str) -> tuple[list[str], list[str]]:
@@ -46,6 +48,7 @@ class Probe:
         rclpy.init()
         self.node = rclpy.create_node(f"_fault_probe_{os.getpid()}")
         self.statuses: dict[str, dict[str, str]] = {}
+        self.why = ""
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._status, qos)
 
@@ -75,15 +78,19 @@ class Probe:
         return self.graph()
 
     def call(self, srv: Any, name: str, req: Any) -> Optional[Any]:
+        """The reply to `req`, or None (and why in self.why) when none came within PATIENCE s."""
         cli: Any = self.node.create_client(srv, name)
+        end, offered = time.monotonic() + PATIENCE, False
         try:
-            for _ in range(TRIES):
+            while time.monotonic() < end:
                 if not cli.wait_for_service(timeout_sec=WAIT):
                     continue
+                offered = True
                 fut = cli.call_async(req)
                 self.rclpy.spin_until_future_complete(self.node, fut, timeout_sec=WAIT)
                 if fut.done() and fut.exception() is None:
                     return fut.result()
+            self.why = f"{name}: {'no reply' if offered else 'not offered'} in {PATIENCE:.0f} s"
             return None
         finally:
             self.node.destroy_client(cli)
@@ -95,6 +102,7 @@ class Probe:
         req.names = names
         res = self.call(GetParameters, f"{fqn}/get_parameters", req)
         if res is None or len(res.values) != len(names):
+            self.why = self.why if res is None else f"{fqn}: {len(res.values)} values for {len(names)} names"
             return None
         out: dict[str, Any] = {}
         for n, v in zip(names, res.values):
@@ -111,7 +119,7 @@ class Probe:
                                 "pid": int(st["pid"]) if st.get("pid", "").isdigit() else None}
         res = self.call(GetState, f"{fqn}/get_state", GetState.Request())
         if res is None:
-            return {**info, "answered": False}
+            return {**info, "answered": False, "why": self.why}
         info["lifecycle"] = str(res.current_state.label)
         model = self.params(fqn, ["reconf.model"])
         if not model or not model.get("reconf.model"):
@@ -119,7 +127,7 @@ class Probe:
         funcs, ports = _names(model["reconf.model"])
         values = self.params(fqn, [f"reconf.mode.{f}" for f in funcs] + [f"reconf.port.{p}" for p in ports])
         if values is None:
-            return {**info, "answered": False}
+            return {**info, "answered": False, "why": self.why}
         info.update(answered=True, model=model["reconf.model"],
                     modes={n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")},
                     ports={n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")})
@@ -139,6 +147,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     probe = Probe()
     try:
         nodes = {fqn: probe.read(fqn) for fqn in probe.settle()}
+        for fqn in [f for f, info in nodes.items() if not info["answered"]]:
+            nodes[fqn] = {**probe.read(fqn), "asked": 2}
     finally:
         probe.close()
     text = json.dumps({"nodes": nodes, "seconds": round(time.monotonic() - t0, 2)}, indent=1, sort_keys=True)
