@@ -303,7 +303,7 @@ pred valid[s: System] {
   valid_q[s]                  --@rule state.valid
 }
 
--- The rules of a configuration besides validity (checker.model.rules, `state.*`), one
+-- The rules of a configuration besides validity (checker.semantic_model.rules, `state.*`), one
 -- predicate each: a `single` topic has at most one publisher and a service one server;
 -- every attachment is well typed and of a present component. The quantifiers range over
 -- the few `single` topics and services only.
@@ -473,7 +473,7 @@ assert SafeUpgrade { all f: Functionality | valid[Pre] and upgrade[Pre, Post, f]
 -- absent component) are read in Alloy.
 pred absent_degraded[s: System] { (Component - s.comps).funcs in s.degraded }
 assert AbsentDegraded { absent_degraded[Pre] and step[Pre, Post] implies absent_degraded[Post] }
--- The six actions keep the rules of a configuration besides validity (checker.model.rules):
+-- The six actions keep the rules of a configuration besides validity (checker.semantic_model.rules):
 -- one publisher on a `single` topic, one server on a service, attachments well typed and of
 -- present components.
 assert KeepsSingle    { single_ok[Pre] and step[Pre, Post] implies single_ok[Post] }
@@ -649,7 +649,7 @@ assert RecoverDegrade {
 -- functionality degraded, what fails of a functionality still normal still fails. By induction
 -- on the functionalities added one at a time (failing[s, fs] is per functionality, so it may be
 -- cut down to those still normal at the end), the same holds for any superset of degraded,
--- which z3 proves as such for every size (checker/model/unbounded.py). So the recovery's
+-- which z3 proves as such for every size (checker/semantic_model/unbounded.py). So the recovery's
 -- degrades are needed by every valid configuration reached by degrading alone, and in any
 -- order every state fails only on what a later one of them degrades.
 assert RecoverMonotone {

@@ -39,7 +39,7 @@ CHECK_CHILD = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from reconf_dsl.loader import load
-from checker.model.config import Configuration
+from checker.semantic_model.config import Configuration
 from checker.alloy import get_backend
 from checker.alloy.instance import alloy_verdict, slices
 system = load([sys.argv[1]])

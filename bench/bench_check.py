@@ -8,7 +8,7 @@ and checked in a fresh Python process, so that timings do not share caches or ga
 and the memory figure is that case's own:
 
   parse  `reconf_dsl.loader.load([path])` (read, parse, resolve)
-  check  `checker.model.semantics.evaluate(system, Configuration.initial(system))`
+  check  `checker.semantic_model.semantics.evaluate(system, Configuration.initial(system))`
   peak   resource.getrusage(RUSAGE_SELF).ru_maxrss of that process after checking, in MiB,
          minus its maxrss after the imports (the interpreter, lark, networkx): the growth
          due to the case itself. tracemalloc is not used: it slows Python 2-3x.
@@ -34,8 +34,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CHILD = r"""
 import json, resource, sys, time
 from reconf_dsl.loader import load
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 path = sys.argv[1]
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 t0 = time.perf_counter()
@@ -78,8 +78,8 @@ def profile(spec: str, seed: int, top: int) -> None:
     import cProfile
     import pstats
 
-    from checker.model.config import Configuration
-    from checker.model.semantics import evaluate
+    from checker.semantic_model.config import Configuration
+    from checker.semantic_model.semantics import evaluate
     from reconf_dsl.loader import load
 
     shape, n = spec.split(":")

@@ -50,8 +50,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from checker.model.actions import failing_assumptions
-from checker.model.config import Configuration
+from checker.semantic_model.actions import failing_assumptions
+from checker.semantic_model.config import Configuration
 from codegen.ros2 import system_from_model_data
 from reconf_dsl.loader import load
 from reconf_ros.nodes.ftm.hosts import by_host

@@ -7,7 +7,7 @@ Figures (one process, after imports):
   parse    load the generated .arch text (N servers, N clients, 2 hosts)
   expand   `checker.ftm.expand.expand` (every FTM into its computation graph)
   rules    `checker.ftm.diagnose.ftm_diagnostics` (the RC4xx rules)
-  check    `checker.model.semantics.evaluate` on the expanded architecture
+  check    `checker.semantic_model.semantics.evaluate` on the expanded architecture
   plan     `checker.ftm.transition.plan_transition` for service 0 (planning, suspension, and the
            step-by-step verification every plan passes in the Python engine)
   alloy    the same plan verified in the Alloy Analyzer as `reconf plan transition` does
@@ -29,8 +29,8 @@ from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import expand
 from checker.ftm.library import compose
 from checker.ftm.transition import parse_ftm, plan_transition
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.loader import load_text
 
 

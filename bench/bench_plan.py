@@ -34,10 +34,10 @@ import tempfile
 import time
 from typing import Iterator, Optional
 
-from checker.model.semantics import evaluate
 from checker.planning import NoSafePlan, Plan, plan_replace
 from checker.planning.exhaustive import SearchTooLarge
 from checker.planning.plan import verify
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load, load_text
 

@@ -8,7 +8,7 @@ A module of a concrete architecture is built, then rendered: `describe_instance`
 `describe_plan` and `describe_architecture` decide what it says (codegen.alloy_module:
 its atoms, its `fun` constants, the states and steps of a plan), and the templates only
 render that description (`render_instance_module`, `render_plan_module`,
-`render_planner_module`). The actions are read from their registry (checker.model.actions.KINDS).
+`render_planner_module`). The actions are read from their registry (checker.semantic_model.actions.KINDS).
 
     python -m codegen.alloy --regenerate   # rewrite alloy_model/reconf.als
     python -m codegen.alloy --check        # exit 1 if it is out of date
@@ -23,9 +23,9 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Collection, Hashable, Iterable, Mapping, Sequence, TypeVar
 
-from checker.model.actions import KINDS as ACTION_KINDS
-from checker.model.actions import Action, kind_of, recognise
-from checker.model.config import Configuration
+from checker.semantic_model.actions import KINDS as ACTION_KINDS
+from checker.semantic_model.actions import Action, kind_of, recognise
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import Component, Connector, Predicate, System
 
 from .alloy_module import (
@@ -335,7 +335,7 @@ def _all_components(system: System) -> list[Component]:
 
 def step_action(before: Configuration, after: Configuration) -> tuple[str, tuple[Meaning, ...]] | None:
     """The single action that the difference between two configurations would be
-    (`checker.model.actions.recognise`), by name with its arguments as the atoms' meanings, or
+    (`checker.semantic_model.actions.recognise`), by name with its arguments as the atoms' meanings, or
     None when the difference is not one change."""
     action = recognise(before, after)
     if action is None:

@@ -35,7 +35,7 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC009", "include-cycle", "include cycle"),
     ("RC010", "file-too-large", "file over 64 MiB (standard input too: no more is read)"),
     ("RC011", "tool-missing", "an external program or library is missing: Graphviz `dot`, or z3 for "
-                              "`verify-model --unbounded`"),
+                              "`verify-meta-model --unbounded`"),
     ("RC012", "picture-too-large", "`graph`/`graph-plan --format svg` of a picture over 400 nodes (components, "
                                    "connectors, environment inputs) refused: Graphviz `dot` takes minutes beyond "
                                    "that; write `--format dot` and render it yourself, or pass `--force`"),

@@ -7,8 +7,8 @@ from hypothesis import HealthCheck, given, settings
 
 from checker.alloy import alloy_verdict
 from checker.alloy.engines import python_failing
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES
@@ -57,7 +57,7 @@ def test_one_thread_or_three_the_same_verdict(monkeypatch: pytest.MonkeyPatch, t
     import pathlib
 
     from bench.gen import generate, hub_component
-    from checker.model.semantics import witnesses
+    from checker.semantic_model.semantics import witnesses
 
     path = pathlib.Path(str(tmp_path)) / "fanin.arch"
     path.write_text(generate("fanin", 400, 5), encoding="utf-8")

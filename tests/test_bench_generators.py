@@ -10,8 +10,8 @@ import pytest
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from bench.gen import SHAPES, generate, hub_component, main  # noqa: E402
-from checker.model.config import Configuration  # noqa: E402
-from checker.model.semantics import evaluate  # noqa: E402
+from checker.semantic_model.config import Configuration  # noqa: E402
+from checker.semantic_model.semantics import evaluate  # noqa: E402
 from reconf_dsl.loader import load, load_text  # noqa: E402
 
 N = 20

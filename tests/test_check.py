@@ -8,8 +8,8 @@ import pytest
 from click.testing import CliRunner
 
 from checker.cli.main import main
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.loader import load, load_text
 from tests.examples_table import EXAMPLES, Example
 

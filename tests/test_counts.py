@@ -97,11 +97,11 @@ def test_executor_plural() -> None:
 
 
 @pytest.mark.parametrize("rows, said", [(1, "1 command in"), (3, "3 commands in")])
-def test_verify_model_summary(rows: int, said: str) -> None:
+def test_verify_meta_model_summary(rows: int, said: str) -> None:
     from rich.console import Console
 
-    from checker.alloy.verify_model import CommandRow, VerifyReport
-    from checker.cli.verify_model_cmd import _render_text
+    from checker.alloy.verify_meta_model import CommandRow, VerifyReport
+    from checker.cli.verify_meta_model_cmd import _render_text
     report = VerifyReport(3, "sat4j", [CommandRow(f"c{i}", "run", "3", "instance", "instance", True, 0.1, "sat4j",
                                                   bounds={"A": "<= 3"}) for i in range(rows)], wall=1.0)
     out = io.StringIO()

@@ -9,9 +9,19 @@ from typing import Iterator
 
 import pytest
 
-from checker.model.actions import Action, Attach, Create, Degrade, Detach, Remove, Upgrade, effect, preconditions
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.actions import (
+    Action,
+    Attach,
+    Create,
+    Degrade,
+    Detach,
+    Remove,
+    Upgrade,
+    effect,
+    preconditions,
+)
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from codegen.ros2 import model_data
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load

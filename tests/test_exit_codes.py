@@ -47,7 +47,7 @@ COMMANDS: dict[str, list[str]] = {
 JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "plan verify", "ftm select", "up",
         "down"}
 # commands that take no architecture: only the failures that apply to them
-OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-model": ["verify-model", "--scope", "2"],
+OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-meta-model": ["verify-meta-model", "--scope", "2"],
                                 "lsp": ["lsp", "--stdio"], "daemon status": ["daemon", "status"]}
 
 
@@ -163,8 +163,8 @@ def test_an_output_that_cannot_be_written_is_2_and_names_it(argv: list[str], whe
     (["check", CHATTER, "--output-format", "json"], True),
     (["plan", "replace", "talker", "-f", CHATTER, "--output-format", "json"], True),
     (["gate", "--base", CHATTER, "--head", MIGRATED], False),
-    (["verify-model", "--output-format", "json"], True),
-], ids=["check-sarif", "check-json", "plan-json", "gate", "verify-model"])
+    (["verify-meta-model", "--output-format", "json"], True),
+], ids=["check-sarif", "check-json", "plan-json", "gate", "verify-meta-model"])
 def test_a_jvm_that_cannot_start_is_2_with_valid_output(argv: list[str], json_out: bool) -> None:
     """A heap the JVM would die of (it ends the process as it starts, exit 1, nothing written)."""
     env = dict(os.environ, RECONF_ALLOY_XMX="1k")
@@ -191,3 +191,12 @@ def test_unsafe_machine_output_says_so(tmp_path) -> None:  # type: ignore[no-unt
         r = invoke(argv + ["--output-format", "json"])
         assert_clean(r, 1)
         assert json.loads(r.stdout)["verdict"] == verdict, (argv, r.stdout)
+
+
+def test_a_former_command_name_still_answers_and_help_lists_only_the_new_one() -> None:
+    from checker.cli.main import FORMER_NAMES
+    listed = CliRunner().invoke(main, ["--help"]).output
+    for former, name in FORMER_NAMES.items():
+        assert former not in listed.replace(name, "") and name in listed
+        res = CliRunner().invoke(main, [former, "--help"])
+        assert res.exit_code == 0 and f"Usage: main {name}" in res.output.replace(former, name), res.output

@@ -13,9 +13,9 @@ from click.testing import CliRunner
 
 from checker.cli import common  # draws SVG through its own name for pictures.to_svg
 from checker.cli.main import main
-from checker.model.config import Configuration
 from checker.reports import pictures
 from checker.reports.pictures import picture
+from checker.semantic_model.config import Configuration
 from codegen.graph import GraphNode, Picture, to_dot, to_mermaid
 from reconf_dsl.loader import load
 from tests.examples_table import BY_NAME, EXAMPLES, ROOT, Example

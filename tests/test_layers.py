@@ -70,7 +70,7 @@ def test_import_blocks_are_in_one_order() -> None:
 
 # A module name that two modules share, and why they share it (the same idea at two places).
 SHARED_NAMES = {
-    "semantics.py": "the plan executor's standard-library copy of checker.model.semantics: the same semantics, "
+    "semantics.py": "the plan executor's standard-library copy of checker.semantic_model.semantics: the same semantics, "
                     "held equal by tests/test_executor.py",
 }
 

@@ -15,8 +15,8 @@ import yaml
 from click.testing import CliRunner, Result
 
 from checker.cli.main import main
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.loader import Sources, load
 from tests.examples_table import EXAMPLES, ROOT
 

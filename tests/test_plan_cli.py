@@ -22,7 +22,7 @@ def test_paper_strategy_reproduces_the_seven_steps() -> None:
                "--output-format", "json")
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
-    from checker.model.actions import action_from_dict
+    from checker.semantic_model.actions import action_from_dict
     steps = tuple(action_from_dict(s).describe() for s in doc["plan"]["steps"])
     assert steps == BY_NAME["chatter"].paper_plan
     assert doc["format_version"] == 2 and doc["fingerprint"].startswith("sha256:")

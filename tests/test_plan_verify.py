@@ -1,7 +1,7 @@
 """`reconf plan verify PLAN.json -f ARCH`: any plan document, in both engines, each on its own.
 
 A plan reconf made is verified in either format; a hand-made plan that breaks any rule of
-checker.model.rules (each witness of tests/test_rules.py, written as a document) is refused by
+checker.semantic_model.rules (each witness of tests/test_rules.py, written as a document) is refused by
 the Python engine alone and by Alloy alone; the first rule broken is located in the JSON; text
 that is not a plan document is bad input (exit 2), never a traceback."""
 from __future__ import annotations
@@ -17,10 +17,10 @@ from click.testing import CliRunner
 from checker.alloy.engines import Engine
 from checker.cli.main import main
 from checker.gate.plan_verify import verify_plan
-from checker.model.actions import effect
-from checker.model.config import Configuration
 from checker.planning.plan import state_dict
 from checker.reports.plan_reader import read_plan
+from checker.semantic_model.actions import effect
+from checker.semantic_model.config import Configuration
 from reconf_dsl.diagnostics import DiagnosticError
 from tests.examples_table import ROOT
 from tests.test_rules import all_witnesses

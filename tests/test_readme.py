@@ -79,7 +79,7 @@ with open(README, encoding="utf-8") as _f:
 
 def test_the_readme_has_examples_of_every_command() -> None:
     said = {" ".join(e.command.split()[:2]) for e in EXAMPLES}
-    for command in ("reconf check", "reconf alloy", "reconf verify-model", "reconf plan", "reconf fmt", "reconf graph",
+    for command in ("reconf check", "reconf alloy", "reconf verify-meta-model", "reconf plan", "reconf fmt", "reconf graph",
                     "reconf graph-plan", "reconf gate", "reconf ftm", "reconf recover", "reconf up", "reconf down",
                     "reconf discover", "reconf drift", "reconf modes"):
         assert command in said, command
@@ -103,8 +103,8 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 # The commands whose default engine reaches Alloy (`--engine both`, or its plan verification);
-# `verify-model --unbounded` is z3's.
-REACHES_ALLOY = re.compile(r"^reconf (check|verify-model(?! --unbounded)|plan|gate|ftm select|up|down)\b")
+# `verify-meta-model --unbounded` is z3's.
+REACHES_ALLOY = re.compile(r"^reconf (check|verify-meta-model(?! --unbounded)|plan|gate|ftm select|up|down)\b")
 
 
 def needs_alloy(example: Example) -> bool:

@@ -17,13 +17,13 @@ import pytest
 from click.testing import CliRunner
 
 from checker.cli.main import main
-from checker.model import unbounded
-from checker.model.actions import Degrade, is_valid
-from checker.model.config import Configuration
 from checker.planning import plan_replace
 from checker.planning.plan import NoSafePlan, state_dict
 from checker.planning.recovery import check_restore, plan_recovery, restore_validity
 from checker.reports.plan_document import plan_document
+from checker.semantic_model import unbounded
+from checker.semantic_model.actions import Degrade, is_valid
+from checker.semantic_model.config import Configuration
 from reconf_dsl.loader import load
 from reconf_ros.executor.snapshot import NodeInfo, Snapshot
 from tests.examples_table import ROOT

@@ -1,5 +1,5 @@
 """ROS 2 plan scripts (`codegen.ros2`): they compile, pass pyflakes, are deterministic, and their
-`--dry-run` judges every state exactly as `checker.model.semantics.evaluate` does (differential test).
+`--dry-run` judges every state exactly as `checker.semantic_model.semantics.evaluate` does (differential test).
 Applying a plan is tested on real ROS 2 nodes in tests/ros.
 
 Golden scripts: `python -m tests.test_ros_script` rewrites tests/golden/ros2/ (see `golden_scripts`).
@@ -18,12 +18,12 @@ from typing import Any, Iterator, Optional
 
 import pytest
 
-from checker.model.actions import Action, Degrade, Detach, Upgrade
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
 from checker.planning import Plan, plan_replace
 from checker.planning.plan import Goal, run_actions
 from checker.reports.plan_document import plan_document
+from checker.semantic_model.actions import Action, Degrade, Detach, Upgrade
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from codegen.ros2 import FORMAT_VERSION, model_data, render_plan_script
 from reconf_dsl.ir import Predicate, Rate, System
 from reconf_dsl.loader import load
@@ -147,7 +147,7 @@ def test_golden(name: str) -> None:
     assert render_plan_script(case_doc(name)[1]) == expected, "run `python -m tests.test_ros_script` and review"
 
 
-# --- dry run: differential against checker.model.semantics ---------------------------------------
+# --- dry run: differential against checker.semantic_model.semantics ---------------------------------------
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_dry_run_agrees_with_engine(name: str, tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""One list of rules, both engines (checker.model.rules, docs/soundness.md "One list of rules").
+"""One list of rules, both engines (checker.semantic_model.rules, docs/soundness.md "One list of rules").
 
 The table's names are exactly the labels of the Alloy templates' clauses; on one architecture
 (tests/good_inputs/rules.arch) each rule has a witness, a configuration or a step that breaks
@@ -14,7 +14,7 @@ from typing import Callable, Optional
 
 import pytest
 
-from checker.model.actions import (
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -26,8 +26,8 @@ from checker.model.actions import (
     state_refusals,
     step_refusals,
 )
-from checker.model.config import Configuration
-from checker.model.rules import BY_NAME, RULES
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.rules import BY_NAME, RULES
 from codegen.alloy import TEMPLATES
 from reconf_dsl import ir
 from reconf_dsl.loader import load

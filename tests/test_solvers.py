@@ -32,7 +32,7 @@ def solver_options(group: click.Group, prefix: str = "") -> dict[str, click.Opti
 
 def test_every_solver_option_offers_the_table() -> None:
     options = solver_options(main)
-    assert {"check", "gate", "verify-model"} <= set(options)
+    assert {"check", "gate", "verify-meta-model"} <= set(options)
     for name, opt in options.items():
         assert isinstance(opt.type, click.Choice), name
         assert tuple(opt.type.choices) == SOLVER_NAMES, name
@@ -48,7 +48,7 @@ def test_the_fallback_is_the_pure_java_solver_of_the_table() -> None:
 @pytest.mark.parametrize("args", [
     ["check", BY_NAME["chatter"].file],
     ["gate", "--base", BY_NAME["chatter"].file, "--head", BY_NAME["chatter"].file],
-    ["verify-model"],
+    ["verify-meta-model"],
 ], ids=lambda a: a[0])
 def test_an_unknown_solver_is_a_usage_error_naming_the_choices(args: list[str]) -> None:
     result = CliRunner().invoke(main, args + ["--solver", "nonsense"])
@@ -60,8 +60,8 @@ def test_an_unknown_solver_is_a_usage_error_naming_the_choices(args: list[str]) 
 
 
 def test_solver_names_are_not_case_sensitive() -> None:
-    from checker.cli.verify_model_cmd import verify_model_cmd
-    opt = next(p for p in verify_model_cmd.params if p.name == "solver")
+    from checker.cli.verify_meta_model_cmd import verify_meta_model_cmd
+    opt = next(p for p in verify_meta_model_cmd.params if p.name == "solver")
     assert opt.type.convert("Glucose", opt, None) == "glucose"   # type: ignore[union-attr]
 
 

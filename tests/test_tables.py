@@ -11,11 +11,11 @@ import pytest
 from checker.cli.main import command
 from checker.ftm.library import LIBRARY
 from checker.gate.policy import parse_policy
-from checker.model.actions import KINDS
 from checker.planning.chain import CHAIN
 from checker.planning.strategies import REGISTRY, STRATEGIES
 from checker.reports.formats import RENDERERS
 from checker.reports.report import ReportFormat
+from checker.semantic_model.actions import KINDS
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.resolve import KNOWN_FTMS
 
@@ -99,7 +99,7 @@ def test_the_strategy_registry_feeds_the_cli_the_policy_and_the_chain() -> None:
 def test_each_action_s_params_are_the_kinds_of_its_alloy_arguments() -> None:
     """The plan evaluation module calls each action with its Step's arguments by kind
     (`params`); an action's arguments (`args`) must be atoms of those kinds, in that order."""
-    from checker.model.action_kinds import Change
+    from checker.semantic_model.action_kinds import Change
 
     change = Change(removed=frozenset({"c"}), created=frozenset({"c"}), detached=frozenset({("/k", "c", "p")}),
                     attached=frozenset({("/k", "c", "p")}), degraded=frozenset({("c", "f")}),
@@ -124,7 +124,7 @@ def test_the_evaluation_modules_declare_their_tables() -> None:
 
 def test_the_executor_knows_each_action_by_the_registry_s_name_and_symbol() -> None:
     """The plan executor is standard library only, so its table of actions is a copy: held here
-    to the registry (`checker.model.actions.KINDS`), its handlers and its symbols."""
+    to the registry (`checker.semantic_model.actions.KINDS`), its handlers and its symbols."""
     from reconf_ros.executor.handlers import HANDLERS
     from reconf_ros.executor.steps import SYMBOLS
     registry = {k.name: k.cls.symbol for k in KINDS}

@@ -1,4 +1,4 @@
-"""`reconf verify-model --unbounded`: the six Safe assertions and AbsentDegraded proved with z3
+"""`reconf verify-meta-model --unbounded`: the six Safe assertions and AbsentDegraded proved with z3
 for every size; planted bugs in the preconditions and rules come back as counterexamples, a
 solver that gives up says unknown, the command's exit codes follow, and the encoding reads
 validity and the preconditions of example architectures as the Python engine does."""
@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 from checker.cli.main import main
-from checker.model import unbounded
-from checker.model.actions import (
+from checker.semantic_model import unbounded
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -25,8 +25,8 @@ from checker.model.actions import (
     is_valid,
     preconditions,
 )
-from checker.model.config import Configuration
-from checker.model.unbounded import ASSERTIONS, RECOVERY_ASSERTIONS, WEAKENINGS, prove, satisfiable
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.unbounded import ASSERTIONS, RECOVERY_ASSERTIONS, WEAKENINGS, prove, satisfiable
 from reconf_dsl.ir import NOTHING, Predicate, System, satisfies
 from reconf_dsl.loader import load
 from tests.examples_table import BY_NAME
@@ -97,7 +97,7 @@ def test_a_single_topic_and_a_service_are_reached(assertion: str, kind: str) -> 
     publisher of a `single` topic or the first server of a service."""
     import z3
 
-    from checker.model import unbounded as u
+    from checker.semantic_model import unbounded as u
     _, v, pre, acts = u._setup(frozenset())
     solver = z3.Solver()
     solver.add(v.facts(frozenset()) + [pre.valid(), acts["attach"].precondition(frozenset(), z3),
@@ -116,7 +116,7 @@ def _json(argv: list[str]) -> tuple[int, dict]:  # type: ignore[type-arg]
 
 
 def test_the_command_proves_all_and_exits_0() -> None:
-    code, doc = _json(["verify-model", "--unbounded", "--output-format", "json"])
+    code, doc = _json(["verify-meta-model", "--unbounded", "--output-format", "json"])
     assert code == 0, doc
     assert doc["ok"] and [a["result"] for a in doc["assertions"]] == ["proved"] * len(ASSERTIONS + RECOVERY_ASSERTIONS)
 
@@ -124,14 +124,14 @@ def test_the_command_proves_all_and_exits_0() -> None:
 def test_the_command_exits_1_on_a_counterexample_or_unknown(monkeypatch: pytest.MonkeyPatch) -> None:
     planted = unbounded.prove_all
     monkeypatch.setattr(unbounded, "prove_all", lambda weaken=(), **kw: planted(["degrade.safe"], **kw))
-    code, doc = _json(["verify-model", "--unbounded", "--output-format", "json"])
+    code, doc = _json(["verify-meta-model", "--unbounded", "--output-format", "json"])
     assert code == 1 and not doc["ok"]
     assert {a["assertion"]: a["result"] for a in doc["assertions"]}["SafeDegrade"] == "counterexample"
-    r = CliRunner().invoke(main, ["verify-model", "--unbounded"])
+    r = CliRunner().invoke(main, ["verify-meta-model", "--unbounded"])
     assert r.exit_code == 1 and "SafeDegrade counterexample: action degrade" in r.stderr, r.stderr
     monkeypatch.setattr(unbounded, "prove_all", lambda *a, **k: unbounded.UnboundedReport(
         [prove("SafeDegrade", rlimit=1)], "test"))
-    code, doc = _json(["verify-model", "--unbounded", "--output-format", "json"])
+    code, doc = _json(["verify-meta-model", "--unbounded", "--output-format", "json"])
     assert code == 1 and doc["assertions"][0]["result"] == "unknown"
 
 
@@ -139,14 +139,14 @@ def test_the_command_without_z3_exits_2(monkeypatch: pytest.MonkeyPatch) -> None
     def missing() -> None:
         raise unbounded.Z3Unavailable("the z3 solver is not installed: pip install z3-solver")
     monkeypatch.setattr(unbounded, "_z3", missing)
-    r = CliRunner().invoke(main, ["verify-model", "--unbounded"])
+    r = CliRunner().invoke(main, ["verify-meta-model", "--unbounded"])
     assert r.exit_code == 2 and "RC011" in r.stdout + r.stderr and "Traceback" not in r.stdout + r.stderr
 
 
 # --- the encoding is the engine's semantics ---------------------------------------------
 # An architecture and a configuration become a finite structure for the encoding's symbols
 # (closed, distinct domains; every relation and function fixed); z3's reading of validity and
-# of each action's preconditions there is held to the verdicts of checker.model.actions.
+# of each action's preconditions there is held to the verdicts of checker.semantic_model.actions.
 
 class _Structure:
     def __init__(self, system: System, config: Configuration) -> None:
@@ -249,7 +249,7 @@ def _candidates(system: System, config: Configuration) -> list[Action]:
     return out
 
 
-# What checker.model.actions asks beyond the encoding's preconditions (each makes it safer still):
+# What checker.semantic_model.actions asks beyond the encoding's preconditions (each makes it safer still):
 # a present component for a detached port, and for an upgrade that rule (iii) holds, which the
 # DSL already checks. Neither weakens what is proved.
 EXTRAS = ("is not in the system", "rule iii")

@@ -11,8 +11,8 @@ from typing import Any, Callable, Optional, TypeVar
 
 from checker.alloy.errors import AlloyError, AlloyUnavailable
 from checker.alloy.instance import AlloyVerdict, PendingVerdict
-from checker.model.config import Configuration
-from checker.model.semantics import Evaluation, evaluate, witnesses
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import Evaluation, evaluate, witnesses
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span
@@ -43,7 +43,7 @@ class Engine(str, Enum):
         return " in the Alloy Analyzer" if self.alloy else ""
 
 # A connector with more publishers than this is shown in a slice by one witness that
-# satisfies it (checker.model.semantics.witnesses): the hub of a 20,000-component fan-in reads
+# satisfies it (checker.semantic_model.semantics.witnesses): the hub of a 20,000-component fan-in reads
 # 10,000 publishers, which would make its slice as large as the rest of the check together.
 WIDE = 16
 

@@ -10,8 +10,8 @@ from checker.alloy.bridge import Backend, get_backend
 from checker.alloy.cancel import checkpoint
 from checker.alloy.evaluate import Evaluated, Judging, evaluator, judging_threads
 from checker.alloy.jvm import usable
-from checker.model.actions import KINDS, Action
-from checker.model.config import Configuration
+from checker.semantic_model.actions import KINDS, Action
+from checker.semantic_model.config import Configuration
 from codegen.alloy import PLAN_EVALUATION_SIGS, describe_instance_data, describe_plan_data, slice_index
 from codegen.alloy_module import InstanceData, Meaning
 from codegen.alloy_xml import instance_xml
@@ -75,10 +75,10 @@ def slices(system: System, config: Configuration, size: int = SLICE, only: Itera
 def alloy_verdict(system: System, config: Configuration, bridge: Backend | None = None,
                   slice_size: int = SLICE, only: Iterable[str] | None = None,
                   keep: Mapping[str, Collection[tuple[str, str]]] | None = None) -> AlloyVerdict:
-    """Judge `config` (checker.model.config.Configuration) of `system` (reconf_dsl.ir.System)
+    """Judge `config` (checker.semantic_model.config.Configuration) of `system` (reconf_dsl.ir.System)
     in Alloy: `valid` of the shared semantics evaluated in each slice as an instance
     (checker.alloy.evaluate). With `only` (a set of component names), judge the assumptions
-    of those components alone. `keep` (checker.model.semantics.witnesses) lets a slice show a
+    of those components alone. `keep` (checker.semantic_model.semantics.witnesses) lets a slice show a
     wide connector's witness alone; a slice that is not valid so is judged again with every
     publisher."""
     return PendingVerdict(system, config, bridge, slice_size, only, keep).result()

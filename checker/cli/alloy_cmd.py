@@ -7,9 +7,9 @@ from typing import Optional
 import click
 
 from checker.cli.common import console, files_argument, guarded, write_atomically
-from checker.model.actions import is_valid
-from checker.model.config import Configuration
 from checker.reports.report import OutputFormat
+from checker.semantic_model.actions import is_valid
+from checker.semantic_model.config import Configuration
 from codegen.alloy import render_instance
 from reconf_dsl.loader import Sources, load
 

@@ -21,13 +21,13 @@ from checker.cli.common import (
     plural,
     write_atomically,
 )
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
 from checker.reality.smh.export import UnsafeDeployment, export, render
 from checker.reality.smh.read import read_model
 from checker.reality.smh.to_arch import to_arch
 from checker.reports import formats, report
 from checker.reports.report import ReportFormat
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.diagnostics import Diagnostic, Severity, error
 from reconf_dsl.loader import Sources, display_path, load, read_source
 from reconf_dsl.span import Span

@@ -23,11 +23,11 @@ from checker.cli.common import Failure, console, guarded
 from checker.cli.live_options import snapshot
 from checker.cli.plan_cmd import default_files, run
 from checker.cli.plan_options import with_plan_options
-from checker.model.config import Configuration
 from checker.planning.bringup import up_state
 from checker.planning.chain import Fallback
 from checker.planning.recovery import plan_recovery
 from checker.reality.observed import NotReadable, observed
+from checker.semantic_model.config import Configuration
 from codegen.ros2 import state_at, system_from_model_data
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.loader import Sources, load

@@ -10,8 +10,8 @@ from typing import Iterable, Optional
 
 from checker.editor import index as idx
 from checker.editor.workspace import Analysis
-from checker.model.semantics import AssumptionResult, support
 from checker.reports.report import explanation
+from checker.semantic_model.semantics import AssumptionResult, support
 from reconf_dsl import ir
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.formatter import format_document

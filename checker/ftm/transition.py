@@ -14,7 +14,9 @@ from typing import Optional, Union
 from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import ExpansionInfo, FtmRuleBroken, expand
 from checker.ftm.library import LAYER_ORDER
-from checker.model.actions import (
+from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
+from checker.planning.plan import settle, verify
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Degrade,
@@ -26,10 +28,8 @@ from checker.model.actions import (
     failing_assumptions,
     preconditions,
 )
-from checker.model.config import Configuration, FuncId
-from checker.model.semantics import evaluate
-from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
-from checker.planning.plan import settle, verify
+from checker.semantic_model.config import Configuration, FuncId
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl import ir
 from reconf_dsl.ir import satisfies
 from reconf_dsl.parser import parse_text

@@ -16,8 +16,6 @@ from checker.alloy.engines import Engine, EngineUnavailable
 from checker.ftm.plan_change import plan_change, planned_on
 from checker.gate.check import check_system
 from checker.gate.policy import Policy, coverage, covered, ftm_names
-from checker.model.actions import failing_assumptions
-from checker.model.config import Configuration
 from checker.planning import NoSafePlan
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import degraded_runs
@@ -25,6 +23,8 @@ from checker.planning.verified import plan_verified
 from checker.reports import formats
 from checker.reports.plan_document import plan_document
 from checker.reports.progress import status
+from checker.semantic_model.actions import failing_assumptions
+from checker.semantic_model.config import Configuration
 from reconf_dsl.diagnostics import Diagnostic, DiagnosticError, Related, Severity, error, warning
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span

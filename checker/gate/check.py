@@ -8,10 +8,10 @@ from typing import Any, Optional
 
 from checker.alloy.engines import Engine, Judgement, judge
 from checker.ftm.judge import judge_ftm
-from checker.model.config import Configuration
-from checker.model.semantics import Evaluation
 from checker.reality.recording import RecordingVerdict
 from checker.reports import formats, report
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import Evaluation
 from reconf_dsl.diagnostics import Diagnostic
 from reconf_dsl.ir import System
 from reconf_dsl.words import agree, plural

@@ -1,7 +1,7 @@
 """A plan from anywhere, verified by both engines on their own (`reconf plan verify`).
 
 The Python engine judges the plan state by state and step by step with the rules of
-`checker.model.rules` (each configuration well formed and valid; each step's preconditions in
+`checker.semantic_model.rules` (each configuration well formed and valid; each step's preconditions in
 the configuration before it, and the configuration after it its effect) and names the first
 rule broken, at the step or the configuration of the document that breaks it. Alloy judges
 the same plan as it judges the plans reconf makes (`checker.planning.alloy_verify`: every
@@ -16,12 +16,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 from checker.alloy.engines import Engine
-from checker.model.actions import state_refusals, step_refusals
-from checker.model.config import Configuration
-from checker.model.rules import Refusal
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import Goal, Plan
 from checker.reports.plan_reader import PlanInput
+from checker.semantic_model.actions import state_refusals, step_refusals
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.rules import Refusal
 from reconf_dsl.diagnostics import Diagnostic, error
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span

@@ -35,9 +35,9 @@ from typing import Iterable, Optional
 import codegen.alloy as gen
 from checker.alloy.bridge import DEFAULT_SOLVER, Backend, atom_name, get_backend
 from checker.alloy.errors import AlloyError
-from checker.model.actions import Action, catalogue, changes
-from checker.model.config import Configuration
 from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, disruption, ready, verify
+from checker.semantic_model.actions import Action, catalogue, changes
+from checker.semantic_model.config import Configuration
 from codegen.alloy_module import PlannerModule, StateTerms
 from reconf_dsl.ir import Component, System
 from reconf_dsl.words import plural

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Optional
 
-from checker.model.config import Configuration
 from checker.planning.chain import Fallback
 from checker.planning.operations import plan_problem
 from checker.planning.plan import Goal, Plan, Problem, settle
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
 __all__ = ["EMPTY", "up_problem", "up_state", "down_problem", "plan_up", "plan_down"]

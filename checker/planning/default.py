@@ -25,7 +25,9 @@ from __future__ import annotations
 import heapq
 from typing import Optional
 
-from checker.model.actions import (
+from checker.planning.improve import cost, improve
+from checker.planning.plan import Goal, NoSafePlan
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -38,9 +40,7 @@ from checker.model.actions import (
     check,
     effect,
 )
-from checker.model.config import Configuration, FuncId
-from checker.planning.improve import cost, improve
-from checker.planning.plan import Goal, NoSafePlan
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import System
 
 __all__ = ["default_steps"]

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from dataclasses import replace as dc_replace
 
-from checker.model.actions import failing_assumptions, satisfies
-from checker.model.config import Configuration
+from checker.semantic_model.actions import failing_assumptions, satisfies
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
 

@@ -12,7 +12,11 @@ from dataclasses import dataclass
 from itertools import count
 from typing import Callable, Iterator, Optional
 
-from checker.model.actions import (
+from checker.planning.default import _closure
+from checker.planning.improve import cost, improve
+from checker.planning.plan import Goal, NoSafePlan, state_weight
+from checker.planning.relaxed import Relaxation, reachable
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -27,11 +31,7 @@ from checker.model.actions import (
     effect,
     satisfies,
 )
-from checker.model.config import Configuration, FuncId
-from checker.planning.default import _closure
-from checker.planning.improve import cost, improve
-from checker.planning.plan import Goal, NoSafePlan, state_weight
-from checker.planning.relaxed import Relaxation, reachable
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import Functionality, Predicate, System
 from reconf_dsl.words import plural
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from typing import Iterator, Optional, Sequence
 
-from checker.model.actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
-from checker.model.config import Configuration
 from checker.planning.plan import Goal, next_weight, state_weight
 from checker.planning.states import States
+from checker.semantic_model.actions import Action, Degrade, Snapshot, Upgrade, catalogue, check, effect
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
 __all__ = ["improve", "cost"]

@@ -19,11 +19,11 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Optional, Union
 
-from checker.model.config import Configuration, Role
 from checker.planning.chain import Fallback, plan_with_fallback
 from checker.planning.environment import missing_environment
 from checker.planning.plan import BadRequest, Goal, NoSafePlan, Plan, Problem, unknown
 from checker.planning.strategies import solve
+from checker.semantic_model.config import Configuration, Role
 from reconf_dsl.ir import Component, Connector, System
 
 __all__ = ["plan_problem", "plan_replace", "plan_remove", "plan_add", "plan_migrate", "replace_problem",

@@ -13,7 +13,8 @@ guards it here: docs/soundness.md#the-papers-algorithm-1.
 """
 from __future__ import annotations
 
-from checker.model.actions import (
+from checker.planning.plan import NoSafePlan, Problem
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -27,8 +28,7 @@ from checker.model.actions import (
     check,
     effect,
 )
-from checker.model.config import Configuration, FuncId
-from checker.planning.plan import NoSafePlan, Problem
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import System
 
 __all__ = ["paper_steps"]

@@ -15,7 +15,8 @@ from dataclasses import replace as dc_replace
 from itertools import pairwise
 from typing import Any, Iterable, Optional, Sequence
 
-from checker.model.actions import (
+from checker.planning.states import States
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -29,9 +30,8 @@ from checker.model.actions import (
     preconditions,
     satisfies,
 )
-from checker.model.config import Configuration, FuncId, Role
-from checker.model.semantics import evaluate
-from checker.planning.states import States
+from checker.semantic_model.config import Configuration, FuncId, Role
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.ir import System
 from reconf_dsl.words import plural
 

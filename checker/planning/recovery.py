@@ -17,12 +17,12 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Any, Iterable, Optional
 
-from checker.model.actions import Degrade, catalogue, effect, failing_assumptions
-from checker.model.config import Configuration, FuncId
 from checker.planning.chain import Fallback, plan_with_fallback
 from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, Recovery, disruption
 from checker.planning.states import States
 from checker.planning.strategies import solve
+from checker.semantic_model.actions import Degrade, catalogue, effect, failing_assumptions
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import System
 from reconf_dsl.words import plural
 

@@ -9,9 +9,9 @@ import time
 from dataclasses import dataclass
 from typing import Optional
 
-from checker.model.actions import catalogue, satisfies
-from checker.model.config import Configuration, FuncId, Role
 from checker.planning.plan import Goal
+from checker.semantic_model.actions import catalogue, satisfies
+from checker.semantic_model.config import Configuration, FuncId, Role
 from reconf_dsl.ir import Functionality, Predicate, System
 
 __all__ = ["Relaxation", "reachable"]

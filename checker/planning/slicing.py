@@ -8,9 +8,9 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 from typing import Callable
 
-from checker.model.actions import Snapshot, catalogue
-from checker.model.config import Configuration
 from checker.planning.plan import Plan
+from checker.semantic_model.actions import Snapshot, catalogue
+from checker.semantic_model.config import Configuration
 from reconf_dsl import ir
 
 __all__ = ["PlanSlicer", "affected", "slice_plan", "stable_connectors"]

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Iterator, Optional, Sequence, Union, overload
 
-from checker.model.actions import Action, effect
-from checker.model.config import Configuration
+from checker.semantic_model.actions import Action, effect
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
 __all__ = ["States", "EVERY"]

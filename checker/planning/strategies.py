@@ -7,12 +7,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Optional
 
-from checker.model.actions import Action
 from checker.planning.default import default_steps
 from checker.planning.exhaustive import Budget, exhaustive_search
 from checker.planning.improve import cost, improve
 from checker.planning.paper import paper_steps
 from checker.planning.plan import NoSafePlan, Plan, Problem, ready, verify
+from checker.semantic_model.actions import Action
 
 Steps = tuple[list[Action], Optional[str]]     # the steps, and a note on how they were found
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Callable, Optional
 
-from checker.model.actions import failing_assumptions
-from checker.model.config import Configuration
 from checker.planning.bringup import up_state
 from checker.reality.node_text import parse_model
+from checker.semantic_model.actions import failing_assumptions
+from checker.semantic_model.config import Configuration
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Component, MessageType, Mode, Predicate, System, format_number
 from reconf_dsl.span import Span

@@ -19,9 +19,9 @@ from dataclasses import replace as dc_replace
 from fractions import Fraction
 from typing import Any, Optional
 
-from checker.model.config import Configuration, FuncId, Role
 from checker.reality.node_text import parse_model
 from checker.reality.unique_names import unique
+from checker.semantic_model.config import Configuration, FuncId, Role
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Component, Connector, ConnectorKind, MessageType, Mode, Predicate, Rate, System
 from reconf_dsl.span import Span

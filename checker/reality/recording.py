@@ -12,11 +12,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
-from checker.model.semantics import rate_text
 from checker.reality.bag import Recording, Unreadable, open_recording
 from checker.reality.rates import NS, RateMeter, Worst
 from checker.reports.formats import CheckCase
 from checker.reports.report import span_json
+from checker.semantic_model.semantics import rate_text
 from reconf_dsl.diagnostics import Diagnostic, Severity
 from reconf_dsl.ir import Predicate, System
 from reconf_dsl.span import Span

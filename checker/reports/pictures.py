@@ -8,7 +8,7 @@ import shutil
 import subprocess
 from typing import Any, Optional
 
-from checker.model.config import Configuration, Role
+from checker.semantic_model.config import Configuration, Role
 from codegen.graph import GraphEdge, GraphNode, Picture
 from reconf_dsl.ir import System
 from reconf_dsl.words import agree

@@ -16,8 +16,8 @@ from typing import Any, Callable, Optional
 
 import json_source_map
 
-from checker.model.actions import KINDS, Action, action_from_dict, catalogue, unknown_name
-from checker.model.config import Configuration
+from checker.semantic_model.actions import KINDS, Action, action_from_dict, catalogue, unknown_name
+from checker.semantic_model.config import Configuration
 from reconf_dsl.diagnostics import DiagnosticError, error
 from reconf_dsl.ir import System
 from reconf_dsl.span import Span

@@ -8,8 +8,8 @@ import json
 import os
 from typing import Any, Optional, TextIO
 
-from checker.model.semantics import AssumptionResult, Evaluation
 from checker.reports.formats import CheckCase
+from checker.semantic_model.semantics import AssumptionResult, Evaluation
 from reconf_dsl.diagnostics import Diagnostic, Related, Severity, error
 from reconf_dsl.loader import Sources
 from reconf_dsl.span import Span

@@ -9,7 +9,7 @@ Each module is one concern, readable in one sitting:
 - `steps`: a plan document's parts as types (`Step`, the model's `TypedDict`s), the words for a step;
 - `plan_states`: configurations (`State`) and a plan's states (`PlanStates`);
 - `semantics`: satisfaction, the safety property and the actions' structural preconditions and
-  effects over a plan's model (`Model`), the executor's own copy of `checker.model`'s;
+  effects over a plan's model (`Model`), the executor's own copy of `checker.semantic_model`'s;
 - `status`: the status protocol the nodes publish on `/diagnostics`, and finding a component's node;
 - `remote`: the per-host agents a hosts file names, and their processes (docs/hosts.md);
 - `runtime`: the ROS side (`Runtime`): services with retries, the graph, the statuses;

@@ -2,7 +2,7 @@
 six actions' structural preconditions and effects, over a plan document's model.
 
 This is the executor's own copy, standard library only (plan scripts embed it), of what
-`checker.model` defines; tests/test_executor.py holds the two to the same verdicts (docs/soundness.md)."""
+`checker.semantic_model` defines; tests/test_executor.py holds the two to the same verdicts (docs/soundness.md)."""
 from __future__ import annotations
 
 from fractions import Fraction

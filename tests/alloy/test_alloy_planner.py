@@ -7,10 +7,10 @@ from dataclasses import replace
 import pytest
 
 from checker.alloy import AlloyBridge
-from checker.model.config import Configuration
 from checker.planning.alloy_search import alloy_plan, alloy_search, plan_with_alloy, render_planner
 from checker.planning.plan import Goal, NoSafePlan, Problem, ready, verify
 from checker.planning.strategies import solve
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

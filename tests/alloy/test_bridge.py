@@ -118,7 +118,7 @@ def test_a_sig_of_thousands_of_atoms_translates() -> None:
 
 def test_a_solver_that_does_not_load_falls_back_and_says_so(bridge: AlloyBridge) -> None:
     """A native solver whose library does not load falls back to sat4j, and the outcome
-    (what verify-model reports) names sat4j."""
+    (what verify-meta-model reports) names sat4j."""
     key = bridge.usable_solver("glucose")
     assert bridge.solver_used("glucose") == ("glucose" if key != "sat4j" else "sat4j")
     saved = dict(bridge._usable)

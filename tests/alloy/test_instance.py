@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from checker.alloy import AlloyBridge, alloy_verdict
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from codegen.alloy import mangle, render_instance, union
 from reconf_dsl import ir
 from reconf_dsl.loader import load
@@ -188,7 +188,7 @@ def test_a_wide_connector_is_shown_by_its_witness(bridge: AlloyBridge, tmp_path)
     """A slice may show a connector of many publishers by one that satisfies it: the verdicts
     and failing assumptions are the full slices', whether the lean slice holds or not."""
     from bench.gen import generate
-    from checker.model.semantics import witnesses
+    from checker.semantic_model.semantics import witnesses
     path = tmp_path / "fanin.arch"
     path.write_text(generate("fanin", 160, seed=2), encoding="utf-8")
     system = load([str(path)])

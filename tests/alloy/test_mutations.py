@@ -13,7 +13,7 @@ import pytest
 
 from checker.alloy import AlloyBridge, metamodel_modules
 from checker.alloy.metamodel import MAIN
-from checker.alloy.verify_model import counterexample
+from checker.alloy.verify_meta_model import counterexample
 
 SCOPE = 3
 

@@ -13,7 +13,9 @@ from hypothesis import strategies as st
 from checker.alloy import AlloyBridge
 from checker.alloy.evaluate import forget
 from checker.alloy.instance import alloy_plan_verdict
-from checker.model.actions import (
+from checker.planning import plan_migrate, plan_remove
+from checker.planning.alloy_verify import alloy_evidence
+from checker.semantic_model.actions import (
     Action,
     Attach,
     Create,
@@ -25,9 +27,7 @@ from checker.model.actions import (
     is_valid,
     preconditions,
 )
-from checker.model.config import Configuration
-from checker.planning import plan_migrate, plan_remove
-from checker.planning.alloy_verify import alloy_evidence
+from checker.semantic_model.config import Configuration
 from reconf_dsl import ir
 from reconf_dsl.loader import load
 from tests.examples_table import path

@@ -8,8 +8,8 @@ from checker.alloy import AlloyBridge
 from checker.alloy.engines import python_failing
 from checker.alloy.instance import slices
 from checker.alloy.parallel import ENV, MIN_MODULES, Helper, Job, Judged, helpers_wanted, judge_many
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from codegen.alloy import render_instance
 from reconf_dsl.loader import load_text
 

@@ -5,7 +5,7 @@ import re
 
 from checker.alloy import AlloyBridge, alloy_plan_verdict
 from checker.alloy.metamodel import committed_metamodel
-from checker.model.config import Configuration
+from checker.semantic_model.config import Configuration
 from codegen.alloy import render_plan
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

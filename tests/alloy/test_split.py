@@ -8,8 +8,8 @@ from checker.alloy import AlloyBridge, alloy_plan_verdict, alloy_verdict
 from checker.alloy import split as split_mod
 from checker.alloy.errors import AlloyError
 from checker.alloy.split import IDENTIFIER, split_module
-from checker.model.config import Configuration
 from checker.planning import plan_replace
+from checker.semantic_model.config import Configuration
 from codegen.alloy import render_instance, render_plan
 from reconf_dsl.loader import load
 from tests.examples_table import EXAMPLES

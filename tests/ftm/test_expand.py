@@ -9,8 +9,8 @@ from checker.ftm.expand import expand, to_text
 from checker.ftm.library import LIBRARY, all_compositions, compose
 from checker.ftm.select import nodes
 from checker.ftm.transition import parse_ftm
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.diagnostics import DiagnosticError
 from reconf_dsl.loader import load_text
 from tests.support.ftm import client_server

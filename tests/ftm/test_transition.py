@@ -11,8 +11,8 @@ from checker.ftm.transition import (
     plan_transition,
     suspension_problems,
 )
-from checker.model.actions import Create, Degrade, Remove, Upgrade
 from checker.planning.plan import verify
+from checker.semantic_model.actions import Create, Degrade, Remove, Upgrade
 from reconf_dsl.loader import load, load_text
 from tests.support.ftm import EXAMPLES, client_server
 
@@ -165,7 +165,7 @@ def test_alloy_refutes_a_transition_that_would_lose_requests(bridge) -> None:  #
     from dataclasses import replace as dc_replace
 
     from checker.alloy import alloy_plan_verdict
-    from checker.model.config import Configuration
+    from checker.semantic_model.config import Configuration
     t = transition("PBR", "LFR")
     p = t.plan
     ((conn, proxy),) = p.serving
@@ -203,7 +203,7 @@ def test_alloy_verifies_the_slice_of_a_transition_among_many_services(bridge) ->
 
 def test_requests_must_reach_a_protocol_and_a_lossy_transition_says_so() -> None:
     from checker.ftm.transition import protocols, reaches_protocol
-    from checker.model.config import Configuration
+    from checker.semantic_model.config import Configuration
 
     t = transition("PBR(TR)", "SEC(PBR(TR))")
     (conn, proxy), = t.plan.serving
@@ -240,7 +240,7 @@ def test_alloy_follows_the_request_path(bridge) -> None:  # type: ignore[no-unty
     """The plan module requires each proxy's requests to reach a present protocol: a state
     with the proxy's request output unlinked is not lossless."""
     from checker.alloy import alloy_plan_verdict
-    from checker.model.config import Configuration
+    from checker.semantic_model.config import Configuration
     p = transition("PBR", "LFR").plan
     ((conn, proxy),) = p.serving
     assert p.protocols

@@ -1,4 +1,4 @@
-"""The registry of actions (checker.model.actions.KINDS): each kind is defined once, and what the
+"""The registry of actions (checker.semantic_model.actions.KINDS): each kind is defined once, and what the
 Python engine does, the Alloy modules read and the Alloy planner decodes agree with it."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from typing import get_args
 
 import pytest
 
-from checker.model.actions import (
+from checker.semantic_model.actions import (
     KINDS,
     Action,
     Attach,
@@ -21,7 +21,7 @@ from checker.model.actions import (
     kind_of,
     recognise,
 )
-from checker.model.config import Configuration
+from checker.semantic_model.config import Configuration
 from codegen.alloy import alloy_view, step_action
 from reconf_dsl.ir import System
 from reconf_dsl.loader import load
@@ -106,7 +106,7 @@ def test_two_changes_are_not_one_action() -> None:
 def test_preconditions_and_effects_dispatch_through_the_registry() -> None:
     system = load([EXAMPLES[0].file])
     start = Configuration.initial(system)
-    from checker.model.actions import Snapshot, catalogue, check
+    from checker.semantic_model.actions import Snapshot, catalogue, check
     st = Snapshot(catalogue(system), start)
     for action in candidates(system, start):
         assert check(st, action) == [r.text for r in kind_of(action).preconditions(st, action)]

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from checker.model.actions import (
+from checker.semantic_model.actions import (
     Action,
     ActionRefused,
     Attach,
@@ -22,8 +22,8 @@ from checker.model.actions import (
     is_valid,
     preconditions,
 )
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from tests.support.random_systems import random_system
 from tests.support.systems import talker_system
 

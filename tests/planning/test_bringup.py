@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from checker.model.semantics import evaluate
 from checker.planning import Fallback, NoPlanFound, NoSafePlan, verify
 from checker.planning.bringup import EMPTY, plan_down, plan_up, up_state
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.loader import Sources, load
 
 from ..examples_table import EXAMPLES

@@ -11,14 +11,14 @@ from click.testing import CliRunner
 
 from bench.gen import build, generate, render
 from checker.cli.main import main
-from checker.model.actions import action_from_dict
-from checker.model.config import Configuration
 from checker.planning import Fallback, NoPlanFound, Plan, plan_replace, plan_with_fallback
 from checker.planning.exhaustive import Budget, Impossible, _astar, _Clock, _Space, exhaustive_search
 from checker.planning.improve import cost
 from checker.planning.operations import remove_problem, replace_problem
 from checker.planning.plan import NoSafePlan, Problem, ready, settle, verify
 from checker.planning.relaxed import reachable
+from checker.semantic_model.actions import action_from_dict
+from checker.semantic_model.config import Configuration
 from reconf_dsl.loader import load, load_text
 from tests.support.random_systems import random_system
 from tests.support.systems import chain_system, talker_system

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from checker.model.actions import is_valid
 from checker.planning import NoSafePlan, plan_migrate
+from checker.semantic_model.actions import is_valid
 from reconf_dsl.loader import load
 from tests.examples_table import path
 

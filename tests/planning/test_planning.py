@@ -6,11 +6,11 @@ from dataclasses import replace
 
 import pytest
 
-from checker.model.actions import Attach, Degrade, Detach, preconditions
-from checker.model.config import Configuration
-from checker.model.semantics import evaluate
 from checker.planning import STRATEGIES, NoSafePlan, Plan, plan_add, plan_migrate, plan_remove, plan_replace
 from checker.planning.plan import disruption
+from checker.semantic_model.actions import Attach, Degrade, Detach, preconditions
+from checker.semantic_model.config import Configuration
+from checker.semantic_model.semantics import evaluate
 from reconf_dsl.ir import PortRef
 from reconf_dsl.loader import load
 from tests.support.systems import chain_system, ring_system, talker_system

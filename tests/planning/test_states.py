@@ -8,12 +8,12 @@ from itertools import pairwise
 import pytest
 
 from bench.gen import generate
-from checker.model.actions import effect
-from checker.model.config import Configuration
 from checker.planning import plan_replace
 from checker.planning import states as states_module
 from checker.planning.plan import Plan, degradation, state_change, state_dict
 from checker.planning.states import States
+from checker.semantic_model.actions import effect
+from checker.semantic_model.config import Configuration
 from codegen.ros2 import state_at
 from reconf_dsl.loader import load_text
 from reconf_ros.executor.plan_states import PlanStates

@@ -59,8 +59,8 @@ def test_a_system_assembled_from_nodes_checks() -> None:
     from reconf_ros.demo import chatter
     text = components_to_arch([chatter.talker(), chatter.listener()], system="chatter")
     text += "topic /chatter: String @ 10 Hz { talker.out -> listener.in }\n"
-    from checker.model.config import Configuration
-    from checker.model.semantics import evaluate
+    from checker.semantic_model.config import Configuration
+    from checker.semantic_model.semantics import evaluate
     system = load_text(text)
     assert not evaluate(system, Configuration.initial(system), explain=False).unsatisfied
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import replace as dc_replace
 
 from bench.gen import generate, hub_component
-from checker.model.config import Configuration
 from checker.planning import Plan, plan_replace
+from checker.semantic_model.config import Configuration
 from reconf_dsl.loader import load_text
 
 

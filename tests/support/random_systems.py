@@ -10,8 +10,8 @@ from dataclasses import replace
 from fractions import Fraction
 from typing import Optional
 
-from checker.model.actions import is_valid
-from checker.model.config import Configuration
+from checker.semantic_model.actions import is_valid
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import (
     Component,
     Connector,

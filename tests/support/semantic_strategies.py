@@ -7,8 +7,8 @@ from fractions import Fraction
 
 from hypothesis import strategies as st
 
-from checker.model.actions import Upgrade, effect, preconditions
-from checker.model.config import Configuration
+from checker.semantic_model.actions import Upgrade, effect, preconditions
+from checker.semantic_model.config import Configuration
 from reconf_dsl import ir
 
 TYPES = ["M", "N", "sig"]

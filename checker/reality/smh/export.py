@@ -15,11 +15,11 @@ from typing import Iterable
 
 import yaml
 
-from checker.model.actions import Snapshot, catalogue, failing_assumptions, is_valid
-from checker.model.config import Configuration, FuncId
 from checker.planning.plan import Goal, settle
 from checker.reality.smh import DEFAULT, DEGRADED, DEGRADED_VALUE, NORMAL_VALUE, PARAM
 from checker.reality.unique_names import unique
+from checker.semantic_model.actions import Snapshot, catalogue, failing_assumptions, is_valid
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import Component, Predicate, System
 
 __all__ = ["NodeMode", "SystemMode", "SmhExport", "UnsafeDeployment", "export", "render"]

@@ -12,7 +12,7 @@ from typing import Iterable, Optional
 
 import networkx as nx
 
-from checker.model.config import Configuration, FuncId
+from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.gcpause import gc_paused
 from reconf_dsl.ir import Component, Functionality, Mode, Predicate, System, format_number, satisfies
 from reconf_dsl.span import Span

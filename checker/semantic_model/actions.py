@@ -5,7 +5,7 @@ Each action takes a valid configuration to a valid one when its preconditions ho
 performs an action or raises `ActionRefused`.
 
 Each action is defined here once: its class (fields, name, symbol), its precondition, its
-effect, and its entry in `KINDS` (`checker.model.action_kinds.ActionKind`), which also says how it
+effect, and its entry in `KINDS` (`checker.semantic_model.action_kinds.ActionKind`), which also says how it
 shows in the difference between two configurations (`recognise`) and how Alloy names its
 arguments. Everything else, the Alloy modules and the Alloy planner included, reads it there.
 
@@ -29,10 +29,10 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar, Iterable, Optional, TypeVar, Union, cast
 
-from checker.model.action_kinds import ActionKind, Change, Kind
-from checker.model.config import Configuration, FuncId, Role
-from checker.model.rules import BY_NAME as RULE_NAMES
-from checker.model.rules import Refusal
+from checker.semantic_model.action_kinds import ActionKind, Change, Kind
+from checker.semantic_model.config import Configuration, FuncId, Role
+from checker.semantic_model.rules import BY_NAME as RULE_NAMES
+from checker.semantic_model.rules import Refusal
 from reconf_dsl.ir import Component, Connector, Functionality, Mode, Port, Predicate, System
 from reconf_dsl.ir import satisfies as _satisfies
 
@@ -383,7 +383,7 @@ def failing_assumptions(system: System, config: Configuration) -> list[tuple[str
 
 
 def state_refusals(system: System, config: Configuration) -> list[Refusal]:
-    """The rules about a configuration (`checker.model.rules`, `state.*`) that `config`
+    """The rules about a configuration (`checker.semantic_model.rules`, `state.*`) that `config`
     breaks: well-formedness (one publisher on a `single` topic, one server on a service,
     each attachment well typed and of a present component) and validity. Raises ValueError
     when an attachment names what the architecture does not declare."""
@@ -435,7 +435,7 @@ def check(st: Snapshot, action: Action) -> list[str]:
 
 def refusals(system: System, config: Configuration, action: Action) -> list[Refusal]:
     """The preconditions of `action` that fail in `config`, each with its rule's name
-    (`checker.model.rules`). Raises ValueError when the action names what the architecture
+    (`checker.semantic_model.rules`). Raises ValueError when the action names what the architecture
     does not declare (`unknown_name`): that is no rule of a step, but a step that is not one."""
     cat = catalogue(system)
     unknown = unknown_name(cat, action)
@@ -445,7 +445,7 @@ def refusals(system: System, config: Configuration, action: Action) -> list[Refu
 
 
 def step_refusals(system: System, before: Configuration, action: Action, after: Configuration) -> list[Refusal]:
-    """The rules (`checker.model.rules`) a step from `before` by `action` to `after` breaks:
+    """The rules (`checker.semantic_model.rules`) a step from `before` by `action` to `after` breaks:
     its preconditions in `before`, and `<action>.effect` when `after` is not the action's
     effect (the modes of absent components aside: neither engine reads them). Raises
     ValueError as `refusals` does."""

@@ -1,9 +1,9 @@
 """What makes a reconfiguration action a kind of its own, in one place per action.
 
-An `ActionKind` ties an action class (`checker.model.actions`: its fields, its name `kind` and its
+An `ActionKind` ties an action class (`checker.semantic_model.actions`: its fields, its name `kind` and its
 `symbol` as plans print them) to its preconditions, its effect, how it is recognised in the
 difference between two configurations (`Change`), and how an Alloy module names its
-arguments. `checker.model.actions.KINDS` is the registry of the six; the Python engine, the
+arguments. `checker.semantic_model.actions.KINDS` is the registry of the six; the Python engine, the
 Alloy modules (codegen.alloy) and the Alloy planner all read the actions through it.
 """
 from __future__ import annotations
@@ -11,11 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Callable, Generic, Protocol, TypeVar, cast
 
-from checker.model.config import Configuration, FuncId, Role
+from checker.semantic_model.config import Configuration, FuncId, Role
 
 if TYPE_CHECKING:
-    from checker.model.actions import Action, ActionBase, Snapshot, _Catalogue
-    from checker.model.rules import Refusal
+    from checker.semantic_model.actions import Action, ActionBase, Snapshot, _Catalogue
+    from checker.semantic_model.rules import Refusal
 
 __all__ = ["ActionKind", "Change", "Kind", "Meaning"]
 
@@ -94,7 +94,7 @@ class Kind(Protocol):
 @dataclass(frozen=True)
 class ActionKind(Generic[A]):
     """One action: its class (fields, `kind`, `symbol`, `describe`), `precondition` (the
-    failing preconditions, each with its rule's name (`checker.model.rules`), [] when it may
+    failing preconditions, each with its rule's name (`checker.semantic_model.rules`), [] when it may
     run; the action's names are declared), `effect` (the configuration after it,
     preconditions not checked), `change_field` (the field of a `Change` whose elements are the
     actions of this kind a change is made of) and `params` (the kinds of its Alloy arguments,

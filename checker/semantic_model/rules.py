@@ -1,7 +1,7 @@
 """Every rule a configuration or a step must keep, written once: the one table that both
 engines are held to.
 
-The Python engine applies each rule by its name (`checker.model.actions`: a step's
+The Python engine applies each rule by its name (`checker.semantic_model.actions`: a step's
 preconditions and effect, `state_refusals` for a configuration); the Alloy templates carry
 the same names as labels on the clauses that state them (`--@pre <action>.<rule>` and
 `--@post <action>.effect` in `codegen/templates/alloy/actions.j2`, `--@rule state.<rule>` in

@@ -1,4 +1,4 @@
-"""`reconf verify-model`: outcomes against expectations, counterexamples as two
+"""`reconf verify-meta-model`: outcomes against expectations, counterexamples as two
 configurations, exit codes."""
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from click.testing import CliRunner
 
 from checker.alloy import AlloyBridge, metamodel_modules
 from checker.alloy.metamodel import MAIN
-from checker.alloy.verify_model import PAPER_SIGS, CommandRow, VerifyReport, verify_model
-from checker.cli.verify_model_cmd import verify_model_cmd
+from checker.alloy.verify_meta_model import PAPER_SIGS, CommandRow, VerifyReport, verify_meta_model
+from checker.cli.verify_meta_model_cmd import verify_meta_model_cmd
 from codegen.alloy import DEFAULT_SCOPE
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,7 +28,7 @@ def _mutated(tmp_path: Path) -> Path:
 
 
 def test_json_report_at_small_scope() -> None:
-    result = CliRunner().invoke(verify_model_cmd, ["--scope", "3", "--output-format", "json"])
+    result = CliRunner().invoke(verify_meta_model_cmd, ["--scope", "3", "--output-format", "json"])
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     assert report["ok"] and report["scope"] == 3
@@ -41,7 +41,7 @@ def test_json_report_at_small_scope() -> None:
 
 def test_counterexample_is_two_configurations(tmp_path: Path) -> None:
     modules = {MAIN: _mutated(tmp_path).read_text(encoding="utf-8")}
-    report = verify_model(3, modules=modules)
+    report = verify_meta_model(3, modules=modules)
     assert not report.ok
     # removing an attached component loses validity, and leaves its attachments dangling
     assert [r.command for r in report.rows if r.as_expected is False] == ["SafeRemove", "KeepsOwned"]
@@ -55,7 +55,7 @@ def test_counterexample_is_two_configurations(tmp_path: Path) -> None:
 
 
 def test_exit_code_1_and_text_counterexample(tmp_path: Path) -> None:
-    result = CliRunner().invoke(verify_model_cmd, ["--model", str(_mutated(tmp_path))])
+    result = CliRunner().invoke(verify_meta_model_cmd, ["--model", str(_mutated(tmp_path))])
     assert result.exit_code == 1
     assert "SafeRemove counterexample: action remove" in result.stderr
     assert "components present:" in result.stderr and "roles:" in result.stderr
@@ -63,14 +63,14 @@ def test_exit_code_1_and_text_counterexample(tmp_path: Path) -> None:
 
 def test_exit_code_2_without_alloy() -> None:
     env = {**os.environ, "RECONF_ALLOY_JAR": "/nonexistent/alloy.jar", "PYTHONPATH": str(ROOT)}
-    out = subprocess.run([sys.executable, "-m", "checker.cli.verify_model_cmd", "--scope", "3"], env=env,
+    out = subprocess.run([sys.executable, "-m", "checker.cli.verify_meta_model_cmd", "--scope", "3"], env=env,
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert out.returncode == 2
     assert "Alloy jar not found" in out.stderr
 
 
 def test_each_signature_bound_is_stated_as_the_analyzer_sets_it() -> None:
-    result = CliRunner().invoke(verify_model_cmd, ["--scope", "3", "--output-format", "json"])
+    result = CliRunner().invoke(verify_meta_model_cmd, ["--scope", "3", "--output-format", "json"])
     report = json.loads(result.stdout)
     rows = {r["command"]: r for r in report["commands"]}
     assert rows["SafeDetach"]["bounds"]["Component"] == "<= 3"
@@ -78,7 +78,7 @@ def test_each_signature_bound_is_stated_as_the_analyzer_sets_it() -> None:
     assert rows["Detach"]["bounds"]["Connector"] == "<= 3"
     # at scope 3 every check is below the paper's `for 5`, and the report says so
     assert len(report["paper_scope"]["below"]) == len(PAPER_SIGS) * sum(r["kind"] == "check" for r in rows.values())
-    text = CliRunner().invoke(verify_model_cmd, ["--scope", "3"]).stderr
+    text = CliRunner().invoke(verify_meta_model_cmd, ["--scope", "3"]).stderr
     assert "atoms per signature in" in text and "NOT covered" in text
 
 
@@ -94,9 +94,9 @@ def test_the_default_scope_covers_the_papers() -> None:
 
 
 def test_one_process_and_two_agree(monkeypatch: object) -> None:
-    two = verify_model(3)
+    two = verify_meta_model(3)
     monkeypatch.setenv("RECONF_ALLOY_PROCESSES", "1")  # type: ignore[attr-defined]
-    one = verify_model(3)
+    one = verify_meta_model(3)
     assert one.processes == 1 and two.processes == (2 if (os.cpu_count() or 1) >= 2 else 1)
     assert [(r.command, r.outcome, r.bounds) for r in one.rows] == [(r.command, r.outcome, r.bounds) for r in two.rows]
 
@@ -122,7 +122,7 @@ def test_planted_facts_fail_the_non_vacuity_runs() -> None:
     text = metamodel_modules(3)[MAIN]
     for (right, planted), failing in PLANTED:
         assert text.count(right) == 1, right
-        report = verify_model(3, modules={MAIN: text.replace(right, planted)})
+        report = verify_meta_model(3, modules={MAIN: text.replace(right, planted)})
         assert not report.ok
         assert {r.command for r in report.rows if r.as_expected is False} == failing
         # the six Safe checks pass all the same: they are what a vacuous fact hides from

@@ -1,4 +1,4 @@
-"""`reconf verify-model`: prove the six actions safe in the Alloy meta-model (or for every
+"""`reconf verify-meta-model`: prove the six actions safe in the Alloy meta-model (or for every
 size with z3), and show each command's outcome against its `expect`.
 
 Exit codes: 0 all as expected, 1 some outcome differs, 2 Alloy or Java unavailable.
@@ -14,7 +14,7 @@ import click
 from checker.alloy import AlloyError, AlloyUnavailable
 from checker.alloy.bridge import DEFAULT_SOLVER, FALLBACK_SOLVER, SOLVER_NAMES
 from checker.alloy.metamodel import MAIN
-from checker.alloy.verify_model import PAPER_SCOPE, PAPER_SIGS, CommandRow, VerifyReport, verify_model
+from checker.alloy.verify_meta_model import PAPER_SCOPE, PAPER_SIGS, CommandRow, VerifyReport, verify_meta_model
 from checker.cli.common import Failure, guarded
 from checker.reports.report import OutputFormat
 from reconf_dsl.diagnostics import Diagnostic, Severity
@@ -67,7 +67,7 @@ def _render_counterexample(r: CommandRow, console: Any) -> None:
             console.print(f"    unsatisfied: {', '.join(conf.unsatisfied)}")
 
 
-@click.command("verify-model")
+@click.command("verify-meta-model")
 @click.option("--scope", type=click.IntRange(1, 12), default=5, show_default=True,
               help="Scope of every check (runs use scope 3).")
 @click.option("--solver", type=click.Choice(SOLVER_NAMES, case_sensitive=False), default=DEFAULT_SOLVER,
@@ -81,14 +81,14 @@ def _render_counterexample(r: CommandRow, console: Any) -> None:
 @click.option("--unbounded", is_flag=True,
               help="Prove the six Safe assertions for every size with z3 instead (no Alloy; "
                    "--scope, --solver and --model are ignored).")
-@guarded("verify-model")
-def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model_path: str | None,
+@guarded("verify-meta-model")
+def verify_meta_model_cmd(scope: int, solver: str, output_format: OutputFormat, model_path: str | None,
                      unbounded: bool, sources: Sources) -> None:
     """Prove the six reconfiguration actions safe in the Alloy meta-model."""
     from rich.console import Console
 
     if unbounded:
-        import checker.model.unbounded as z3proof  # z3 loads only for --unbounded: start-up time
+        import checker.semantic_model.unbounded as z3proof  # z3 loads only for --unbounded: start-up time
         try:
             sys.exit(z3proof.command(output_format))
         except z3proof.Z3Unavailable as exc:
@@ -114,7 +114,7 @@ def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model
         if status is not None:
             status.start()
         try:
-            report = verify_model(scope, solver, before, after, modules)
+            report = verify_meta_model(scope, solver, before, after, modules)
         finally:
             if status is not None:
                 status.stop()
@@ -138,4 +138,4 @@ def verify_model_cmd(scope: int, solver: str, output_format: OutputFormat, model
 
 
 if __name__ == "__main__":
-    verify_model_cmd()
+    verify_meta_model_cmd()

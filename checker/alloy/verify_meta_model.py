@@ -1,5 +1,5 @@
 """Run every command of the Alloy meta-model and compare each outcome with its `expect`:
-the proof behind `reconf verify-model` (the command is `checker.cli.verify_model_cmd`)."""
+the proof behind `reconf verify-meta-model` (the command is `checker.cli.verify_meta_model_cmd`)."""
 from __future__ import annotations
 
 import time
@@ -21,7 +21,7 @@ PAPER_SIGS = ("Component", "Port", "Functionality", "Connector")
 @dataclass
 class CounterexampleState:
     """One configuration of a counterexample (its Pre or Post), in atom names; not the checker's
-    `checker.model.config.Configuration`."""
+    `checker.semantic_model.config.Configuration`."""
 
     components: list[str]
     degraded: list[str]
@@ -138,7 +138,7 @@ def _row(o: CommandOutcome, bounds: dict[str, tuple[int, bool]]) -> CommandRow:
                       {sig: f"{'=' if exact else '<='} {n}" for sig, (n, exact) in sorted(bounds.items())})
 
 
-def verify_model(scope: int = 5, solver: str = DEFAULT_SOLVER,
+def verify_meta_model(scope: int = 5, solver: str = DEFAULT_SOLVER,
                  before: Callable[[str, int, int], None] | None = None,
                  after: Callable[[CommandRow], None] | None = None,
                  modules: dict[str, str] | None = None) -> VerifyReport:

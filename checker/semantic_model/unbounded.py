@@ -1,4 +1,4 @@
-"""`reconf verify-model --unbounded`: the six `Safe<Action>` assertions of the meta-model, and
+"""`reconf verify-meta-model --unbounded`: the six `Safe<Action>` assertions of the meta-model, and
 `AbsentDegraded`, proved with z3 for configurations of every size, finite or infinite.
 
 Each assertion reads "valid(Pre) and action(Pre, Post) implies valid(Post)" over uninterpreted
@@ -509,7 +509,7 @@ def _describe(m: Any, v: _Vocabulary, pre: _State, weakened: frozenset[str], act
 # --- the command -----------------------------------------------------------------------
 
 def command(output_format: Any, weaken: Iterable[str] = ()) -> int:
-    """`reconf verify-model --unbounded`: prints the table (or JSON), returns the exit code."""
+    """`reconf verify-meta-model --unbounded`: prints the table (or JSON), returns the exit code."""
     import json
 
     import click
