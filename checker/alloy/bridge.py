@@ -35,8 +35,8 @@ class Solver(NamedTuple):
 # the pure-Java one. Not offered: plingeling (an external program the jar has for macOS only)
 # and cryptominisat (the analyzer fails on it with a NullPointerException on Linux x86-64).
 SOLVER_TABLE = (
-    Solver("glucose", "glucose(jni)", "Glucose"),
     Solver("glucose41", "glucose 4.1(jni)", "Glucose41"),
+    Solver("glucose", "glucose(jni)", "Glucose"),
     Solver("lingeling", "lingeling(jni)", "Lingeling"),
     Solver("minisat", "minisat(jni)", "MiniSat"),
     Solver("minisatprover", "minisatprover(jni)", "MiniSatProver"),
