@@ -173,6 +173,10 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
     ("RC632", "recover-unreadable", "`reconf recover --live`: a node of the model (or one a plan started) runs but "
                                     "does not answer, or runs a model that does not parse: no plan can start from "
                                     "a configuration not known (exit 2)"),
+    ("RC633", "recover-other-definition", "warning, `reconf recover --live`: a node under a component's name runs "
+                                          "another definition of it (an older version a killed plan left): it is "
+                                          "that component as it runs, and the model's is created beside it as its "
+                                          "new version"),
     ("RC701", "recording-unreadable", "`check --bag`: the recording cannot be read (missing, not a rosbag2 directory, "
                                       ".db3 or .mcap, or corrupt)"),
     ("RC702", "recording-rate-contradicted", "`check --bag`: a topic's observed rate (its worst sliding window) is "

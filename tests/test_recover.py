@@ -235,3 +235,57 @@ def test_live_an_orphan_no_component_accounts_for_joins_the_model(tmp_path: Path
     doc = json.loads(script.read_text().split('DOC = json.loads(r"""', 1)[1].split('"""', 1)[0])
     assert doc["plan"]["recovery"]["placed"] == {"talker_2": "talker_2"}
     assert any(k["name"] == "/chatter2" for k in doc["model"]["connectors"])
+
+
+def test_live_another_definition_under_a_components_name_is_replaced_by_the_models(tmp_path: Path) -> None:
+    """A transition killed before it created the new version left /talker running the old
+    definition (here with a second output, /debug): it is talker as it runs; the model's talker
+    is created beside it as talker@new (the executor gives it a free node name) and takes over,
+    and the old one is taken away, verified in both engines."""
+    old = _TALKER.replace("  output out: String\n", "  output out: String\n  output debug: String\n") \
+        .replace("functionality talk (out)", "functionality talk (out, debug)") \
+        .replace("normal { out: String @ 10 Hz }", "normal { out: String @ 10 Hz  debug: String @ 1 Hz }") \
+        .replace("degraded { out: nothing }", "degraded { out: nothing  debug: nothing }")
+    snap = Snapshot(nodes={
+        "/talker": replace(node("/talker", "talker", modes={"talk": "normal"},
+                                ports={"out": ["/chatter"], "debug": ["/debug"]}), model=old),
+        "/listener": node("/listener", "listener", modes={"listen": "normal"}, ports={"in": ["/chatter"]}),
+    }, topics={"/chatter": ["std_msgs/msg/String"], "/debug": ["std_msgs/msg/String"]})
+    path = tmp_path / "snap.json"
+    path.write_text(snap.to_json())
+    script = tmp_path / "recover.py"
+    r = invoke(["recover", "--live", "-f", CHATTER, "--snapshot", str(path), "-o", str(script)])
+    assert r.exit_code == 0, r.stderr
+    text = " ".join(r.stderr.split())
+    assert "RC633" in text and "created beside it as talker@new" in text, text
+    assert "+ create talker@new" in text and "- remove talker" in text and "✓ Alloy" in text, text
+    doc = json.loads(script.read_text().split('DOC = json.loads(r"""', 1)[1].split('"""', 1)[0])
+    assert doc["plan"]["renames"] == {"talker@new": "talker"}
+    assert [s["component"] for s in doc["plan"]["steps"] if s["action"] in ("create", "remove")] == ["talker@new", "talker"]
+
+
+def test_a_start_that_is_not_well_formed_is_refused_by_the_python_engine_alone() -> None:
+    """A configuration read from a live system can break a rule no step would (here an output
+    attached while its component is absent): the Python engine's verification refuses it before
+    any step, as Alloy's does."""
+    from checker.planning.plan import Goal, verify
+    system = load([CHATTER])
+    start = Configuration.initial(system)
+    broken = Configuration(start.components - {"talker"}, frozenset(d for d in start.degraded if d[0] != "talker"),
+                           start.roles)
+    with pytest.raises(NoSafePlan, match="not well formed: talker.out is attached to /chatter, but talker is not"):
+        verify(system, broken, [], Goal(broken.components, broken.roles, broken.degraded), "default")
+
+
+def test_a_node_s_message_types_keep_their_names_where_several_share_a_ros_type() -> None:
+    """An FTM's messages are all std_msgs/msg/String under several names: an adopted
+    definition's ports keep the names the model gives them, not the last name of that type."""
+    from checker.reality.observed import _adopted
+    from reconf_dsl.ir import MessageType
+    from reconf_dsl.parser import parse_text
+    system = load([CHATTER])
+    system = replace(system, messages=system.messages + (MessageType("Other", "std_msgs/msg/String"),))
+    doc = parse_text(_TALKER, "<m>")
+    comp = next(it for it in doc.items if getattr(it, "ports", None))
+    _, adopted = _adopted(system, doc.items, replace(comp, name="talker_2"))
+    assert [p.message for p in adopted.ports] == ["String"]

@@ -136,6 +136,6 @@ def _from_live(files: list[str], snap_opts: Reading, sources: Sources, apply: An
     label = f"recover {system.name} from the live system → its deployed configuration"
 
     def make(fb: Fallback) -> Any:
-        return plan_recovery(live.system, live.config, target, opts["strategy"], fb, placed=live.placed,
-                             orphans=live.orphans)
+        return plan_recovery(live.system, live.config, live.retarget(target), opts["strategy"], fb,
+                             placed=live.placed, orphans=live.orphans, renames=live.renames)
     run(label, live.system, make, sources, chain=True, apply=apply, **opts)

@@ -27,6 +27,7 @@ from checker.semantic_model.actions import (
     catalogue,
     effect,
     failing_assumptions,
+    form_refusals,
     preconditions,
     satisfies,
 )
@@ -319,6 +320,12 @@ def verify(system: System, start: Configuration, steps: Sequence[Action], goal: 
     whose satisfaction it changes (an assumption depends only on those). The
     plan's `verification` says which was done."""
     cat = catalogue(system)
+    try:
+        malformed = [str(r) for r in form_refusals(system, start)]
+    except ValueError as e:
+        malformed = [str(e)]
+    if malformed:
+        raise NoSafePlan([f"{strategy}: the initial configuration is not well formed: " + "; ".join(malformed)])
     if full is None:
         full = (len(steps) + 1) * max(1, len(start.components)) <= FULL_CHECK_LIMIT
     kept, before = {0: start}, start

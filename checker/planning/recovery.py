@@ -91,15 +91,16 @@ def _planned_on(system: System, start: Configuration) -> System:
 
 def plan_recovery(system: System, observed: Configuration, target: Configuration, strategy: str = "default",
                   fallback: Optional[Fallback] = None, placed: Optional[dict[str, str]] = None,
-                  orphans: Iterable[dict[str, Any]] = ()) -> Plan:
+                  orphans: Iterable[dict[str, Any]] = (), renames: Optional[dict[str, str]] = None) -> Plan:
     """A plan from `observed` to `target`: the degrades that restore validity, then a plan made
     by `strategy` (through the fallback chain when `fallback` is given) from there. The plan's
     `recovery` says how many steps restore validity, and carries `placed` and `orphans` for the
-    executor (`Recovery`). Raises NoSafePlan when no plan reaches the target."""
+    executor (`Recovery`); `renames`, the new versions the target has of components that run
+    (`X@new` -> X), for the executor's names. Raises NoSafePlan when no plan reaches the target."""
     prefix = restore_validity(system, observed)
     start = check_restore(system, observed, prefix)
     base = _planned_on(system, start)
-    problem = Problem(base, start, Goal(target.components, target.roles, target.degraded))
+    problem = Problem(base, start, Goal(target.components, target.roles, target.degraded), renames=dict(renames or {}))
     rest = plan_with_fallback(problem, strategy, fallback) if fallback is not None else solve(problem, strategy)
     info = Recovery(len(prefix), rest, dict(placed or {}), list(orphans))
     if not prefix:

@@ -9,8 +9,14 @@ it, joins the model under its node's name, so that the recovery plan adopts it (
 it) or takes it away (detached, degraded, removed). An orphan that is not active (a process
 killed between its start and its activation) is in no configuration: it is ended before the
 plan's first step, unless the target has its component, whose create then adopts it. Any other
-node the model does not account for is left alone, and said so (RC631). Pure Python: the live
-system is a `Snapshot` (`reconf_ros.executor.snapshot`).
+node the model does not account for is left alone, and said so (RC631).
+
+A node under a component's name that runs another definition of it (an older version a killed
+transition left, which no plan marked as its own) is that component as it runs: its definition
+takes the component's name in the model, and the model's own becomes its new version `X@new`
+(`renames`), which the recovery creates beside it under a free name and which takes over as
+a transition's new version does (docs/executor.md#names). Pure Python: the live system is a
+`Snapshot` (`reconf_ros.executor.snapshot`).
 """
 from __future__ import annotations
 
@@ -40,14 +46,24 @@ class NotReadable(Exception):
 class LiveConfiguration:
     """What runs, as a configuration of `system` (the model, with the active orphans' components
     added); `placed`: component -> its node's name where not its own; `orphans`: the nodes to
-    end before the plan (docs/executor.md#recovering-from-the-live-system); `notes`: what was
-    left alone, and why."""
+    end before the plan (docs/executor.md#recovering-from-the-live-system); `renames`: a
+    component's new version -> the component, where a node runs another definition of it;
+    `notes`: what was left alone, and why."""
 
     system: System
     config: Configuration
     placed: dict[str, str] = field(default_factory=dict)
     orphans: list[dict[str, Any]] = field(default_factory=list)
+    renames: dict[str, str] = field(default_factory=dict)
     notes: list[Diagnostic] = field(default_factory=list)
+
+    def retarget(self, target: Configuration) -> Configuration:
+        """`target` (a configuration of the model) in this system's names: a component another
+        definition of which runs is its new version there."""
+        new = {old: version for version, old in self.renames.items()}
+        return Configuration(frozenset(new.get(c, c) for c in target.components),
+                             frozenset((new.get(c, c), f) for c, f in target.degraded),
+                             frozenset((k, new.get(c, c), p) for k, c, p in target.roles))
 
 
 def _locate(system: System, snap: Snapshot) -> dict[str, NodeInfo]:
@@ -124,7 +140,8 @@ def observed(system: System, snap: Snapshot, target: Configuration) -> LiveConfi
                                               f"and it is {node.lifecycle}"))
     placed = {n.fqn for n in nodes.values()}
     for node in sorted(snap.nodes.values(), key=lambda n: n.fqn):
-        if node.fqn not in placed and node.lifecycle != "finalized":
+        if node.fqn not in placed and node.lifecycle != "finalized" and \
+                not _superseded(live, node, set(nodes), comps, degraded, roles):
             _unaccounted(live, node, comps, degraded, roles)
     system = _with_connectors(live.system, snap, roles)
     live.system = system
@@ -158,17 +175,74 @@ def _unaccounted(live: LiveConfiguration, node: NodeInfo, comps: set[str], degra
     roles += r
 
 
-def _note(text: str) -> Diagnostic:
-    return Diagnostic("RC631", Severity.WARNING, text, Span.unknown("<ros>"))
+def _superseded(live: LiveConfiguration, node: NodeInfo, located: set[str], comps: set[str],
+                degraded: list[FuncId], roles: list[Role]) -> bool:
+    """Whether `node`, active under the name of a component X of the model, runs another
+    definition of it (one that parses), which it then is: X as it runs, and the model's
+    definition its new version `X@new`, when no other node was found for X; else (X's new
+    version runs elsewhere, a killed transition's) an older definition beside it, `X@old`,
+    which the target does not have."""
+    comp = live.system.component(node.name)
+    if comp is None or comp.replaces or node.lifecycle != "active" or not node.model or node.unanswered:
+        return False
+    parsed = parse_model(node.model, f"<{node.fqn} reconf.model>")
+    if parsed is None:
+        return False
+    taken = {c.name for c in live.system.components + live.system.versions}
+    if node.name in located:
+        name = unique(f"{comp.name}@old", taken)
+        live.system, running = _adopted(live.system, parsed[0].items,
+                                        dc_replace(parsed[1], name=name, replaces=None, host=comp.host, run=comp.run))
+        live.placed[name] = node.name
+        live.notes.append(_note(f"{node.fqn} runs an older definition of {comp.name}, whose node is "
+                                f"{live.placed.get(comp.name, comp.name)}: it is {name}, which the target does not have",
+                                "RC633"))
+    else:
+        name = _supersede(live, comp, parsed[0].items, parsed[1], taken, node)
+        running = live.system.component(name)
+        assert running is not None
+    comps.add(name)
+    d, r = _read(running, node)
+    degraded += d
+    roles += r
+    return True
+
+
+def _supersede(live: LiveConfiguration, comp: Component, items: Any, runs: Component, taken: set[str],
+               node: NodeInfo) -> str:
+    """`comp` as `node` runs it (`runs`), the model's definition its new version."""
+    version = unique(f"{comp.name}@new", taken)
+    system, running = _adopted(live.system, items, dc_replace(runs, name=comp.name, replaces=None,
+                                                              host=comp.host, run=comp.run))
+    live.system = dc_replace(system, components=tuple(running if c.name == comp.name else c for c in system.components),
+                             versions=tuple(v for v in system.versions if v is not running) +
+                             (dc_replace(comp, name=version, replaces=comp.name),))
+    live.renames[version] = comp.name
+    live.notes.append(_note(f"{node.fqn} runs another definition of {comp.name} than the model's: it is "
+                            f"{comp.name} as it runs, and the model's {comp.name} is created beside it as {version}",
+                            "RC633"))
+    return comp.name
+
+
+def _note(text: str, code: str = "RC631") -> Diagnostic:
+    return Diagnostic(code, Severity.WARNING, text, Span.unknown("<ros>"))
 
 
 def _adopted(system: System, items: Any, comp: Component) -> tuple[System, Component]:
-    """`system` with `comp` as a version, its message types named as `system` names them (a
-    type `system` lacks is added under a free name)."""
-    ours = {m.ros_type: m.name for m in system.messages}
+    """`system` with `comp` as a version, its message types named as `system` names them: the
+    same name for the same ROS type, else the first name `system` gives that type (several names
+    may share one ROS type: an FTM's messages are all std_msgs/msg/String); a type `system`
+    lacks is added under a free name."""
+    ours: dict[str, str] = {}
+    for m in system.messages:
+        ours.setdefault(m.ros_type, m.name)
+    same = {(m.name, m.ros_type) for m in system.messages}
     messages = list(system.messages)
     names: dict[str, str] = {}
     for m in (it for it in items if isinstance(it, MessageType)):
+        if (m.name, m.ros_type) in same:
+            names[m.name] = m.name
+            continue
         if m.ros_type not in ours:
             ours[m.ros_type] = unique(m.name, {x.name for x in messages})
             messages.append(MessageType(ours[m.ros_type], m.ros_type))

@@ -39,7 +39,7 @@ from reconf_dsl.ir import satisfies as _satisfies
 __all__ = ["Remove", "Create", "Detach", "Attach", "Degrade", "Upgrade", "Action", "ActionRefused",
            "preconditions", "check", "Snapshot", "catalogue", "affected_connectors", "apply", "effect",
            "action_from_dict", "is_valid", "failing_assumptions", "KINDS", "refusals", "unknown_name", "step_refusals",
-           "state_refusals", "kind_of", "changes", "recognise"]
+           "state_refusals", "form_refusals", "kind_of", "changes", "recognise"]
 
 
 @dataclass(frozen=True)
@@ -384,9 +384,17 @@ def failing_assumptions(system: System, config: Configuration) -> list[tuple[str
 
 def state_refusals(system: System, config: Configuration) -> list[Refusal]:
     """The rules about a configuration (`checker.semantic_model.rules`, `state.*`) that `config`
-    breaks: well-formedness (one publisher on a `single` topic, one server on a service,
-    each attachment well typed and of a present component) and validity. Raises ValueError
-    when an attachment names what the architecture does not declare."""
+    breaks: well-formedness (`form_refusals`) and validity. Raises ValueError when an
+    attachment names what the architecture does not declare."""
+    out = form_refusals(system, config)
+    out += [_no("state.valid", f"{c}.{f} assumes {a}, which does not hold") for c, f, a in failing_assumptions(system, config)]
+    return out
+
+
+def form_refusals(system: System, config: Configuration) -> list[Refusal]:
+    """The rules of well-formedness `config` breaks: one publisher on a `single` topic, one
+    server on a service, each attachment well typed and of a present component. Raises
+    ValueError when an attachment names what the architecture does not declare."""
     cat = catalogue(system)
     out: list[Refusal] = []
     pubs: dict[str, list[str]] = {}
@@ -408,7 +416,6 @@ def state_refusals(system: System, config: Configuration) -> list[Refusal]:
         elif len(names) > 1 and k.single:
             out.append(_no("state.single", f"{conn} takes a single publisher and has {len(names)}: "
                                            f"{', '.join(names)}"))
-    out += [_no("state.valid", f"{c}.{f} assumes {a}, which does not hold") for c, f, a in failing_assumptions(system, config)]
     return out
 
 
