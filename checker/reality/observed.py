@@ -198,9 +198,7 @@ def _superseded(live: LiveConfiguration, node: NodeInfo, located: set[str], comp
                                 f"{live.placed.get(comp.name, comp.name)}: it is {name}, which the target does not have",
                                 "RC633"))
     else:
-        name = _supersede(live, comp, parsed[0].items, parsed[1], taken, node)
-        running = live.system.component(name)
-        assert running is not None
+        name, running = comp.name, _supersede(live, comp, parsed[0].items, parsed[1], taken, node)
     comps.add(name)
     d, r = _read(running, node)
     degraded += d
@@ -209,8 +207,8 @@ def _superseded(live: LiveConfiguration, node: NodeInfo, located: set[str], comp
 
 
 def _supersede(live: LiveConfiguration, comp: Component, items: Any, runs: Component, taken: set[str],
-               node: NodeInfo) -> str:
-    """`comp` as `node` runs it (`runs`), the model's definition its new version."""
+               node: NodeInfo) -> Component:
+    """`comp` as `node` runs it (`runs`), the model's definition its new version: the first."""
     version = unique(f"{comp.name}@new", taken)
     system, running = _adopted(live.system, items, dc_replace(runs, name=comp.name, replaces=None,
                                                               host=comp.host, run=comp.run))
@@ -221,7 +219,7 @@ def _supersede(live: LiveConfiguration, comp: Component, items: Any, runs: Compo
     live.notes.append(_note(f"{node.fqn} runs another definition of {comp.name} than the model's: it is "
                             f"{comp.name} as it runs, and the model's {comp.name} is created beside it as {version}",
                             "RC633"))
-    return comp.name
+    return running
 
 
 def _note(text: str, code: str = "RC631") -> Diagnostic:
