@@ -51,9 +51,7 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
         try:
             if fault.startswith("to "):
                 assert ftm is not None
-                # the fault model the destination is chosen for (the FTM rules refuse a mechanism
-                # without TR while transient faults are declared)
-                arch = live.with_ftm(str(EXAMPLE), ftm, faults=None if "TR" in fault else "crash")
+                arch = live.with_ftm(str(EXAMPLE), ftm, towards=fault[3:])
                 plan = live.plan_script(["transition", "server", fault[3:], "-f", arch])
                 procs, log = live.serve_ftm(arch, "", hz)
             else:

@@ -69,8 +69,8 @@ class Scenario:
     name: str
     arch: str                    # the deployed architecture (examples/...)
     plan: tuple[str, ...]        # `reconf plan` arguments, -f ARCH added
-    ftm: str = ""                # the server's mechanism to deploy, for an FTM transition
-    faults: str = ""             # the fault model declared with it ("": the example's own)
+    ftm: str = ""                # the server's mechanism to deploy, for an FTM transition (the
+                                 # fault model its destination tolerates declared: faults_towards)
 
 
 SCENARIOS = (
@@ -78,8 +78,7 @@ SCENARIOS = (
     Scenario("robot", "robot.arch", ("remove", "obstacle_detector")),
     Scenario("chain5", "chain5.arch", ("replace", "stage0")),
     Scenario("redundant", "redundant.arch", ("replace", "lidar_rear")),
-    Scenario("ftm", "ftm/client_server_pbr_tr.arch", ("transition", "server", "LFR"), ftm="PBR",
-             faults="crash"),     # LFR is chosen once transient faults are gone (the FTM rules)
+    Scenario("ftm", "ftm/client_server_pbr_tr.arch", ("transition", "server", "LFR"), ftm="PBR"),
 )
 
 
@@ -240,7 +239,7 @@ def deploy(live: LiveSystem, sc: Scenario) -> tuple[str, dict[str, int]]:
     """The scenario's system, one process per component (per host for an FTM); its
     architecture as deployed and each component's process."""
     if sc.ftm:
-        arch = live.with_ftm(str(EX / sc.arch), sc.ftm, faults=sc.faults or None)
+        arch = live.with_ftm(str(EX / sc.arch), sc.ftm, towards=sc.plan[-1])
         hosts, _ = live.serve_ftm(arch, "", 10.0)
         expanded = str(live.dir / "expanded.arch")
         pids = {c: hosts[h] if h in hosts else hosts.get(c, 0) for h, names in by_host(expanded).items() for c in names}
@@ -324,7 +323,7 @@ def recover(run: Run, rng: random.Random, live: LiveSystem, report: dict[str, An
         run.recovery = "live"
         if run.scenario == "ftm":   # on to the transition's target: its new nodes are adopted
             last = SCENARIOS[-1]
-            target = live.with_ftm(str(EX / last.arch), last.plan[-1], name="target.arch", faults=last.faults or None)
+            target = live.with_ftm(str(EX / last.arch), last.plan[-1], name="target.arch", towards=last.plan[-1])
             arch = live.expanded(target, name="target-expanded.arch")
         argv = [RECONF, "recover", "--live", "-f", arch, *base]
     script = Script(argv, live, live.dir / "recover.out")

@@ -50,6 +50,21 @@ def _die_with_parent() -> None:
         pass
 
 
+def faults_towards(text: str, ftm: str) -> Optional[str]:
+    """The fault model an architecture (`text`) declares once a transition to `ftm` is due: the
+    faults it declares that `ftm` tolerates (the FTM library's); a transition to a mechanism
+    that does not tolerate a declared fault is one made when that fault is gone, as the FTM
+    rules refuse it while it is declared. None when `ftm` tolerates them all."""
+    from checker.ftm.library import all_compositions
+    found = re.search(r"^\s*faults ([^\n]*)", text, flags=re.M)
+    comp = next((c for c in all_compositions() if str(c) == ftm), None)
+    if found is None or comp is None:
+        raise ValueError(f"no `faults ...` line, or no mechanism {ftm} in the FTM library")
+    declared = [f.strip() for f in found.group(1).split(",")]
+    kept = [f for f in declared if f in comp.covers]
+    return None if kept == declared else ", ".join(kept)
+
+
 def domain_id() -> int:
     """A domain for one live system: distinct within a session, spread across sessions."""
     return 1 + (os.getpid() * 7 + next(_COUNTER)) % 100
@@ -116,11 +131,16 @@ class LiveSystem:
         path.write_text(to_text(out))
         return str(path)
 
-    def with_ftm(self, arch: str, ftm: str, name: str = "start.arch", faults: Optional[str] = None) -> str:
+    def with_ftm(self, arch: str, ftm: str, name: str = "start.arch", faults: Optional[str] = None,
+                 towards: Optional[str] = None) -> str:
         """`arch`'s text with its server's mechanism declared as `ftm` (the line `ftm X on ...`)
         and, given `faults`, its fault model as `faults` (the line `faults ...`), written to the
-        system's directory: an architecture a transition is planned from."""
+        system's directory: an architecture a transition is planned from. `towards`: the
+        mechanism the transition goes to, whose fault model it declares instead (see
+        `faults_towards`)."""
         text = Path(arch).read_text(encoding="utf-8")
+        if towards is not None:
+            faults = faults_towards(text, towards)
         changed, n = re.subn(r"^(\s*ftm )[^\n]*?( on )", lambda m: f"{m.group(1)}{ftm}{m.group(2)}", text,
                              count=1, flags=re.M)
         if n != 1:

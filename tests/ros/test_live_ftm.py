@@ -114,10 +114,7 @@ def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
     step done, no request lost, repeated or answered wrong, and no monitor, the client's
     included, saw a normal mode's assumption violated for longer than TOLERATED_S: the plan
     degrades the client while the protocols are suspended (docs/ftm.md#a-transition-under-load)."""
-    # the fault model the destination is chosen for: a mechanism without TR is moved to when
-    # transient faults are gone (the FTM rules refuse it while they are declared)
-    faults = None if "TR" in dst else "crash"
-    arch = live.with_ftm(example("ftm/client_server_pbr_tr.arch"), src, faults=faults)
+    arch = live.with_ftm(example("ftm/client_server_pbr_tr.arch"), src, towards=dst)
     _, log = live.serve_ftm(arch, "", HZ, count=2 * COUNT)
     assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
     script = live.plan_script(["transition", "server", dst, "-f", arch])
