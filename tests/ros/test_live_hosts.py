@@ -62,8 +62,10 @@ def reconf_on(live: LiveSystem, *args: str, report: str) -> subprocess.Completed
     return res
 
 
-def test_up_starts_each_component_on_its_host_by_its_agent_and_a_replace_runs_through_it(
+def test_up_starts_each_component_on_its_host_by_its_agent_and_a_managed_replace_runs_through_it(
         on_hosts: Callable[..., LiveSystem]) -> None:
+    """`up --hosts` applied from its own process, then a replace applied by a manager (`--manager`)
+    with the same hosts file: both start each new node on its host by that host's agent."""
     live = on_hosts(["robot", "station"], home="station")
     assert live.lab is not None
     hosts_file = live.agents()
@@ -80,10 +82,11 @@ def test_up_starts_each_component_on_its_host_by_its_agent_and_a_replace_runs_th
     statuses = live.settle_status(["talker", "listener"])
     assert int(statuses["/talker"]["values"]["pid"]) == int(started["talker"]["pid"])
     assert live.violations(statuses) == {}
-    # the replace of the robot's talker, run on the station: the robot's agent starts talker_v2
-    # and reports the old talker's exit
+    # the replace of the robot's talker, applied by a manager on the station: the robot's agent
+    # starts talker_v2 and reports the old talker's exit
     script = live.plan_script(["replace", "talker", "-f", arch, "--with", "talker_v2"])
-    res = live.run_plan(script, "--hosts", str(hosts_file), timeout=120)
+    manager = live.manager()
+    res = live.run_plan(script, "--hosts", str(hosts_file), "--manager", manager, timeout=120)
     report = live.report()
     assert res.returncode == 0 and report["outcome"] == "done", res.stdout + res.stderr
     v2 = report["started"]["talker_v2"]
