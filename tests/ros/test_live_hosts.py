@@ -6,6 +6,7 @@ primary's host, and the old primary, healed, answers nothing: it fenced itself."
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -234,3 +235,54 @@ def test_the_backup_takes_over_from_a_crashed_host(on_hosts: Callable[..., LiveS
     assert wait_replies(log, 2 * HZ, timeout=20, after=crashed + 0.1), live.statuses()
     verdict = judged(log)
     assert verdict["linearizable"] and verdict["lost"] == [], verdict
+
+
+HOSTS_LIVE = "<!-- live on hosts:"
+# what each command of the README's walkthrough must print, in order
+HOSTS_SHOWS = [("python -m reconf_ros.tools.netlab up", ("agents/hosts.json",)),
+               ("python -m reconf_ros.tools.netlab run station -- reconf up",
+                ("reconf will bring chatter_hosts up in", "started talker: pid", "on host robot", "all 6 steps done")),
+               ("python -m reconf_ros.tools.netlab run station -- reconf down",
+                ("reconf will bring chatter_hosts down in", "on host robot) exited with status 0")),
+               ("python -m reconf_ros.tools.netlab down", ("lab lab removed",))]
+
+
+def test_the_readme_s_many_hosts_walkthrough_runs_as_written(tmp_path: Path) -> None:
+    """The README's block after `<!-- live on hosts: ... -->`, line by line in a copy of the
+    examples: a lab of two hosts with an agent on each, `up` and `down` through the agents, the lab
+    removed; each line exits 0 and says what it shows, no process of it outlives the lab, and the
+    lab is removed even when a line fails."""
+    from reconf_ros.tools.netlab import RECORDS, NetLab, lab_available
+    why = lab_available()
+    if why:
+        pytest.skip(f"a lab of hosts cannot be made here: {why}")
+    if (RECORDS / "lab.json").exists():
+        pytest.skip("a lab named `lab` exists already on this machine: the walkthrough would use it")
+    root = Path(__file__).resolve().parents[2]
+    lines = (root / "README.md").read_text(encoding="utf-8").splitlines()
+    first = next(i for i, ln in enumerate(lines) if ln.startswith(HOSTS_LIVE)) + 2
+    block = [(i + 1, ln) for i, ln in enumerate(lines[first:], first) if ln.strip()]
+    block = block[:next(k for k, (_, ln) in enumerate(block) if ln.startswith("```"))]
+    import shutil
+    shutil.copytree(root / "examples", tmp_path / "examples")
+    env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""),
+               PYTHONUNBUFFERED="1")
+    shows, started = list(HOSTS_SHOWS), set()
+    try:
+        for number, line in block:
+            command = line.split("  #")[0].strip()
+            done = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env, capture_output=True, text=True,
+                                  timeout=180)
+            out = done.stdout + done.stderr
+            started |= {int(p) for p in re.findall(r"started \w+: pid (\d+)", out)}
+            said = f"README.md:{number}: {command}\n{out[-3000:]}"
+            assert done.returncode == 0 and "Traceback" not in out, said
+            assert shows and command.startswith(shows[0][0]), said
+            for text in shows.pop(0)[1]:
+                assert text in " ".join(out.split()), said
+        assert shows == [], f"not shown: {shows}"
+        assert not (RECORDS / "lab.json").exists()
+        assert len(started) == 2 and not any(Path(f"/proc/{p}").exists() for p in started), started
+    finally:
+        if (RECORDS / "lab.json").exists():
+            NetLab.existing("lab").down()
