@@ -4,6 +4,7 @@ died a moment ago vouches for nothing); SIGINT and SIGTERM stop a run at the ste
 second at once; every monitor counts, a created node's from its own start."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import time
@@ -17,7 +18,7 @@ from reconf_dsl.loader import load
 from reconf_ros.executor.conditions import wire_before
 from reconf_ros.executor.context import Context, Interrupts
 from reconf_ros.executor.observe import observe
-from reconf_ros.executor.run import counted
+from reconf_ros.executor.run import Executor, counted
 from reconf_ros.executor.runtime import NoControlInterface, StepFailed
 from reconf_ros.executor.script import arguments, parse
 from tests.examples_table import ROOT
@@ -125,3 +126,36 @@ def test_a_node_without_the_components_parameters_is_not_taken_for_it() -> None:
     assert seen["talker"].lifecycle == "not a reconf node" and not seen["talker"].present
     assert seen["talker"].why == "/talker does not implement the control interface"   # said, as it answered
     assert seen["listener"].present
+
+
+class DyingRuntime(AnsweringRuntime):
+    """`dying` answers get_state, then dies before its parameters are read."""
+
+    def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
+        out = super().get_many(wanted)
+        out[self.lacking] = StepFailed(f"{self.lacking}/get_parameters: no answer within 5 s")
+        return out
+
+
+def test_a_node_that_answers_one_call_and_not_the_next_is_unresponsive_not_an_error() -> None:
+    """A node killed between its lifecycle state and its parameters (the final check of a run
+    whose new node died): read as not answering, with why, never a run ended by a traceback."""
+    ctx = context({"/listener": {}, "/talker": {}})
+    ctx.rt = DyingRuntime({"/listener": {}, "/talker": {}}, lacking="/talker")
+    seen = observe(ctx, ["listener", "talker"])
+    assert seen["talker"].lifecycle == "unresponsive" and "no answer within 5 s" in seen["talker"].why
+    assert seen["listener"].present
+
+
+def test_a_failure_outside_a_step_is_reported_as_a_failure(tmp_path: Any) -> None:
+    """The start check or the final check failing (a reading that failed, the step's time up)
+    ends the run as failed, with a report, as a step's failure does."""
+    from reconf_ros.executor.run import Executor
+    ctx = context({})
+    args = arguments(ctx.doc).parse_args(["--yes", "--report", str(tmp_path / "r.json")])
+    run = Executor(ctx.doc, args, out=open(os.devnull, "w"), err=open(os.devnull, "w"),
+                   runtime=DyingRuntime({"/listener": {}, "/talker": {}}, lacking="/talker"))
+    run.ctx.step = -1
+    assert run._failed_outside(StepFailed("the step took longer than --step-timeout")) == 1
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["outcome"] == "failed" and report["reason"].startswith("during the final check: the step took"), report

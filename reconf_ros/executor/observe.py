@@ -64,8 +64,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if isinstance(values, NoControlInterface):  # it answered, without the parameters of this
             seen[c] = Observed(c, "not a reconf node", why=str(values))  # component (another version?)
             continue
-        if isinstance(values, StepFailed):
-            raise values
+        if isinstance(values, StepFailed):    # it answered get_state, then not: say so, do not guess
+            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive", why=str(values))
+            continue
         modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
         ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
         seen[c] = Observed(c, "active", modes, ports)

@@ -1310,8 +1310,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if isinstance(values, NoControlInterface):  # it answered, without the parameters of this
             seen[c] = Observed(c, "not a reconf node", why=str(values))  # component (another version?)
             continue
-        if isinstance(values, StepFailed):
-            raise values
+        if isinstance(values, StepFailed):    # it answered get_state, then not: say so, do not guess
+            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive", why=str(values))
+            continue
         modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
         ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
         seen[c] = Observed(c, "active", modes, ports)
@@ -2182,6 +2183,8 @@ class Executor:
             return self._apply(first, t0)
         except KeyboardInterrupt:       # a second signal: at once, wherever the run was
             return interrupted(ctx, ctx.step, at_once=True)
+        except (StepFailed, OSError) as e:   # outside a step: the start check, the final check
+            return self._failed_outside(e)
         finally:
             if ctx.hosts is not None:
                 ctx.hosts.close()
@@ -2215,6 +2218,17 @@ class Executor:
             if ctx.interrupts.stop and i < last:
                 return interrupted(ctx, i)
         return self._finish(first, hood, t0, check_at)
+
+    def _failed_outside(self, e: Exception) -> int:
+        """A reading before the first step or in the final check failed (a node that answered
+        one call and not the next, the step's time up): a failure like a step's, reported."""
+        ctx = self.ctx
+        if ctx.step < 0:
+            last = ctx.args.to_step
+            return failed(ctx, last, ctx.steps[last - 1] if last else None, f"during the final check: {e}")
+        if ctx.step == 0:
+            return failed(ctx, 0, None, f"before the first step: {e}")
+        return failed(ctx, ctx.step, ctx.steps[ctx.step - 1], str(e))
 
     def _check_start(self, first: int, hood: set[str]) -> Optional[int]:
         """Refuse (the exit status) unless the live system is the plan's state before `first`."""
