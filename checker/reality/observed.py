@@ -131,10 +131,7 @@ def observed(system: System, snap: Snapshot, target: Configuration) -> LiveConfi
         if node.lifecycle == "unresponsive":      # in the graph, not answering: never taken for absent
             raise NotReadable(f"{name}'s node {node.fqn} does not answer ({node.unanswered or 'get_state'})")
         if node.lifecycle == "active":
-            comps.add(name)
-            d, r = _read(comp, node)
-            degraded += d
-            roles += r
+            _join(comp, node, comps, degraded, roles)
         elif node.created and name not in target.components:
             live.orphans.append(_orphan(node, f"a plan started it for {name}, which the target does not have, "
                                               f"and it is {node.lifecycle}"))
@@ -164,12 +161,25 @@ def _unaccounted(live: LiveConfiguration, node: NodeInfo, comps: set[str], degra
     if parsed is None or node.unanswered:
         raise NotReadable(f"{node.fqn}, which a plan started, does not answer or runs a model that does not parse"
                           f"{' (' + node.unanswered + ')' if node.unanswered else ''}")
-    taken = {c.name for c in live.system.components + live.system.versions}
-    name = unique(node.name, taken)
-    system, comp = _adopted(live.system, parsed[0].items, dc_replace(parsed[1], name=name, replaces=None))
-    live.system = system
-    live.placed[name] = node.name
-    comps.add(name)
+    comp = _beside(live, node, parsed[0].items, dc_replace(parsed[1], name=unique(node.name, _taken(live.system))))
+    _join(comp, node, comps, degraded, roles)
+
+
+def _taken(system: System) -> set[str]:
+    return {c.name for c in system.components + system.versions}
+
+
+def _beside(live: LiveConfiguration, node: NodeInfo, items: Any, runs: Component) -> Component:
+    """`runs` (what `node` runs, under a name of its own) joins the model as a version placed
+    at `node`."""
+    live.system, comp = _adopted(live.system, items, dc_replace(runs, replaces=None))
+    live.placed[comp.name] = node.name
+    return comp
+
+
+def _join(comp: Component, node: NodeInfo, comps: set[str], degraded: list[FuncId], roles: list[Role]) -> None:
+    """`comp`, read from its active `node`, is present with the modes and attachments shown."""
+    comps.add(comp.name)
     d, r = _read(comp, node)
     degraded += d
     roles += r
@@ -188,28 +198,21 @@ def _superseded(live: LiveConfiguration, node: NodeInfo, located: set[str], comp
     parsed = parse_model(node.model, f"<{node.fqn} reconf.model>")
     if parsed is None:
         return False
-    taken = {c.name for c in live.system.components + live.system.versions}
     if node.name in located:
-        name = unique(f"{comp.name}@old", taken)
-        live.system, running = _adopted(live.system, parsed[0].items,
-                                        dc_replace(parsed[1], name=name, replaces=None, host=comp.host, run=comp.run))
-        live.placed[name] = node.name
+        name = unique(f"{comp.name}@old", _taken(live.system))
+        running = _beside(live, node, parsed[0].items, dc_replace(parsed[1], name=name, host=comp.host, run=comp.run))
         live.notes.append(_note(f"{node.fqn} runs an older definition of {comp.name}, whose node is "
                                 f"{live.placed.get(comp.name, comp.name)}: it is {name}, which the target does not have",
                                 "RC633"))
     else:
-        name, running = comp.name, _supersede(live, comp, parsed[0].items, parsed[1], taken, node)
-    comps.add(name)
-    d, r = _read(running, node)
-    degraded += d
-    roles += r
+        running = _supersede(live, comp, parsed[0].items, parsed[1], node)
+    _join(running, node, comps, degraded, roles)
     return True
 
 
-def _supersede(live: LiveConfiguration, comp: Component, items: Any, runs: Component, taken: set[str],
-               node: NodeInfo) -> Component:
+def _supersede(live: LiveConfiguration, comp: Component, items: Any, runs: Component, node: NodeInfo) -> Component:
     """`comp` as `node` runs it (`runs`), the model's definition its new version: the first."""
-    version = unique(f"{comp.name}@new", taken)
+    version = unique(f"{comp.name}@new", _taken(live.system))
     system, running = _adopted(live.system, items, dc_replace(runs, name=comp.name, replaces=None,
                                                               host=comp.host, run=comp.run))
     live.system = dc_replace(system, components=tuple(running if c.name == comp.name else c for c in system.components),

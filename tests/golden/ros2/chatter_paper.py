@@ -1296,8 +1296,7 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         if c in seen or lc is None:
             continue
         if isinstance(lc, StepFailed):    # in the graph, but not answering: say so, do not guess
-            seen[c] = Observed(c, "not a reconf node" if isinstance(lc, NoControlInterface)
-                               else "absent" if _exited(ctx, c) else "unresponsive")
+            seen[c] = Observed(c, "not a reconf node") if isinstance(lc, NoControlInterface) else _silent(ctx, c)
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
@@ -1311,12 +1310,18 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
             seen[c] = Observed(c, "not a reconf node", why=str(values))  # component (another version?)
             continue
         if isinstance(values, StepFailed):    # it answered get_state, then not: say so, do not guess
-            seen[c] = Observed(c, "absent" if _exited(ctx, c) else "unresponsive", why=str(values))
+            seen[c] = _silent(ctx, c, str(values))
             continue
         modes = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.mode.")}
         ports = {n.split(".", 2)[2]: v for n, v in values.items() if n.startswith("reconf.port.")}
         seen[c] = Observed(c, "active", modes, ports)
     return dict(sorted(seen.items()))
+
+
+def _silent(ctx: Context, comp: str, why: str = "") -> Observed:
+    """A node in the graph that did not answer: absent if the process this run started for it
+    has exited, else unresponsive, never guessed at."""
+    return Observed(comp, "absent" if _exited(ctx, comp) else "unresponsive", why=why)
 
 
 def _exited(ctx: Context, comp: str) -> bool:
