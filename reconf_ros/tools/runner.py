@@ -56,11 +56,14 @@ def _import(module: str) -> Any:
         return importlib.import_module(module)
 
 
-def _node_remap(ros_args: list[str]) -> Optional[str]:
+def _node_remap(ros_args: list[str]) -> tuple[Optional[str], list[str]]:
+    """The node's name a `-r __node:=NAME` among the ROS arguments gives, and the arguments
+    without it: the component takes the name itself, since rcl's remap rules refuse a name with
+    `__` in it (a replica's copy, `server__r1_app`)."""
     for i, arg in enumerate(ros_args[:-1]):
         if arg in ("-r", "--remap") and ros_args[i + 1].startswith("__node:="):
-            return ros_args[i + 1].split(":=", 1)[1]
-    return None
+            return ros_args[i + 1].split(":=", 1)[1], ros_args[:i] + ros_args[i + 2:]
+    return None, ros_args
 
 
 def _from_architecture(system: "System", name: str) -> Component:
@@ -203,9 +206,9 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
             comps = [_from_plan(plan_file, name) for name in argv]
         else:
             comps = [_factory(t) for t in argv]
-            renamed = _node_remap(ros_args)
+            renamed, rest = _node_remap(ros_args)
             if renamed and len(comps) == 1:      # `--ros-args -r __node:=NAME`: the component is NAME
-                comps[0].name = renamed
+                comps[0].name, ros_args = renamed, rest
     except (DeclarationError, KeyError) as e:
         raise click.UsageError(str(e)) from None
     if as_name or node_name:
