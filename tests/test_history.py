@@ -101,4 +101,9 @@ def test_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert main([str(tmp_path / "client.jsonl")]) == 1
     out = capsys.readouterr().out
     assert "applied_twice: 1 request (3)" in out and "NOT linearizable" in out
-    assert main([]) == 2
+    with pytest.raises(SystemExit) as usage:
+        main([])
+    assert usage.value.code == 2
+    # --more waits on the log: no client writes to it, so the wait ends at its timeout, exit 1
+    assert main([str(tmp_path / "client.jsonl"), "--more", "1", "--timeout", "0.3"]) == 1
+    assert "fewer than 1 requests answered in 0.3 s" in capsys.readouterr().out

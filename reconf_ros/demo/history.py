@@ -22,7 +22,8 @@ applied a second time) may bridge the gap, as Jepsen's indeterminate operations 
 
 `linearizable` is true when nothing but `lost` is found (and the client's order is kept).
 
-    python -m reconf_ros.demo.history client.jsonl     # exit 0: linearizable and nothing lost
+    python -m reconf_ros.demo.history client.jsonl              # exit 0: linearizable and nothing lost
+    python -m reconf_ros.demo.history client.jsonl --more 100   # once 100 more requests are answered
 Real time needs no check of its own here: every operation writes and returns the whole state,
 so a reply reflecting a request invoked after it completed would name a state no history
 reaches, and is `wrong`.
@@ -33,7 +34,7 @@ import sys
 import time
 from typing import Any, Optional
 
-from .ftm import MODULUS, read_log, step
+from .ftm import MODULUS, read_log, step, wait_replies
 
 __all__ = ["check_history", "ANOMALIES", "main"]
 
@@ -109,18 +110,29 @@ def check_history(log: dict[str, Any], until: float) -> dict[str, Any]:
 
 def main(argv: Optional[list[str]] = None) -> int:
     """Judge a client's log (its requests sent more than 2 s ago): print each anomaly found, exit
-    0 when the history is linearizable and nothing is lost, 1 otherwise, 2 for a bad command line."""
-    args = sys.argv[1:] if argv is None else argv
-    if len(args) != 1:
-        print("usage: python -m reconf_ros.demo.history CLIENT_LOG", file=sys.stderr)
-        return 2
-    found = check_history(read_log(args[0]), until=time.time() - 2.0)
+    0 when the history is linearizable and nothing is lost, 1 otherwise (or when `--more N`
+    replies did not come within `--timeout` s), 2 for a bad command line."""
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m reconf_ros.demo.history",
+                                 description="Judge a demo client's whole history (its log, JSON lines).")
+    ap.add_argument("log", metavar="CLIENT_LOG")
+    ap.add_argument("--more", type=int, default=0, metavar="N",
+                    help="first wait until N more requests are answered than are now, then judge")
+    ap.add_argument("--timeout", type=float, default=60.0, help="seconds --more waits at most (default 60)")
+    args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.more > 0:
+        now = time.time()
+        if not wait_replies(args.log, args.more, args.timeout, after=now):
+            print(f"{args.log}: fewer than {args.more} requests answered in {args.timeout:g} s")
+            return 1
+        print(f"{args.log}: {args.more} more requests answered in {time.time() - now:.2f} s")
+    found = check_history(read_log(args.log), until=time.time() - 2.0)
     bad = {k: found[k] for k in ANOMALIES if found[k]}
     for kind, ids in bad.items():
         print(f"{kind}: {len(ids)} request{'s' if len(ids) != 1 else ''} ({', '.join(map(str, ids[:10]))}"
               f"{', ...' if len(ids) > 10 else ''})")
     verdict = "linearizable" if found["linearizable"] else "NOT linearizable"
-    print(f"{args[0]}: {found['completed']} requests answered; {verdict}"
+    print(f"{args.log}: {found['completed']} requests answered; {verdict}"
           f"{', nothing lost' if not found['lost'] else ''}")
     return 0 if not bad else 1
 
