@@ -131,3 +131,15 @@ def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
     # it names one
     named = re.findall(r"but the monitor of (\S+) saw", out)
     assert (live.report()["outcome"] == "violated") == bool(named) == (res.returncode == 1), out[-3000:]
+
+
+def test_a_replicas_copy_starts_from_its_run_line(live: LiveSystem) -> None:
+    """An expansion names a replica's copy of the application by a remap in its run line
+    (`--ros-args -r __node:=server__r1_app`, checker/ftm/expand.py), as `reconf up` and a plan
+    start it: rcl refuses `__` in a remap rule, so reconf-node takes the name itself and the
+    node comes up under it."""
+    live.watch()
+    proc = live.start(["reconf-node", "reconf_ros.demo.ftm:server", "--ros-args", "-r", "__node:=server__r1_app"],
+                      "copy.log")
+    assert live.wait(lambda st: "/server__r1_app" in st, 30), (proc.poll(), (live.dir / "copy.log").read_text()[-2000:])
+    assert proc.poll() is None
