@@ -117,6 +117,7 @@ class Context:
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
+    exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])

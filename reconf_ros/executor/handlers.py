@@ -90,6 +90,7 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     proc, argv, log, how = launch(ctx, comp)
     host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
     ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
+    ctx.exited.discard(comp)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()

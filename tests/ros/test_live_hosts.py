@@ -95,6 +95,10 @@ def test_up_starts_each_component_on_its_host_by_its_agent_and_a_managed_replace
     assert re.search(rf"talker: its process \(pid {started['talker']['pid']} on host robot\) exited with status 0",
                      res.stdout), res.stdout
     assert int(started["talker"]["pid"]) not in live.lab.pids("robot")
+    # the old talker, seen to exit by its agent, is read as absent, not asked again (its node
+    # lingers in the station's graph for seconds, and asking it waited for the timeout, 5 s)
+    remove = next(t for t in report["timings"] if t.get("action", "").startswith("remove"))
+    assert remove["seconds"] < 3.0, remove
     assert re.search(r"none of the \d+ monitors heard from saw a normal mode's assumption violated", res.stdout), \
         res.stdout
     assert live.violations(live.settle_status(["listener"])) == {}

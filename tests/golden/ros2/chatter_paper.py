@@ -1156,6 +1156,7 @@ class Context:
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
+    exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -1288,7 +1289,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     comps, names = sorted(comps), ctx.names
     graph = set(ctx.rt.nodes())
     names.locate(comps, graph)
-    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph}
+    # a node whose process has exited may stay in the graph a while (on another host, seconds):
+    # it is absent, and asking it would wait for the timeout
+    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.exited}
     states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
     wanted: dict[str, list[str]] = {}
     for c in comps:
@@ -1325,10 +1328,11 @@ def _silent(ctx: Context, comp: str, why: str = "") -> Observed:
 
 
 def _exited(ctx: Context, comp: str) -> bool:
-    """Whether the process this run started for `comp` has exited (a node killed stays in the
-    graph a while, not answering: it is absent, not unknown)."""
+    """Whether the process this run started for `comp` has exited, or, for one another run
+    started, this run saw it exit at its remove (a node gone stays in the graph a while, not
+    answering: it is absent, not unknown)."""
     info = ctx.started.get(comp)
-    return info is not None and info.proc.poll() is not None
+    return comp in ctx.exited or (info is not None and info.proc.poll() is not None)
 
 
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
@@ -1647,6 +1651,7 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
     info = ctx.started.get(comp)
     if info is not None:
         info.ended = wait_exit(info.proc, seconds)
+        ctx.exited.add(comp)
         return f"its process (pid {info.pid}{_on(info.host)}) exited with status {info.ended}" if info.host else ""
     agent = host_agent(ctx, comp)
     if agent is None or pid is None:
@@ -1655,6 +1660,7 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
         status = wait_exit(RemoteProcess(agent, pid, ""), seconds)
     except HostRefused as e:    # not a process the agent started (one started by hand there)
         return f"its process (pid {pid}) is not host {agent.host}'s agent's, which says: {e}"
+    ctx.exited.add(comp)
     return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
 
 
@@ -1886,6 +1892,7 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     proc, argv, log, how = launch(ctx, comp)
     host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
     ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
+    ctx.exited.discard(comp)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
