@@ -15,7 +15,9 @@ old primary published a reply after healing and in how many it had fenced itself
 Then, the chatter replace across two hosts (examples/chatter_hosts.arch: the talker on the robot,
 the listener on the station, where the plan runs; the robot's agent starts talker_v2 there), without and with --loss % of the robot's packets dropped each way while the
 plan runs: the plan's wall time, the listener's largest wait for a message over its assumed
-period, messages lost, and the run's outcome (done, or the failure it reported).
+period, messages lost, the run's outcome (done; violated: done, but a monitor saw a normal mode's
+assumption violated; or failed), and whether the configuration its report says it observed
+agrees with bench.probe's own reading of the graph (bench_faults' comparison).
 
     python -m bench.bench_hosts [--runs 20] [--hz 50] [--only 'PBR crash,LFR partition,chatter'] [--results FILE]
 
@@ -28,11 +30,14 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
+from bench.bench_faults import as_configuration, differences, from_doc
 from reconf_ros.demo.ftm import read_log, wait_replies
 from reconf_ros.demo.history import ANOMALIES, check_history
 from reconf_ros.nodes.ftm.detect import JITTER_WINDOW
@@ -127,6 +132,7 @@ def measure_plan(loss: float, work: Path) -> dict[str, Any]:
         wall = time.monotonic() - t0
         live.heal("robot")
         report = live.report()
+        true, why_not = judge_report(live, report)
         started = report.get("started", {}).get("talker_v2", {})
         on_robot = started.get("host") == "robot" and int(started.get("pid", 0)) in live.lab.pids("robot") \
             if live.lab is not None else False
@@ -135,25 +141,48 @@ def measure_plan(loss: float, work: Path) -> dict[str, Any]:
     outcome = report.get("outcome", "no report")
     return {"ok": True, "outcome": outcome, "done": res.returncode == 0 and outcome == "done", "wall": wall,
             "gap": float(values.get("in.in.max_gap_s", "nan")) / 0.1, "lost": lost, "on_robot": on_robot,
-            "why": (report.get("reason") or "")[:200], "violated": outcome == "violated"}
+            "why": (report.get("reason") or "")[:200], "violated": outcome == "violated",
+            "true": true, "why_not_true": why_not}
+
+
+def judge_report(live: LiveSystem, report: dict[str, Any]) -> tuple[bool, str]:
+    """The configuration the run's report says it observed at its end, against bench.probe's own
+    reading of the live graph from the station (the link healed: what the nodes hold is kept)."""
+    if "observed" not in report:
+        return False, "no report"
+    out = live.dir / "probe.json"
+    res = subprocess.run(live.on_host(None, [sys.executable, "-m", "bench.probe", "--out", str(out)]), env=live.env,
+                         cwd=ROOT, capture_output=True, text=True, timeout=120)
+    if res.returncode != 0:
+        return False, f"the probe failed: {res.stderr[-300:]}"
+    doc = report["plan_document"]
+    comps = {c["name"] for c in doc["model"]["components"]}
+    seen, _, _ = as_configuration(json.loads(out.read_text()), comps, report.get("placed") or {},
+                                  doc["plan"].get("renames") or {})
+    diffs = differences(from_doc(report["observed"]), seen, set(report.get("unread") or []))
+    return not diffs, "; ".join(diffs)
 
 
 def plan_table(results: list[dict[str, Any]], loss: float) -> None:
-    print("| plan across two hosts | robot's link | runs | done | failed (true report) | wall s | largest gap / period "
-          "| messages lost | talker_v2 on the robot |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| plan across two hosts | robot's link | runs | done | violated | failed | report true | wall s "
+          "| largest gap / period | messages lost | talker_v2 on the robot |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for fault in ("none", "loss"):
         runs = [r for r in results if r.get("row") == ["chatter replace", fault] and r["ok"]]
         if not runs:
             continue
         done = [r for r in runs if r["done"]]
+        violated = [r for r in runs if r["violated"]]
         print(f"| chatter replace | {'lossless' if fault == 'none' else f'{loss:g} % lost each way'} | {len(runs)} | "
-              f"{len(done)} | {len(runs) - len(done)} | {three([r['wall'] for r in runs])} | "
+              f"{len(done)} | {len(violated)} | {len(runs) - len(done) - len(violated)} | "
+              f"{sum(1 for r in runs if r.get('true'))} of {len(runs)} | {three([r['wall'] for r in runs])} | "
               f"{three([r['gap'] for r in runs])} | {three([r['lost'] for r in runs], '{:.0f}')} | "
               f"{sum(1 for r in runs if r['on_robot'])} of {len(runs)} |", flush=True)
         for r in runs:
             if not r["done"]:
-                print(f"  ({r['outcome']}: {r['why']})")
+                print(f"  ({r['outcome']}: {r['why'] or 'a monitor saw an assumption violated'})")
+            if not r.get("true"):
+                print(f"  (the report disagrees with the probe: {r.get('why_not_true', '')})")
 
 
 def pct(xs: list[float], q: float) -> float:
