@@ -55,7 +55,7 @@ from checker.semantic_model.config import Configuration
 from codegen.ros2 import system_from_model_data
 from reconf_dsl.loader import load
 from reconf_ros.nodes.ftm.hosts import by_host
-from reconf_ros.tools.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem, alive
 
 ROOT = Path(__file__).resolve().parent.parent
 EX = ROOT / "examples"
@@ -225,14 +225,6 @@ class Script:
 
     def started(self) -> dict[str, int]:
         return {m.group(1): int(m.group(2)) for m in re.finditer(r"started (\S+): pid (\d+)", self.text)}
-
-
-def alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return False
 
 
 def deploy(live: LiveSystem, sc: Scenario) -> tuple[str, dict[str, int]]:

@@ -4,6 +4,7 @@ is found and named by the state its replies reveal, not by a rule about ids."""
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Any, Optional, Sequence
 
@@ -107,3 +108,18 @@ def test_the_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     # --more waits on the log: no client writes to it, so the wait ends at its timeout, exit 1
     assert main([str(tmp_path / "client.jsonl"), "--more", "1", "--timeout", "0.3"]) == 1
     assert "fewer than 1 requests answered in 0.3 s" in capsys.readouterr().out
+
+
+def test_more_judges_what_was_sent_before_the_last_request_answered(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """With --more, a request is lost when a later one was answered and it was not, however slow
+    the replies: 3 was skipped; 5, the last sent, may still be on its way."""
+    log = history(5, [1, 2, 3, 4], answered=[1, 2, 4])
+    lines = [json.dumps({"event": "sent", "id": i, "t": t}) for i, t in log["sent"].items()]
+    soon = time.time() + 60      # replies the wait counts as new
+    lines += [json.dumps({"event": "reply", **r[0], "t": soon}) for r in log["replies"].values()]
+    (tmp_path / "client.jsonl").write_text("\n".join(lines) + "\n")
+    assert main([str(tmp_path / "client.jsonl"), "--more", "3", "--timeout", "5"]) == 1
+    out = capsys.readouterr().out
+    assert "3 more requests answered" in out and "lost: 1 request (3)" in out, out
+    assert "applied_twice" not in out and "; linearizable" in out

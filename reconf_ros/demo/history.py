@@ -109,9 +109,10 @@ def check_history(log: dict[str, Any], until: float) -> dict[str, Any]:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    """Judge a client's log (its requests sent more than 2 s ago): print each anomaly found, exit
-    0 when the history is linearizable and nothing is lost, 1 otherwise (or when `--more N`
-    replies did not come within `--timeout` s), 2 for a bad command line."""
+    """Judge a client's log (its requests sent more than 2 s ago; with `--more N`, once N more are
+    answered, those sent before the last one answered): print each anomaly found, exit 0 when the history is
+    linearizable and nothing is lost, 1 otherwise (or when the N replies did not come within
+    `--timeout` s), 2 for a bad command line."""
     import argparse
     ap = argparse.ArgumentParser(prog="python -m reconf_ros.demo.history",
                                  description="Judge a demo client's whole history (its log, JSON lines).")
@@ -120,13 +121,19 @@ def main(argv: Optional[list[str]] = None) -> int:
                     help="first wait until N more requests are answered than are now, then judge")
     ap.add_argument("--timeout", type=float, default=60.0, help="seconds --more waits at most (default 60)")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    until = time.time() - 2.0
     if args.more > 0:
-        now = time.time()
-        if not wait_replies(args.log, args.more, args.timeout, after=now):
+        began = time.time()
+        if not wait_replies(args.log, args.more, args.timeout, after=began):
             print(f"{args.log}: fewer than {args.more} requests answered in {args.timeout:g} s")
             return 1
-        print(f"{args.log}: {args.more} more requests answered in {time.time() - now:.2f} s")
-    found = check_history(read_log(args.log), until=time.time() - 2.0)
+        print(f"{args.log}: {args.more} more requests answered in {time.time() - began:.2f} s")
+    log = read_log(args.log)
+    if args.more > 0:
+        # the mechanism answers in the client's order: a request sent before the last one
+        # answered and still unanswered is lost, however slow the replies
+        until = max(log["sent"].get(i, 0.0) for i in log["replies"])
+    found = check_history(log, until=until)
     bad = {k: found[k] for k in ANOMALIES if found[k]}
     for kind, ids in bad.items():
         print(f"{kind}: {len(ids)} request{'s' if len(ids) != 1 else ''} ({', '.join(map(str, ids[:10]))}"

@@ -8,7 +8,6 @@ from __future__ import annotations
 from pathlib import Path
 
 PROFILE = Path(__file__).resolve().with_name("loopback_udp.xml")
-NETWORK_PROFILE = Path(__file__).resolve().with_name("network.xml")
 
 
 def loopback_env() -> dict[str, str]:
@@ -19,7 +18,5 @@ def loopback_env() -> dict[str, str]:
 def network_env() -> dict[str, str]:
     """What a ROS 2 process's environment needs to talk to other hosts (docs/hosts.md#dds-across-hosts):
     Fast DDS's own discovery (multicast on the hosts' network) over UDP alone, no shared memory
-    (whose port checks stall a process's readers, see above), and none of the loopback profile:
-    `network.xml` sets only the writers' heartbeat, so that a lost sample is sent again soon."""
-    return {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT", "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
-            "FASTDDS_DEFAULT_PROFILES_FILE": str(NETWORK_PROFILE)}
+    (whose port checks stall a process's readers, see above), and none of the loopback profile."""
+    return {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT", "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}

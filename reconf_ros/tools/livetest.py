@@ -32,7 +32,7 @@ from typing import Any, Callable, Optional, Sequence
 from ..nodes.dds import loopback_env
 from .netlab import NetLab
 
-__all__ = ["LiveSystem", "domain_id", "ros_available"]
+__all__ = ["LiveSystem", "alive", "domain_id", "ros_available"]
 
 _COUNTER = itertools.count()
 
@@ -63,6 +63,16 @@ def faults_towards(text: str, ftm: str) -> Optional[str]:
     declared = [f.strip() for f in found.group(1).split(",")]
     kept = [f for f in declared if f in comp.covers]
     return None if kept == declared else ", ".join(kept)
+
+
+def alive(pid: int) -> bool:
+    """Whether process `pid` runs: a zombie has exited (its parent not told yet, or none that
+    reaps it, as for a process whose shell exited)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
 
 
 def domain_id() -> int:

@@ -15,21 +15,12 @@ from typing import Any
 
 import pytest
 
-from reconf_ros.tools.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem, alive
 
 from .conftest import example
 from .test_live_plans import applied, source
 
 UNMODIFIED = example("unmodified.arch")
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    with open(f"/proc/{pid}/stat") as fh:        # a zombie has exited
-        return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
 
 
 def node_pid(statuses: dict[str, Any], comp: str) -> int:

@@ -19,7 +19,7 @@ import pytest
 from reconf_ros.demo.ftm import read_log, wait_replies
 from reconf_ros.demo.history import check_history
 from reconf_ros.nodes.ftm.detect import replica_nodes
-from reconf_ros.tools.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem, alive
 from reconf_ros.tools.netlab import hosts_of, nft_available
 
 from .conftest import example
@@ -242,20 +242,35 @@ def test_the_backup_takes_over_from_a_crashed_host(on_hosts: Callable[..., LiveS
 
 
 HOSTS_LIVE = "<!-- live on hosts:"
+SERVED = ("100 more requests answered", "linearizable, nothing lost")
 # what each command of the README's walkthrough must print, in order
 HOSTS_SHOWS = [("python -m reconf_ros.tools.netlab up", ("agents/hosts.json",)),
                ("python -m reconf_ros.tools.netlab run station -- reconf up",
                 ("reconf will bring chatter_hosts up in", "started talker: pid", "on host robot", "all 6 steps done")),
-               ("python -m reconf_ros.tools.netlab run station -- reconf down",
-                ("reconf will bring chatter_hosts down in", "on host robot) exited with status 0")),
+               ("reconf plan replace talker", ("Wrote replace.py",)),
+               ("python -m reconf_ros.tools.netlab run station -- python replace.py",
+                ("started talker_v2: pid", "on host robot (forked by the agent's launcher)",
+                 "on host robot) exited with status 0", "all 5 steps done",
+                 "none of the 3 monitors heard from saw a normal mode's assumption violated")),
+               ("python -m reconf_ros.tools.netlab down", ("lab lab removed",)),
+               ("reconf ftm expand", ("expanded 1 FTM into 20 components",)),
+               ("python -m reconf_ros.tools.netlab up pbr_tr.arch", ("client_site: ", "master: ", "slave: ")),
+               ("export RECONF_CLIENT_HZ=20; for host in", ()),
+               ("python -m reconf_ros.demo.history", SERVED),
+               ("python -m reconf_ros.tools.netlab partition master", ("master: faults: link down",)),
+               ("python -m reconf_ros.demo.history", SERVED),
+               ("python -m reconf_ros.tools.netlab heal master", ("master: faults: none",)),
+               ("python -m reconf_ros.demo.history", SERVED),
                ("python -m reconf_ros.tools.netlab down", ("lab lab removed",))]
 
 
 def test_the_readme_s_many_hosts_walkthrough_runs_as_written(tmp_path: Path) -> None:
     """The README's block after `<!-- live on hosts: ... -->`, line by line in a copy of the
-    examples: a lab of two hosts with an agent on each, `up` and `down` through the agents, the lab
-    removed; each line exits 0 and says what it shows, no process of it outlives the lab, and the
-    lab is removed even when a line fails."""
+    examples: a lab of two hosts with an agent on each, `up` and a replace of the robot's talker
+    through the agents, the lab removed; then PBR(TR) on a lab of three hosts under a client, its
+    primary's host cut off and healed, the client's whole history judged after each; each line
+    exits 0 and says what it shows, no process of a lab outlives it, and the lab is removed even
+    when a line fails."""
     from reconf_ros.tools.netlab import RECORDS, NetLab, lab_available
     why = lab_available()
     if why:
@@ -275,6 +290,9 @@ def test_the_readme_s_many_hosts_walkthrough_runs_as_written(tmp_path: Path) -> 
     try:
         for number, line in block:
             command = line.split("  #")[0].strip()
+            if command.endswith("netlab down") and (RECORDS / "lab.json").exists():
+                lab = NetLab.existing("lab")        # every process of its hosts, which `down` must end
+                started |= {p for h in lab.record.hosts for p in lab.pids(h.name)}
             done = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env, capture_output=True, text=True,
                                   timeout=180)
             out = done.stdout + done.stderr
@@ -286,7 +304,7 @@ def test_the_readme_s_many_hosts_walkthrough_runs_as_written(tmp_path: Path) -> 
                 assert text in " ".join(out.split()), said
         assert shows == [], f"not shown: {shows}"
         assert not (RECORDS / "lab.json").exists()
-        assert len(started) == 2 and not any(Path(f"/proc/{p}").exists() for p in started), started
+        assert len(started) >= 3 + 3 and not any(alive(p) for p in started), started
     finally:
         if (RECORDS / "lab.json").exists():
             NetLab.existing("lab").down()

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from reconf_ros.tools.livetest import LiveSystem
+from reconf_ros.tools.livetest import LiveSystem, alive
 
 from ..test_readme import LIVE, README
 
@@ -88,11 +88,3 @@ def test_the_readme_walkthrough_runs_on_a_live_graph(live: LiveSystem, block: in
     while any(alive(p) for p in started) and time.monotonic() < end:
         time.sleep(0.1)
     assert not any(alive(p) for p in started), "a node did not exit once down finalized it"   # …down ended them
-
-
-def alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat", encoding="ascii") as fh:
-            return fh.read().split(") ", 1)[1][0] != "Z"     # a zombie has exited, its parent not told yet
-    except (FileNotFoundError, IndexError):
-        return False
