@@ -68,8 +68,17 @@ class Search:
     visited: int          # by the reachability search
     optimised: int        # by A*
     seconds: float
+    incumbent: Optional[tuple[int, int]] = None     # the (disruption, steps) of the plan it started from
+    kept: bool = False                              # that plan is the one returned
+    over: bool = False                              # the budget ran out before A* decided
 
     def note(self) -> str:
+        if self.kept:
+            why = ("its budget ran out" if self.over else
+                   "it found none as good among the configurations it searches")
+            return (f"exhaustive: the default strategy's plan (disruption {self.incumbent[0] if self.incumbent else '?'}) "
+                    f"is kept: A* looked for a less disruptive one over {self.optimised:,} configurations in "
+                    f"{self.seconds:.1f} s, and {why}; not proved least disruptive")
         if self.optimal:
             return (f"exhaustive: least disruptive, then fewest steps (A* over {self.optimised:,} configurations, "
                     f"{self.seconds:.1f} s)")
@@ -370,11 +379,18 @@ def _astar(space: _Space, clock: _Clock, ceiling: Optional[tuple[int, int]],
     return None, len(best)
 
 
-def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: Budget = Budget()) -> Search:
+def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: Budget = Budget(),
+                      incumbent: Optional[list[Action]] = None) -> Search:
     """Decide whether a plan exists and find the least disruptive one the budget allows (see the
     module docstring). Raises NoSafePlan, saying how it knows, when none exists, and
-    SearchTooLarge when the budget ran out first."""
+    SearchTooLarge when the budget ran out first.
 
+    `incumbent`, a plan found otherwise (the default strategy's): where it reaches the goal, a
+    plan exists, so the reachability search is skipped, and A* looks only for plans at most as
+    disruptive; what is returned is never worse than it."""
+    known = None if incumbent is None else cost(system, start, incumbent, goal)
+    if incumbent is not None and known is not None:
+        return _beat(system, start, goal, budget, incumbent, known)
     clock = _Clock(budget)
     space = _Space(system, start, goal)
     for restricted in (False, True):
@@ -396,6 +412,19 @@ def exhaustive_search(system: System, start: Configuration, goal: Goal, budget: 
     if steps is not None:
         return Search(steps, True, visited, optimised, clock.spent())
     return Search(improve(system, start, found, goal), False, visited, optimised, clock.spent())
+
+
+def _beat(system: System, start: Configuration, goal: Goal, budget: Budget, incumbent: list[Action],
+          known: tuple[int, int]) -> Search:
+    """A* for a plan at most as disruptive as `incumbent` (whose cost is `known`); else it."""
+    clock = _Clock(budget)
+    steps, optimised = _astar(_Space(system, start, goal), clock, known)
+    if steps is not None:
+        better = cost(system, start, steps, goal)
+        if better is not None and better <= known:
+            return Search(steps, True, 0, optimised, clock.spent(), incumbent=known)
+    return Search(incumbent, False, 0, optimised, clock.spent(), incumbent=known, kept=True,
+                  over=clock.over(clock.visited + optimised))
 
 
 def _impossible(relaxation: Relaxation, restricted: bool) -> str:

@@ -55,7 +55,13 @@ def _paper(problem: Problem, budget: Budget) -> Steps:
 
 
 def _exhaustive(problem: Problem, budget: Budget) -> Steps:
-    search = exhaustive_search(problem.system, problem.start, problem.goal, budget)
+    """The exhaustive search, started from the default strategy's plan where there is one: it
+    returns nothing worse."""
+    try:
+        incumbent: Optional[list[Action]] = _default(problem)[0]
+    except NoSafePlan:
+        incumbent = None
+    search = exhaustive_search(problem.system, problem.start, problem.goal, budget, incumbent)
     return search.steps, search.note()
 
 

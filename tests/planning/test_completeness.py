@@ -154,3 +154,25 @@ def test_the_search_agrees_with_a_plain_uniform_cost_search_on_random_systems() 
         assert search.optimal and cost(p.system, p.start, search.steps, p.goal) == optimum
         compared += 1
     assert compared >= 100 and proved >= 2
+
+
+def test_the_search_starts_from_the_default_plan_and_never_returns_a_worse_one() -> None:
+    """With the default strategy's plan as its incumbent, the search returns a plan at most as
+    disruptive (the optimum, where its budget allows), and on a budget too small for A* it keeps
+    that plan and says so."""
+    from checker.planning.strategies import _default, solve
+    p = _settled("tree", 20, 0, "replace", "c19")
+    mine = _default(p)[0]
+    known = cost(p.system, p.start, mine, p.goal)
+    assert known is not None
+    search = exhaustive_search(p.system, p.start, p.goal, Budget(seconds=20), incumbent=mine)
+    assert search.optimal and search.visited == 0          # a plan exists: no reachability search
+    found = cost(p.system, p.start, search.steps, p.goal)
+    assert found is not None and found <= known
+    starved = exhaustive_search(p.system, p.start, p.goal, Budget(states=1, seconds=0.0), incumbent=mine)
+    assert starved.kept and not starved.optimal and starved.steps == mine
+    assert "the default strategy's plan (disruption 26) is kept" in starved.note()
+    assert "its budget ran out" in starved.note()
+    # the strategy itself: never worse than the default's
+    plan = solve(p, "exhaustive", Budget(states=1, seconds=0.0))
+    assert (plan.disruption, len(plan.steps)) == known and any("is kept" in n for n in plan.notes)
