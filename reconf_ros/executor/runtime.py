@@ -27,6 +27,11 @@ class StepFailed(Exception):
     """A step (or a read of the live system) could not be carried out; the message says why."""
 
 
+class NoAnswer(StepFailed):
+    """A service that was called gave no answer within the timeout (the request, or its answer,
+    may have been lost on the way)."""
+
+
 class NoControlInterface(StepFailed):
     """A node answered, but without the control interface's parameters: not a reconf node (nor an
     adapter), so there are no modes or attachments to read (docs/control-interface.md)."""
@@ -203,7 +208,7 @@ class Runtime:
                     f.cancel()
                     clients[n].remove_pending_request(f)
             if first is None:
-                answers[n] = StepFailed(f"no answer from {n} within {self.timeout} s")
+                answers[n] = NoAnswer(f"no answer from {n} within {self.timeout} s")
             elif first.exception() is not None:
                 answers[n] = StepFailed(f"{n} failed: {first.exception()}")
             else:
@@ -253,9 +258,7 @@ class Runtime:
         req.transition.id = transition_id
         try:
             res = self.call(self.ChangeState, f"{fqn}/change_state", req)
-        except StepFailed as e:
-            if not str(e).startswith("no answer from"):
-                raise
+        except NoAnswer:
             try:
                 done = self.lifecycle(fqn) == GOAL[name]
             except StepFailed:

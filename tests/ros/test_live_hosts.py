@@ -183,6 +183,31 @@ def test_a_lossy_link_delivers_what_reliability_recovers(on_hosts: Callable[...,
     assert live.lab.faults("robot") == "none"
 
 
+@pytest.mark.skipif(nft_available() is not None, reason=str(nft_available()))
+def test_a_plan_on_a_lossy_link_ends_done_or_says_truly_what_it_saw(on_hosts: Callable[..., LiveSystem]) -> None:
+    """The chatter replace across two hosts while 10 % of the robot's packets are dropped each
+    way: the plan ends (done, done with a violation the monitors saw, or failed), never hangs or
+    crashes, and the configuration its report says it observed is what bench.probe reads."""
+    from bench.bench_hosts import judge_report
+    live = on_hosts(["robot", "station"], home="station")
+    hosts_file = live.agents()
+    arch = example("chatter_hosts.arch")
+    live.deploy_by_host(arch)
+    live.wait_ready(["talker", "listener"], timeout=60)
+    script = live.plan_script(["replace", "talker", "-f", arch, "--with", "talker_v2"])
+    live.loss("robot", 10)
+    res = live.run_plan(script, "--hosts", str(hosts_file), timeout=240)
+    live.heal("robot")
+    out = res.stdout + res.stderr
+    report = live.report()
+    assert "Traceback" not in out and report.get("outcome") in ("done", "violated", "failed"), out[-3000:]
+    assert res.returncode == (0 if report["outcome"] == "done" else 1), out[-3000:]
+    true, why_not = judge_report(live, report)
+    assert true, why_not
+    if report["outcome"] == "violated":      # what the monitors saw, said as seen
+        assert re.search(r"monitor of \w+ saw \d+ violations? of a normal mode's assumption", out), out[-3000:]
+
+
 def serve(live: LiveSystem, ftm: str) -> Path:
     _, log = live.serve_ftm(example("ftm/client_server_pbr_tr.arch"), ftm, HZ)
     assert wait_replies(log, 20, timeout=60), f"no replies: {live.statuses()}"
