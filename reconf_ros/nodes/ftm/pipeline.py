@@ -107,7 +107,6 @@ class Proxy:
         if doc is None:
             return
         if "takeover" in doc:       # a backup's protocol took over: what is unanswered goes to it now
-            self.sync()
             for rid, e in self.pending.items():
                 e["tries"] = 0
                 self.forward(rid)
@@ -115,26 +114,8 @@ class Proxy:
         entry = self.pending.pop(doc["rid"], None)
         if entry is None:
             return                  # a duplicate, or already answered
-        _remember(self.answered, doc["rid"], {"key": entry["key"], "reply": doc.get("reply") or {},
-                                              "state": doc.get("state")})
+        _remember(self.answered, doc["rid"], {"key": entry["key"], "reply": doc.get("reply") or {}})
         self.deliver(doc["rid"])
-
-    def sync(self) -> None:
-        """After a takeover, before the unanswered requests: the state the last request answered
-        in order left, where replies carry it (PBR's do). The primary sends its checkpoint before
-        its reply but does not wait for it, so a partition can let the reply through and not the
-        checkpoint: the new primary applies this state first unless it holds that request's
-        checkpoint already, and never answers from an older state."""
-        floor = _seq(next(iter(self.pending)))[1] if self.pending else None
-        done = [(n, a) for n, a in ((_seq(r)[1], a) for r, a in self.answered.items()) if floor is None or n < floor]
-        if not done:
-            return
-        last, a = max(done, key=lambda t: t[0])
-        if a.get("state") is None:
-            return
-        rid = f"{self.boot}-{last}"
-        self.p.send("to_pro", {"rid": f"~sync-{rid}", "body": {"op": "set_state", "state": a["state"]}, "sync": rid,
-                               "floor": floor or last + 1})
 
     def deliver(self, rid: str) -> None:
         a = self.answered[rid]
@@ -178,11 +159,6 @@ class Protocol:
         rid = req["rid"]
         if "rejected" in req:           # an outer layer refused it: say so outwards, run nothing
             self.p.send("reply", {"rid": rid, "rejected": req["rejected"]})
-            return
-        if rid.startswith("~"):         # the proxy's state after a takeover (Proxy.sync): a run, in order
-            if self.synced(req):
-                self.queue.append({k: v for k, v in req.items() if k != "sync"})
-                self.pump()
             return
         _remember(self.mine, rid, None)
         if rid in self.replies:
@@ -231,18 +207,6 @@ class Protocol:
         if rid in self.mine and "reply" in doc:
             self.p.send("reply", {"rid": rid, **result})
         self.pump()
-
-    def synced(self, req: dict[str, Any]) -> bool:
-        """Whether to run the proxy's state: not when this replica holds the checkpoint of that
-        request or a later one (it would go back); the requests up to it count as taken. An inner
-        layer gets the run without `sync`, from its outer layer, which decided."""
-        if "sync" not in req:
-            return True
-        boot, n = _seq(str(req["sync"]))
-        if n <= self.accepted.get(boot, 0):
-            return False
-        self.accepted[boot] = n
-        return True
 
     def on_switch(self, msg: Any) -> None:
         """Recovery made this protocol the server's: once the proxy's requests and this
