@@ -5,15 +5,18 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
+import pytest
 from click.testing import CliRunner
 
 from bench.gen import generate
 from checker.alloy import AlloyBridge
 from checker.cli.main import main
-from checker.planning import Fallback, plan_with_fallback
+from checker.planning import Fallback, plan_with_fallback, strategies
 from checker.planning.exhaustive import Budget
 from checker.planning.operations import replace_problem
+from checker.planning.plan import NoSafePlan, Problem
 from tests.support.systems import talker_system
 
 
@@ -29,7 +32,13 @@ def test_removing_the_tree_root_is_planned_and_verified_by_alloy(bridge: AlloyBr
     assert alloy["valid"] is True and alloy["states"] == 13 and alloy["transitions"] == 12
 
 
-def test_the_alloy_planner_answers_what_the_search_could_not_decide(bridge: AlloyBridge) -> None:
+def test_the_alloy_planner_answers_what_the_search_could_not_decide(bridge: AlloyBridge,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    # the search starts from the default strategy's plan where there is one, and then always
+    # answers: here the default is made to find none, so the search has only its budget (none)
+    def none(problem: Problem) -> Any:
+        raise NoSafePlan(["default: found no plan (as this test has it)"])
+    monkeypatch.setattr(strategies, "_default", none)
     problem = replace_problem(talker_system(), "talker", "talker_v2")
     plan = plan_with_fallback(problem, "exhaustive", Fallback(alloy=True, max_steps=6,
                                                                budget=Budget(states=0, seconds=0)))
