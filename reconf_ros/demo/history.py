@@ -121,18 +121,18 @@ def main(argv: Optional[list[str]] = None) -> int:
                     help="first wait until N more requests are answered than are now, then judge")
     ap.add_argument("--timeout", type=float, default=60.0, help="seconds --more waits at most (default 60)")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
-    until = time.time() - 2.0
     if args.more > 0:
         began = time.time()
         if not wait_replies(args.log, args.more, args.timeout, after=began):
             print(f"{args.log}: fewer than {args.more} requests answered in {args.timeout:g} s")
             return 1
         print(f"{args.log}: {args.more} more requests answered in {time.time() - began:.2f} s")
-    log = read_log(args.log)
-    if args.more > 0:
+        log = read_log(args.log)
         # the mechanism answers in the client's order: a request sent before the last one
         # answered and still unanswered is lost, however slow the replies
         until = max(log["sent"].get(i, 0.0) for i in log["replies"])
+    else:
+        log, until = read_log(args.log), time.time() - 2.0
     found = check_history(log, until=until)
     bad = {k: found[k] for k in ANOMALIES if found[k]}
     for kind, ids in bad.items():
