@@ -20,6 +20,7 @@ assumption violated; or failed), and whether the configuration its report says i
 agrees with bench.probe's own reading of the graph (bench_faults' comparison).
 
     python -m bench.bench_hosts [--runs 20] [--hz 50] [--only 'PBR crash,LFR partition,chatter'] [--results FILE]
+                                [--keep DIR]
 
 With --results, each run is appended to FILE (JSON lines) and the table is printed from every
 run FILE holds for the rows asked: run the 20 runs in chunks (`--runs 5` four times).
@@ -164,6 +165,8 @@ def judge_report(live: LiveSystem, report: dict[str, Any]) -> tuple[bool, str]:
 
 
 def plan_table(results: list[dict[str, Any]], loss: float) -> None:
+    if not any(r.get("row", [""])[0] == "chatter replace" for r in results):
+        return
     print("| plan across two hosts | robot's link | runs | done | violated | failed | report true | wall s "
           "| largest gap / period | messages lost | talker_v2 on the robot |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -234,6 +237,8 @@ def main() -> None:
     ap.add_argument("--loss", type=float, default=10.0, help="%% of the robot's packets lost each way in the loss row")
     ap.add_argument("--only", default="", help="rows whose 'FTM fault' contains one of these (comma-separated)")
     ap.add_argument("--results", default="", help="append each run here (JSON lines); the table counts them all")
+    ap.add_argument("--keep", default="", help="keep each run's directory (its nodes' logs, the client's log) under "
+                    "this one instead of removing it")
     args = ap.parse_args()
     rows = [r for r in ROWS if not args.only or any(o.strip() in f"{r[0]} {r[1]}" for o in args.only.split(","))]
     if not rows:
@@ -241,7 +246,8 @@ def main() -> None:
     print(f"client at {args.hz:g} requests/s; partitions of {args.cut:g} s; median/p95/max over runs; "
           f"load average at the start {os.getloadavg()[0]:.2f}", flush=True)
     results: list[dict[str, Any]] = []
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = args.keep or scratch
         for ftm, fault in rows:
             for i in range(args.runs):
                 work = Path(tmp) / f"{ftm.replace(' ', '_')}-{fault}-{i}"
