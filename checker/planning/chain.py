@@ -124,10 +124,10 @@ def _alloy(problem: Problem, fallback: Fallback) -> Plan:
     return plan
 
 
-def _run(problem: Problem, strategy: str, fallback: Fallback) -> Plan:
+def _run(problem: Problem, strategy: str, fallback: Fallback, attempts: list[Attempt]) -> Plan:
     if strategy == "alloy":
         return _alloy(problem, fallback)
-    return solve(problem, strategy, fallback.budget)
+    return solve(problem, strategy, fallback.budget, frozenset(a.strategy for a in attempts))
 
 
 def plan_with_fallback(problem: Problem, strategy: str = "default", fallback: Fallback = Fallback()) -> Plan:
@@ -141,7 +141,7 @@ def plan_with_fallback(problem: Problem, strategy: str = "default", fallback: Fa
             tried = ", ".join(a.strategy for a in attempts)
             fallback.progress(f"planning with the {name} strategy" + (f" ({tried}: no plan)" if tried else "") + "…")
         try:
-            plan = _run(problem, name, fallback)
+            plan = _run(problem, name, fallback, attempts)
         except SearchTooLarge as e:
             attempts.append(Attempt(name, "gave up", tuple(e.reasons)))
             continue

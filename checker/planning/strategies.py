@@ -20,7 +20,9 @@ Steps = tuple[list[Action], Optional[str]]     # the steps, and a note on how th
 @dataclass(frozen=True)
 class Strategy:
     name: str
-    steps: Callable[[Problem, Budget], Steps]  # for a problem whose goal is settled (`ready`)
+    # for a problem whose goal is settled (`ready`), the strategies already tried on it that found
+    # no plan or one the caller refused (`checker.planning.chain`): their work is not done again
+    steps: Callable[[Problem, Budget, frozenset[str]], Steps]
     summary: str
 
 
@@ -50,39 +52,43 @@ def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
     return theirs, "the paper's order, improved, was less disruptive here and is kept"
 
 
-def _paper(problem: Problem, budget: Budget) -> Steps:
+def _paper(problem: Problem, budget: Budget, tried: frozenset[str]) -> Steps:
     return paper_steps(problem), None
 
 
-def _exhaustive(problem: Problem, budget: Budget) -> Steps:
+def _exhaustive(problem: Problem, budget: Budget, tried: frozenset[str]) -> Steps:
     """The exhaustive search, started from the default strategy's plan where there is one: it
-    returns nothing worse."""
-    try:
-        incumbent: Optional[list[Action]] = _default(problem)[0]
-    except NoSafePlan:
-        incumbent = None
+    returns nothing worse. After the default strategy failed (no plan, or one refused) there is
+    none to start from, and the search starts from nothing instead of finding that again."""
+    incumbent: Optional[list[Action]] = None
+    if "default" not in tried:
+        try:
+            incumbent = _default(problem)[0]
+        except NoSafePlan:
+            pass
     search = exhaustive_search(problem.system, problem.start, problem.goal, budget, incumbent)
     return search.steps, search.note()
 
 
 REGISTRY: dict[str, Strategy] = {s.name: s for s in (
-    Strategy("default", lambda problem, budget: _default(problem), "least disruption found"),
+    Strategy("default", lambda problem, budget, tried: _default(problem), "least disruption found"),
     Strategy("paper", _paper, "Algorithm 1 of paper 001"),
     Strategy("exhaustive", _exhaustive, "decides whether a plan exists, least disruptive where its budget allows"),
 )}
 STRATEGIES = tuple(REGISTRY)
 
 
-def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()) -> Plan:
+def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget(),
+          tried: frozenset[str] = frozenset()) -> Plan:
     """Plan `problem` with `strategy` alone (`checker.planning.chain` goes on to the next
-    strategy when one fails).
+    strategy when one fails, and says which it `tried` before).
 
     `default` keeps the paper's plan, locally improved, when its own is not less disruptive,
     so it is never worse than `paper`; `budget` bounds the `exhaustive` search."""
     problem = ready(problem)
     if strategy not in REGISTRY:
         raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
-    steps, note = REGISTRY[strategy].steps(problem, budget)
+    steps, note = REGISTRY[strategy].steps(problem, budget, tried)
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
     if note:
         plan.notes.append(note)

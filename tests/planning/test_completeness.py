@@ -31,11 +31,17 @@ def arch(tmp_path: Path, shape: str, n: int, seed: int) -> str:
 
 
 def test_removing_the_root_of_a_tree_is_planned_by_the_search_when_default_and_paper_find_nothing(
-        tmp_path: Path) -> None:
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # c8.bk publishes on c0's topic and reads, through c2, c0's other topic: a cycle that both
     # greedy strategies tie themselves in
     path = arch(tmp_path, "tree", 10, 2)
+    from checker.planning import strategies
+    greedy: list[str] = []
+    for name in ("default_steps", "paper_steps"):
+        monkeypatch.setattr(strategies, name, lambda *a, _f=getattr(strategies, name), _n=name: (greedy.append(_n), _f(*a))[1])
     r = CliRunner().invoke(main, ["plan", "remove", "c0", "-f", path, "--no-alloy", "--output-format", "json"])
+    # each greedy strategy ran once: the search, after them, does not look for their plans again
+    assert sorted(greedy) == ["default_steps", "paper_steps", "paper_steps"], greedy
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
     plan = doc["plan"]
