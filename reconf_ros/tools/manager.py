@@ -1,7 +1,7 @@
 """The configuration manager of paper 001 §5.2: a long-lived node that applies plans.
 
 A plan script started on its own is a new DDS participant: before it may trust the graph it
-waits for discovery (`reconf_ros.executor.runtime.DISCOVERY_ROUND`), and every service it calls is new to it. The
+waits for discovery (`reconf_ros.executor.runtime.Runtime.settled`), and every service it calls is new to it. The
 manager runs beside the system, keeps one `Runtime` (graph, statuses, service clients) alive,
 and applies the plans its clients send (`plan.py --manager`) with that runtime, so a plan
 starts from a graph already discovered; it forks new `reconf-node`s from a launcher

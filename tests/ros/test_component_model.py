@@ -198,3 +198,18 @@ def test_dds_env_points_at_the_shipped_loopback_profile() -> None:
     assert builtin is not None and builtin.text == "false"
     assert {a.text for a in root.findall(".//d:address", ns)} == {"127.0.0.1"}
     assert [t.text for t in root.findall(".//d:transport_descriptor/d:type", ns)] == ["UDPv4"]
+
+
+def test_the_executor_reads_the_announcement_period_from_the_profile(tmp_path: Path) -> None:
+    """The discovery round of a plan (docs/executor.md#discovery) is the announcement period of
+    the profile the process runs under and a margin: the shipped loopback profile's 0.25 s, a
+    profile's own, or Fast DDS's 3 s where none says."""
+    from reconf_ros.executor.runtime import FAST_DDS_ANNOUNCEMENT, announcement_period
+    from reconf_ros.nodes.dds import PROFILE, loopback_env
+    assert announcement_period(loopback_env()) == 0.25
+    assert announcement_period({}) == FAST_DDS_ANNOUNCEMENT == 3.0
+    own = tmp_path / "own.xml"
+    own.write_text(PROFILE.read_text(encoding="utf-8").replace("<nanosec>250000000</nanosec>", "<nanosec>0</nanosec>")
+                   .replace("<sec>0</sec>", "<sec>1</sec>"), encoding="utf-8")
+    assert announcement_period({"FASTDDS_DEFAULT_PROFILES_FILE": str(own)}) == 1.0
+    assert announcement_period({"FASTDDS_DEFAULT_PROFILES_FILE": str(tmp_path / "missing.xml")}) == 3.0

@@ -706,17 +706,35 @@ class Hosts:
 
 # --- reconf_ros/executor/runtime.py ---
 
-# Fast DDS announces each participant every 3 s. A participant that starts seconds after
-# another on the same host stopped saw the running nodes only after 1.1-3.7 s in 12 of 16 tries
-# (docs/executor.md#manager). So the graph is read after one period and a margin, counted from
-# the start of discovery, and once it has been quiet.
-DISCOVERY_ROUND = 3.5
+# A new participant learns of the running ones from their periodic announcements (Fast DDS
+# answers a newcomer's own announcements with nothing sooner): every 3 s by default, every
+# 0.25 s under reconf's loopback profile (docs/runtime.md#dds). So the graph is read after one
+# period and a margin, counted from the start of discovery, and once it has been quiet.
+FAST_DDS_ANNOUNCEMENT = 3.0     # s, Fast DDS's own leaseAnnouncement
+DISCOVERY_MARGIN = 0.5
 GRAPH_QUIET = 1.0
 ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
 RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call
 # the lifecycle state each transition the executor asks for ends in
 GOAL = {"configure": "inactive", "activate": "active", "deactivate": "inactive", "cleanup": "unconfigured",
         "shutdown": "finalized"}
+
+
+def announcement_period(env: Optional[dict[str, str]] = None) -> float:
+    """How often this environment's participants announce themselves: the leaseAnnouncement of
+    the default participant profile in FASTDDS_DEFAULT_PROFILES_FILE, else Fast DDS's own."""
+    import xml.etree.ElementTree as ET
+    path = (os.environ if env is None else env).get("FASTDDS_DEFAULT_PROFILES_FILE", "")
+    try:
+        root = ET.parse(path).getroot() if path else None
+    except (OSError, ET.ParseError):
+        root = None
+    ns = "{http://www.eprosima.com}"
+    for profile in [] if root is None else root.iter(f"{ns}participant"):
+        period = profile.find(f".//{ns}leaseAnnouncement") if profile.get("is_default_profile") == "true" else None
+        if period is not None:
+            return float(period.findtext(f"{ns}sec") or 0) + float(period.findtext(f"{ns}nanosec") or 0) / 1e9
+    return FAST_DDS_ANNOUNCEMENT
 
 
 class StepFailed(Exception):
@@ -774,6 +792,7 @@ class Runtime:
         rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
         self.started_at = time.monotonic()               # discovery began here
+        self.discovery_round = announcement_period() + DISCOVERY_MARGIN
         self.graph_seen: set[str] = set()
         self.graph_since = self.started_at                # the graph last changed here
         self.endpoints_seen: Any = None                   # every topic's types and endpoint counts
@@ -852,7 +871,7 @@ class Runtime:
             shown = {f"{ns.rstrip('/')}/{n}" for n, ns in self.node.get_node_names_and_namespaces()}
             if sig != self.endpoints_seen or not nodes <= shown:
                 self.endpoints_seen, self.graph_since = sig, now
-        return want(nodes) <= nodes and now - self.started_at >= DISCOVERY_ROUND and \
+        return want(nodes) <= nodes and now - self.started_at >= self.discovery_round and \
             now - self.graph_since >= GRAPH_QUIET
 
     def client(self, srv_type: Any, name: str) -> Any:
