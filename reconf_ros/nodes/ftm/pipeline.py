@@ -195,7 +195,8 @@ class Protocol:
             return
         rid = str(doc.get("rid", ""))
         self.track_checkpoint(rid, doc.get("run"))
-        self.heard = now()
+        if "run" not in doc:            # a checkpoint comes from the peer: no sign the layer works
+            self.heard = now()
         self.overtaken = max(self.overtaken, self.inflight.get(rid, 0.0))
         if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
@@ -266,9 +267,11 @@ class Protocol:
         if not self.p.normal:
             return
         if self.checkpoint is not None:
-            if self.checkpoint["rid"] not in self.inflight and len(self.inflight) < self.window:
-                self.inflight[self.checkpoint["rid"]] = t      # sent again if given up: it is the state
-                self.inward(self.checkpoint)
+            if not any(r.startswith("~") for r in self.inflight) and len(self.inflight) < self.window:
+                # one at a time, sent again if given up; its floor tells an inner protocol that the
+                # checkpoints it skipped are not coming (each replaces the ones before)
+                self.inflight[self.checkpoint["rid"]] = t
+                self.inward({**self.checkpoint, "floor": _seq(self.checkpoint["rid"])[1]})
             return                      # no request goes in before the latest state is applied
         while len(self.inflight) < self.window and self.queue and self.caught_up(self.queue[0]):
             self.next()
