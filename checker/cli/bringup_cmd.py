@@ -43,7 +43,8 @@ def _click_option(a: argparse.Action) -> Callable[[Any], Any]:
     if a.nargs == "?":
         return click.option(*flags, name, is_flag=False, flag_value=a.const, default=None, metavar=a.metavar,
                             help=a.help)
-    return click.option(*flags, name, type=_TYPES.get(a.type) or click.STRING, default=a.default,
+    kind = click.FloatRange(min=0) if a.type is float and a.default == 0 else _TYPES.get(a.type)   # a pause: 0 is none
+    return click.option(*flags, name, type=kind or click.STRING, default=a.default,
                         show_default=bool(a.default), metavar=a.metavar, help=a.help)
 
 

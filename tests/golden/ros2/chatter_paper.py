@@ -2268,6 +2268,10 @@ class Executor:
         for i in range(first, last + 1):
             if not self._step(i):
                 return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
+            pause = float(getattr(ctx.args, "pause", 0.0) or 0.0)
+            if pause > 0 and i < last and not ctx.interrupts.stop:
+                ctx.rt.deadline = time.monotonic() + pause + 1.0
+                ctx.rt.wait(lambda: ctx.interrupts.stop, pause)
             if ctx.interrupts.stop and i < last:
                 return interrupted(ctx, i)
         return self._finish(first, hood, t0, check_at)
@@ -2433,6 +2437,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                     help="how long a step waits for the wire (matching, data, assumptions met)")
     ap.add_argument("--discovery-timeout", type=float, default=5.0, metavar="S",
                     help="how long to wait for the plan's running nodes to be discovered")
+    ap.add_argument("--pause", type=float, default=0.0, metavar="S",
+                    help="wait S seconds after each step but the last, to watch it on the wire (a signal "
+                         "stops the run there)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")
@@ -2511,7 +2518,8 @@ def _main(doc: dict[str, Any], argv: Optional[list[str]]) -> int:
         return EXIT_OK
     if args.manager:
         forwarded = [f"--{k.replace('_', '-')}={getattr(args, k)}" for k in (
-            "from_step", "to_step", "timeout", "step_timeout", "wire_timeout", "discovery_timeout", "namespace")]
+            "from_step", "to_step", "timeout", "step_timeout", "wire_timeout", "discovery_timeout", "namespace",
+            "pause")]
         forwarded += [f"--{k.replace('_', '-')}={os.path.abspath(getattr(args, k))}" for k in ("log_dir", "report", "hosts")
                       if getattr(args, k)]      # the manager writes them: absolute paths
         forwarded += ["--stop-started"] if args.stop_started else []
