@@ -43,7 +43,11 @@ system-deps:
 # second's output is printed once both are done (build/test-*.log); each prints its slowest tests.
 STREAM2 := tests/ros/test_live_hosts.py tests/ros/test_live_fault_campaign.py
 FTM_LIVE := tests/ros/test_live_ftm.py
+# The project's modules are compiled first: where PYTHONDONTWRITEBYTECODE is set (CI containers
+# set it), every process the tests start, hundreds of them, would compile them again.
+SOURCES := checker reconf_ros reconf_dsl codegen bench
 test: $(STAMP) system-deps
+	$(BIN)/python -m compileall -q $(SOURCES) > /dev/null
 	$(BIN)/python -m pytest -n 2 -m "not ros" --durations=10
 	@mkdir -p build
 	@$(BIN)/python -m mypy > build/test-mypy.log 2>&1 & mypy=$$!; \
