@@ -107,10 +107,9 @@ class Executor:
         for i in range(first, last + 1):
             if not self._step(i):
                 return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
-            pause = float(getattr(ctx.args, "pause", 0.0) or 0.0)
-            if pause > 0 and i < last and not ctx.interrupts.stop:
-                ctx.rt.deadline = time.monotonic() + pause + 1.0
-                ctx.rt.wait(lambda: ctx.interrupts.stop, pause)
+            if ctx.args.pause > 0 and i < last and not ctx.interrupts.stop:
+                ctx.rt.deadline = time.monotonic() + ctx.args.pause + 1.0
+                ctx.rt.wait(lambda: ctx.interrupts.stop, ctx.args.pause)
             if ctx.interrupts.stop and i < last:
                 return interrupted(ctx, i)
         return self._finish(first, hood, t0, check_at)

@@ -31,15 +31,15 @@ def announcement_period(env: Optional[dict[str, str]] = None) -> float:
     import xml.etree.ElementTree as ET
     path = (os.environ if env is None else env).get("FASTDDS_DEFAULT_PROFILES_FILE", "")
     try:
-        root = ET.parse(path).getroot() if path else None
+        root = ET.parse(path).getroot()
     except (OSError, ET.ParseError):
-        root = None
+        return FAST_DDS_ANNOUNCEMENT        # no profile (path ""), or one Fast DDS would not read either
     ns = "{http://www.eprosima.com}"
-    for profile in [] if root is None else root.iter(f"{ns}participant"):
-        period = profile.find(f".//{ns}leaseAnnouncement") if profile.get("is_default_profile") == "true" else None
-        if period is not None:
-            return float(period.findtext(f"{ns}sec") or 0) + float(period.findtext(f"{ns}nanosec") or 0) / 1e9
-    return FAST_DDS_ANNOUNCEMENT
+    default = root.find(f".//{ns}participant[@is_default_profile='true']")
+    period = None if default is None else default.find(f".//{ns}leaseAnnouncement")
+    if period is None:
+        return FAST_DDS_ANNOUNCEMENT
+    return float(period.findtext(f"{ns}sec") or 0) + float(period.findtext(f"{ns}nanosec") or 0) / 1e9
 
 
 class StepFailed(Exception):
