@@ -140,6 +140,11 @@ class Protocol:
         self.inflight: "OrderedDict[str, float]" = OrderedDict()
         self.window = 1 if comp.name.endswith("_tr_protocol") else WINDOW
         self.dropped: set[str] = set()            # given up on: taken again if re-sent
+        # a backup's checkpoints: only the latest is applied (each carries the whole state), before
+        # any request goes in; `checkpointed` is the request it follows, per proxy boot
+        self.checkpoint: Optional[dict[str, Any]] = None     # the latest not yet applied
+        self.checkpointed: dict[str, int] = {}
+        self.behind_since: Optional[float] = None
         self.heard = 0.0                          # when the layer last gave a result
         self.overtaken = 0.0                      # latest time a request went in that has its result
         ports.input("from_client").on_message(self.on_request)
@@ -188,10 +193,10 @@ class Protocol:
         if "again" in doc:              # TR: the same request once more (it stays in flight)
             self.inward(doc["again"])
             return
-        if "run" in doc:                # a backup applies a checkpoint through its pipeline
-            self.queue.append(doc["run"])
         rid = str(doc.get("rid", ""))
-        self.heard = now()
+        self.track_checkpoint(rid, doc.get("run"))
+        if "run" not in doc:            # a checkpoint comes from the peer: no sign the layer works
+            self.heard = now()
         self.overtaken = max(self.overtaken, self.inflight.get(rid, 0.0))
         if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
@@ -207,6 +212,15 @@ class Protocol:
         if rid in self.mine and "reply" in doc:
             self.p.send("reply", {"rid": rid, **result})
         self.pump()
+
+    def track_checkpoint(self, rid: str, run: Optional[dict[str, Any]]) -> None:
+        """A backup's checkpoint (`run`, the state after request `rid`) becomes the one to apply,
+        unless its state is older than the replica's; the result of the one to apply clears it."""
+        boot, n = _seq(rid)
+        if run is not None and n > self.checkpointed.get(boot, 0):
+            self.checkpoint, self.checkpointed[boot] = run, n
+        elif self.checkpoint is not None and rid == self.checkpoint["rid"]:
+            self.checkpoint = None      # applied: the replica holds the latest state it was sent
 
     def on_switch(self, msg: Any) -> None:
         """Recovery made this protocol the server's: once the proxy's requests and this
@@ -250,8 +264,37 @@ class Protocol:
                 self.dropped.add(rid)
                 del self.inflight[rid]
                 self.p.input("from_after").give_up()     # its result is no longer waited for
-        while len(self.inflight) < self.window and self.queue and self.p.normal:
+        if not self.p.normal:
+            return
+        if self.checkpoint is not None:
+            if not any(r.startswith("~") for r in self.inflight) and len(self.inflight) < self.window:
+                # one at a time, sent again if given up; its floor tells an inner protocol that the
+                # checkpoints it skipped are not coming (each replaces the ones before)
+                self.inflight[self.checkpoint["rid"]] = t
+                self.inward({**self.checkpoint, "floor": _seq(self.checkpoint["rid"])[1]})
+            return                      # no request goes in before the latest state is applied
+        while len(self.inflight) < self.window and self.queue and self.caught_up(self.queue[0]):
             self.next()
+
+    def caught_up(self, req: dict[str, Any]) -> bool:
+        """Whether a backup that took over holds the state `req` follows: the proxy's floor says
+        every request below it was answered, by the old primary, whose checkpoints were sent
+        before its replies. One still on its way is waited for, up to GIVE_UP_AFTER; then the
+        request goes in, and the log says from which state."""
+        boot, n = _seq(str(req.get("rid", "")))
+        have = self.checkpointed.get(boot)
+        if have is None or have >= self.floor.get(boot, 0) - 1 or str(req.get("rid", "")).startswith("~"):
+            self.behind_since = None
+            return True
+        t = now()
+        self.behind_since = self.behind_since or t
+        if t - self.behind_since < GIVE_UP_AFTER:
+            return False
+        self.p.comp.node.get_logger().error(
+            f"requests {boot}-{have + 1}..{self.floor[boot] - 1} were answered, but their checkpoints never came "
+            f"in {GIVE_UP_AFTER} s: serving from the state after {boot}-{have}")
+        self.checkpointed[boot] = self.floor[boot] - 1
+        return True
 
     def next(self) -> None:
         req = self.queue.popleft()
@@ -261,6 +304,8 @@ class Protocol:
         boot, n = _seq(rid)
         if not rid.startswith("~") and n < self.floor.get(boot, 0):
             return                                       # answered by another replica meanwhile
+        if boot in self.checkpointed and not rid.startswith("~"):
+            self.checkpointed[boot] = max(self.checkpointed[boot], n)   # its state follows this one now
         self.inflight[rid] = now()
         self.inward(req)
 
