@@ -23,6 +23,7 @@ from checker.cli.common import Failure, console, guarded
 from checker.cli.live_options import snapshot
 from checker.cli.plan_cmd import default_files, run
 from checker.cli.plan_options import with_plan_options
+from checker.ftm.resume import watchers_last
 from checker.planning.bringup import up_state
 from checker.planning.chain import Fallback
 from checker.planning.recovery import plan_recovery
@@ -104,7 +105,7 @@ def _from_report(report: str, back: bool, sources: Sources, apply: Any, opts: di
     label = f"recover {os.path.basename(report)} → {'the start' if back else 'the target'}"
 
     def make(fb: Fallback) -> Any:
-        p = plan_recovery(system, seen, target, opts["strategy"], fb, placed=placed)
+        p = plan_recovery(system, seen, target, opts["strategy"], fb, placed=placed, reorder=watchers_last)
         if renames:
             p.renames.update(renames)
         return p
@@ -137,5 +138,5 @@ def _from_live(files: list[str], snap_opts: Reading, sources: Sources, apply: An
 
     def make(fb: Fallback) -> Any:
         return plan_recovery(live.system, live.config, live.retarget(target), opts["strategy"], fb,
-                             placed=live.placed, orphans=live.orphans, renames=live.renames)
+                             placed=live.placed, orphans=live.orphans, renames=live.renames, reorder=watchers_last)
     run(label, live.system, make, sources, chain=True, apply=apply, **opts)

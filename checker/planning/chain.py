@@ -41,9 +41,12 @@ class Fallback:
     """How `plan_with_fallback` goes on. `accept` judges each plan found: None accepts it, a
     string says why it is refused (the next strategy is then tried). `alloy` ends the chain
     with the Alloy planner (plans of at most `max_steps` steps, within `alloy_seconds`).
-    `budget` bounds the exhaustive search. `progress` is told which strategy runs."""
+    `budget` bounds the exhaustive search. `progress` is told which strategy runs. `shape`, when
+    given, reorders each plan found (verified again, as checker.ftm.resume does) before `accept`
+    judges it."""
 
     accept: Optional[Callable[[Plan], Optional[str]]] = None
+    shape: Optional[Callable[[Plan], Plan]] = None
     alloy: bool = False
     max_steps: int = 12
     budget: Budget = field(default_factory=Budget)
@@ -154,6 +157,8 @@ def plan_with_fallback(problem: Problem, strategy: str = "default", fallback: Fa
         except _Unavailable as e:
             attempts.append(Attempt(name, "unavailable", (str(e),)))
             continue
+        if fallback.shape is not None:
+            plan = fallback.shape(plan)
         refused = fallback.accept(plan) if fallback.accept is not None else None
         if refused:
             attempts.append(Attempt(name, "refuted", (refused,)))

@@ -15,7 +15,7 @@ Python engine and as a whole by Alloy (`Recovery.rest`).
 from __future__ import annotations
 
 from dataclasses import replace as dc_replace
-from typing import Any, Iterable, Optional
+from typing import Any, Callable, Iterable, Optional
 
 from checker.planning.chain import Fallback, plan_with_fallback
 from checker.planning.plan import Goal, NoSafePlan, Plan, Problem, Recovery, disruption
@@ -91,17 +91,23 @@ def _planned_on(system: System, start: Configuration) -> System:
 
 def plan_recovery(system: System, observed: Configuration, target: Configuration, strategy: str = "default",
                   fallback: Optional[Fallback] = None, placed: Optional[dict[str, str]] = None,
-                  orphans: Iterable[dict[str, Any]] = (), renames: Optional[dict[str, str]] = None) -> Plan:
+                  orphans: Iterable[dict[str, Any]] = (), renames: Optional[dict[str, str]] = None,
+                  reorder: Optional[Callable[[Plan], Plan]] = None) -> Plan:
     """A plan from `observed` to `target`: the degrades that restore validity, then a plan made
     by `strategy` (through the fallback chain when `fallback` is given) from there. The plan's
     `recovery` says how many steps restore validity, and carries `placed` and `orphans` for the
     executor (`Recovery`); `renames`, the new versions the target has of components that run
-    (`X@new` -> X), for the executor's names. Raises NoSafePlan when no plan reaches the target."""
+    (`X@new` -> X), for the executor's names; `reorder`, a verified reordering of the plan from
+    there (an FTM's watchers resumed last, checker.ftm.resume). Raises NoSafePlan when no plan
+    reaches the target."""
     prefix = restore_validity(system, observed)
     start = check_restore(system, observed, prefix)
     base = _planned_on(system, start)
     problem = Problem(base, start, Goal(target.components, target.roles, target.degraded), renames=dict(renames or {}))
-    rest = plan_with_fallback(problem, strategy, fallback) if fallback is not None else solve(problem, strategy)
+    if fallback is not None:
+        rest = plan_with_fallback(problem, strategy, dc_replace(fallback, shape=reorder) if reorder else fallback)
+    else:
+        rest = solve(problem, strategy) if reorder is None else reorder(solve(problem, strategy))
     info = Recovery(len(prefix), rest, dict(placed or {}), list(orphans))
     if not prefix:
         rest.recovery = info
