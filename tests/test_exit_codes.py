@@ -47,7 +47,8 @@ COMMANDS: dict[str, list[str]] = {
 JSON = {"check", "plan replace", "plan remove", "plan migrate", "plan add", "plan transition", "plan verify", "ftm select", "up",
         "down"}
 # commands that take no architecture: only the failures that apply to them
-OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "verify-meta-model": ["verify-meta-model", "--scope", "2"],
+OTHERS: dict[str, list[str]] = {"recover": ["recover", "{f}"], "timeline": ["timeline", "{f}"],
+                                "verify-meta-model": ["verify-meta-model", "--scope", "2"],
                                 "lsp": ["lsp", "--stdio"], "daemon status": ["daemon", "status"]}
 
 
@@ -99,6 +100,13 @@ def test_an_unknown_option_is_2(name: str) -> None:
 @pytest.mark.parametrize("path, said", [(MISSING, "does not exist"), (CHATTER, "cannot read it as a run report")])
 def test_recover_without_a_run_report_is_2(path: str, said: str) -> None:
     r = invoke(["recover", path])
+    assert_clean(r, 2)
+    assert said in r.stderr
+
+
+@pytest.mark.parametrize("path, said", [(MISSING, "does not exist"), (CHATTER, "cannot read it as a run report")])
+def test_timeline_without_a_run_report_is_2(path: str, said: str) -> None:
+    r = invoke(["timeline", path])
     assert_clean(r, 2)
     assert said in r.stderr
 

@@ -23,6 +23,7 @@ COMMANDS: dict[str, tuple[str, str, tuple[tuple[str, str], ...]]] = {
     "graph-plan": ("checker.cli.graph_cmd", "graph_plan", ()),
     "plan": ("checker.cli.plan_cmd", "plan", (("checker.cli.ftm_cmd", "transition_cmd"),)),
     "recover": ("checker.cli.recover_cmd", "recover_cmd", ()),
+    "timeline": ("checker.cli.timeline_cmd", "timeline_cmd", ()),
     "up": ("checker.cli.bringup_cmd", "up_cmd", ()),
     "down": ("checker.cli.bringup_cmd", "down_cmd", ()),
     "gate": ("checker.cli.gate_cmd", "gate_cmd", ()),

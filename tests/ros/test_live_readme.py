@@ -36,6 +36,7 @@ SHOWS: list[list[tuple[str, tuple[str, ...]]]] = [
      ("reconf recover --live", ("1. ↓ degrade listener.listen", "create talker (all functionalities degraded)")),
      ("reconf plan replace", ("Wrote plan.py",)),
      ("timeout --preserve-status -s INT", ("INTERRUPTED by SIGINT", "report: reconf-chatter-interrupted.json")),
+     ("reconf timeline", ("chatter:", "steps timed, interrupted", "create talker_v2")),
      ("reconf recover reconf-chatter-interrupted.json", ("recover reconf-chatter-interrupted.json → the start",)),
      ("reconf drift", ("✓ in sync: chatter — 2 components against",)),
      ("reconf down", ("reconf will bring chatter down in 5 steps",))],

@@ -1,0 +1,126 @@
+"""A run drawn as a timeline (docs/executor.md#a-picture-of-a-run), from its run report: each step
+from its start to its end as the executor timed it, and each functionality's degraded span,
+from the end of the step that degraded it (or the run's start) to the end of the step that
+upgraded it (or the run's end). Every step a report times was confirmed on the wire before the
+next began (docs/control-interface.md#the-six-actions), so a span is what the nodes showed, to
+the step. As text for a terminal, or SVG."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from html import escape
+from typing import Any
+
+from reconf_ros.executor.plan_states import PlanStates
+
+__all__ = ["Bar", "Timeline", "timeline", "to_text", "to_svg"]
+
+SYMBOLS = {"create": "+", "remove": "-", "attach": "→", "detach": "×", "upgrade": "↑", "degrade": "↓"}
+
+
+@dataclass
+class Bar:
+    label: str
+    start: float        # s from the run's first step
+    end: float
+    ok: bool = True
+
+
+@dataclass
+class Timeline:
+    title: str
+    outcome: str
+    steps: list[Bar] = field(default_factory=list)
+    degraded: dict[str, list[Bar]] = field(default_factory=dict)    # "comp.func" -> its spans
+
+    @property
+    def end(self) -> float:
+        return max((b.end for b in self.steps), default=0.0)
+
+    def degraded_seconds(self, name: str) -> float:
+        return sum(b.end - b.start for b in self.degraded.get(name, []))
+
+
+def _describe(step: dict[str, Any]) -> str:
+    a = step["action"]
+    where = f"{step['component']}.{step.get('functionality') or step.get('port') or ''}".rstrip(".")
+    to = f" {'to' if a == 'attach' else 'from'} {step['connector']}" if step.get("connector") else ""
+    return f"{SYMBOLS.get(a, '?')} {a} {where}{to}"
+
+
+def timeline(report: dict[str, Any]) -> Timeline:
+    """The timeline of a run report (`--report` of a plan script, `reconf up`, `recover`)."""
+    plan = report["plan_document"]["plan"]
+    steps, states = plan["steps"], PlanStates(plan)
+    timings = sorted(report.get("timings") or [], key=lambda t: t["step"])
+    tl = Timeline(f"{report.get('system', '?')}: {len(timings)} of {len(steps)} steps timed",
+                  str(report.get("outcome", "?")))
+    if not timings:
+        return tl
+    t0 = timings[0]["at"]
+    for t in timings:
+        tl.steps.append(Bar(f"{t['step']:3d}. {_describe(steps[t['step'] - 1])}", t["at"] - t0,
+                            t["at"] - t0 + t["seconds"], bool(t["ok"])))
+    # the state before a timed step holds from the previous step's end (or the start) to its end;
+    # a step that failed reached no state of the plan: the span of the one before runs on
+    held = [(timings[0]["step"] - 1, 0.0)] + [(t["step"], b.end) for t, b in zip(timings, tl.steps) if t["ok"]]
+    for (k, since), until in zip(held, [s for _, s in held[1:]] + [tl.end]):
+        for comp, func in states[k].to_doc()["degraded"]:
+            spans = tl.degraded.setdefault(f"{comp}.{func}", [])
+            if spans and abs(spans[-1].end - since) < 1e-9:
+                spans[-1].end = until
+            else:
+                spans.append(Bar(f"{comp}.{func}", since, until))
+    return tl
+
+
+def _row(bars: list[Bar], scale: float, width: int, mark: str) -> str:
+    cells = [" "] * width
+    for b in bars:
+        lo = min(width - 1, int(b.start * scale))
+        hi = max(lo + 1, min(width, int(round(b.end * scale))))
+        for i in range(lo, hi):
+            cells[i] = mark if b.ok else "✗"
+    return "".join(cells)
+
+
+def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
+    """One line a step, then one a functionality that was degraded, on one time axis."""
+    if not tl.steps:
+        return f"{tl.title}: no step was timed ({tl.outcome})\n"
+    scale = width / max(tl.end, 1e-6)
+    lines = [f"{tl.title}, {tl.outcome}, {tl.end:.2f} s; one column is {tl.end / width:.3f} s",
+             f"{'step':<{label}} |{'0 s':<{width - 8}}{tl.end:>6.2f} s|"]
+    for b in tl.steps:
+        lines.append(f"{b.label[:label]:<{label}} |{_row([b], scale, width, '█')}| {b.end - b.start:6.3f} s"
+                     + ("" if b.ok else " FAILED"))
+    if tl.degraded:
+        lines.append(f"{'degraded':<{label}} |{'-' * width}|")
+    for name in sorted(tl.degraded):
+        lines.append(f"{name[:label]:<{label}} |{_row(tl.degraded[name], scale, width, '░')}| "
+                     f"{tl.degraded_seconds(name):6.3f} s")
+    return "\n".join(lines) + "\n"
+
+
+def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> str:
+    """The same timeline as an SVG picture: steps in blue (red where one failed), degraded
+    spans in orange, each row labelled, a second scale along the top."""
+    rows = [(b, "#c0392b" if not b.ok else "#2e86c1") for b in tl.steps]
+    rows += [(b, "#e67e22") for name in sorted(tl.degraded) for b in tl.degraded[name]]
+    names = [b.label for b in tl.steps] + sorted(tl.degraded)
+    scale = (width - label - 10) / max(tl.end, 1e-6)
+    height = row * (len(names) + 3)
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '
+           f'font-size="11">', f'<text x="4" y="{row}">{escape(tl.title)}, {escape(tl.outcome)}, {tl.end:.2f} s</text>']
+    for s in range(int(tl.end) + 1):
+        x = label + s * scale
+        out.append(f'<line x1="{x:.1f}" y1="{row * 1.5:.0f}" x2="{x:.1f}" y2="{height}" stroke="#ddd"/>'
+                   f'<text x="{x + 2:.1f}" y="{row * 2 - 2}" fill="#888">{s} s</text>')
+    index = {name: i for i, name in enumerate(names)}
+    for i, name in enumerate(names):
+        out.append(f'<text x="4" y="{row * (i + 3) - 4}">{escape(name[:60])}</text>')
+    for b, colour in rows:
+        y = row * (index[b.label] + 2) + 2
+        out.append(f'<rect x="{label + b.start * scale:.1f}" y="{y}" width="{max(1.0, (b.end - b.start) * scale):.1f}" '
+                   f'height="{row - 4}" fill="{colour}"><title>{escape(b.label)}: {b.start:.3f}-{b.end:.3f} s'
+                   f'</title></rect>')
+    return "\n".join(out + ["</svg>"]) + "\n"
