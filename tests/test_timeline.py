@@ -70,3 +70,14 @@ def test_the_command(tmp_path: Path) -> None:
     other.write_text(json.dumps({"kind": "plan"}))
     r = CliRunner().invoke(main, ["timeline", str(other)])
     assert r.exit_code == 2 and "not a run report" in r.output
+
+
+def test_a_monitor_that_saw_a_violation_is_marked_after_its_step() -> None:
+    """The report's `violated` (the executor's: each monitor whose count moved, how often, the
+    step after which it was first seen) is drawn at that step's end."""
+    doc = dict(report(), violated={"listener": {"violations": 2, "after_step": 3}})
+    tl = timeline(doc)
+    assert tl.violated == {"listener": (2, tl.steps[2].end)}
+    line = to_text(tl, width=40).splitlines()[-1]
+    assert line.startswith("listener") and "2 violations, first seen after the step ending at" in line
+    assert "monitor of listener: 2 violations" in to_svg(tl)

@@ -3,7 +3,9 @@ from its start to its end as the executor timed it, and each functionality's deg
 from the end of the step that degraded it (or the run's start) to the end of the step that
 upgraded it (or the run's end). Every step a report times was confirmed on the wire before the
 next began (docs/control-interface.md#the-six-actions), so a span is what the nodes showed, to
-the step. As text for a terminal, or SVG."""
+the step. Each monitor that saw a normal mode's assumption violated is marked where the executor first
+saw it (after a step; a report written before the run carried this says nothing of it). As text
+for a terminal, or SVG."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -31,6 +33,7 @@ class Timeline:
     outcome: str
     steps: list[Bar] = field(default_factory=list)
     degraded: dict[str, list[Bar]] = field(default_factory=dict)    # "comp.func" -> its spans
+    violated: dict[str, tuple[int, float]] = field(default_factory=dict)   # monitor -> (violations, first seen at)
 
     @property
     def end(self) -> float:
@@ -70,6 +73,9 @@ def timeline(report: dict[str, Any]) -> Timeline:
                 spans[-1].end = until
             else:
                 spans.append(Bar(f"{comp}.{func}", since, until))
+    ends = {t["step"]: b.end for t, b in zip(timings, tl.steps)}
+    for comp, v in sorted((report.get("violated") or {}).items()):
+        tl.violated[comp] = (int(v["violations"]), ends.get(int(v["after_step"]), 0.0))
     return tl
 
 
@@ -98,15 +104,21 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     for name in sorted(tl.degraded):
         lines.append(f"{name[:label]:<{label}} |{_row(tl.degraded[name], scale, width, '░')}| "
                      f"{tl.degraded_seconds(name):6.3f} s")
+    if tl.violated:
+        lines.append(f"{'monitors that saw a violation':<{label}} |{'-' * width}|")
+    for comp, (n, at) in sorted(tl.violated.items()):
+        lines.append(f"{comp[:label]:<{label}} |{_row([Bar(comp, at, at)], scale, width, '!')}| "
+                     f"{n} violation{'s' if n != 1 else ''}, first seen after the step ending at {at:.2f} s")
     return "\n".join(lines) + "\n"
 
 
 def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> str:
     """The same timeline as an SVG picture: steps in blue (red where one failed), degraded
-    spans in orange, each row labelled, a second scale along the top."""
+    spans in orange, violations in purple, each row labelled, a second scale along the top."""
     rows = [(b, "#c0392b" if not b.ok else "#2e86c1") for b in tl.steps]
     rows += [(b, "#e67e22") for name in sorted(tl.degraded) for b in tl.degraded[name]]
-    names = [b.label for b in tl.steps] + sorted(tl.degraded)
+    rows += [(Bar(f"monitor of {c}: {n} violations", at, at), "#8e44ad") for c, (n, at) in sorted(tl.violated.items())]
+    names = [b.label for b in tl.steps] + sorted(tl.degraded) + [b.label for b, _ in rows[len(rows) - len(tl.violated):]]
     scale = (width - label - 10) / max(tl.end, 1e-6)
     height = row * (len(names) + 3)
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '

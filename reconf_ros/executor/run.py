@@ -215,4 +215,5 @@ def counted(ctx: Context, i: int) -> dict[str, int]:
     moved = {c: now[c] - n for c, n in ctx.baseline.items() if now.get(c, n) > n}
     for c in moved:
         ctx.violated.setdefault(c, i)
+    ctx.violations.update(moved)
     return moved

@@ -32,6 +32,8 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
+        # each monitor that saw a normal mode's assumption violated: how often, first after which step
+        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}

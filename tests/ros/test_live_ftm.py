@@ -131,6 +131,7 @@ def test_transition_under_load(live: LiveSystem, src: str, dst: str) -> None:
     # it names one
     named = re.findall(r"but the monitor of (\S+) saw", out)
     assert (live.report()["outcome"] == "violated") == bool(named) == (res.returncode == 1), out[-3000:]
+    assert sorted(live.report()["violated"]) == sorted(named)     # what `reconf timeline` marks
 
 
 def test_a_replicas_copy_starts_from_its_run_line(live: LiveSystem) -> None:

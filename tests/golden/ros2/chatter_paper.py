@@ -1194,6 +1194,7 @@ class Context:
     began: float = 0.0               # when it began, on the wall clock (what the nodes' statuses use)
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
+    violations: dict[str, int] = field(default_factory=dict)  # such a monitor -> how many it saw, at the last count
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
@@ -2074,6 +2075,8 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
+        # each monitor that saw a normal mode's assumption violated: how often, first after which step
+        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}
@@ -2376,6 +2379,7 @@ def counted(ctx: Context, i: int) -> dict[str, int]:
     moved = {c: now[c] - n for c, n in ctx.baseline.items() if now.get(c, n) > n}
     for c in moved:
         ctx.violated.setdefault(c, i)
+    ctx.violations.update(moved)
     return moved
 
 
