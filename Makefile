@@ -37,12 +37,14 @@ system-deps:
 # The tests that need no live ROS 2 graph run in two processes (the machine's two cores). The
 # live ones (marker `ros`, each in a ROS domain of its own) run one at a time, the FTM ones last
 # (their monitors hold replies to 1.5 periods, which a saturated machine misses); the host lab's
-# (tests/ros/test_live_hosts.py), then one half of the fault campaign, run beside the first of
-# them, since the lab's DDS traffic stays in network namespaces of their own, and so does mypy.
+# (tests/ros/test_live_hosts.py), then one half of the fault campaign and one README walkthrough
+# (BESIDE_LAB, so the two streams take about as long), run beside the first of them, since the
+# lab's DDS traffic stays in network namespaces of their own, and so does mypy.
 # Their output is printed once each is done (build/test-*.log); each run prints its slowest tests.
 HOSTS_TESTS := tests/ros/test_live_hosts.py
 FTM_LIVE := tests/ros/test_live_ftm.py
-CAMPAIGN_HALF := tests/ros/test_live_fault_campaign.py::test_every_fault_is_recovered_and_every_report_is_true[4]
+BESIDE_LAB := tests/ros/test_live_fault_campaign.py::test_every_fault_is_recovered_and_every_report_is_true[4] \
+	tests/ros/test_live_readme.py::test_the_readme_walkthrough_runs_on_a_live_graph[model-and-reality]
 # The project's modules are compiled first: where PYTHONDONTWRITEBYTECODE is set (CI containers
 # set it), every process the tests start, hundreds of them, would compile them again.
 SOURCES := checker reconf_ros reconf_dsl codegen bench
@@ -51,12 +53,12 @@ test: $(STAMP) system-deps
 	$(BIN)/python -m pytest -n 2 -m "not ros" --durations=10
 	@mkdir -p build
 	@$(BIN)/python -m mypy > build/test-mypy.log 2>&1 & mypy=$$!; \
-	$(BIN)/python -m pytest -m ros --durations=10 $(HOSTS_TESTS) "$(CAMPAIGN_HALF)" > build/test-hosts.log 2>&1 & hosts=$$!; \
-	$(BIN)/python -m pytest -m ros --durations=10 $(addprefix --ignore=,$(HOSTS_TESTS) $(FTM_LIVE)) --deselect "$(CAMPAIGN_HALF)"; live=$$?; \
+	$(BIN)/python -m pytest -m ros --durations=10 $(HOSTS_TESTS) $(foreach t,$(BESIDE_LAB),"$(t)") > build/test-hosts.log 2>&1 & hosts=$$!; \
+	$(BIN)/python -m pytest -m ros --durations=10 $(addprefix --ignore=,$(HOSTS_TESTS) $(FTM_LIVE)) $(foreach t,$(BESIDE_LAB),--deselect="$(t)"); live=$$?; \
 	wait $$hosts; hosts_rc=$$?; \
 	$(BIN)/python -m pytest -m ros --durations=10 $(FTM_LIVE); ftm=$$?; \
 	wait $$mypy; mypy_rc=$$?; \
-	echo "== the host lab's live tests ($(HOSTS_TESTS)) and half the fault campaign:"; cat build/test-hosts.log; \
+	echo "== the host lab's live tests ($(HOSTS_TESTS)), then BESIDE_LAB:"; cat build/test-hosts.log; \
 	echo "== mypy:"; cat build/test-mypy.log; \
 	test $$live = 0 && test $$ftm = 0 && test $$hosts_rc = 0 && test $$mypy_rc = 0
 
