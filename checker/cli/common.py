@@ -5,6 +5,7 @@ them: imports go one way (docs/exit-codes.md for the codes)."""
 from __future__ import annotations
 
 import functools
+import json
 import os
 import secrets
 import sys
@@ -150,6 +151,20 @@ solver_option_unused = _solver_option(hidden=True, help="no effect: Alloy evalua
 
 class CannotWrite(Failure):
     """An output that cannot be written: RC007 at the path the user gave, exit 2."""
+
+
+def read_run_report(path: str, need: str, what: str) -> dict[str, Any]:
+    """The run report at `path` (written by `--report` of a plan script, `reconf up`, `down` or
+    `recover`, or on any failure), which must have `need`; else a usage error (exit 2) saying
+    it is not `what`."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise click.UsageError(f"{path}: cannot read it as a run report ({e})") from None
+    if not isinstance(doc, dict) or doc.get("kind") != "run-report" or not doc.get(need):
+        raise click.UsageError(f"{path}: not {what}")
+    return doc
 
 
 def write_atomically(path: str, text: str, newline: str = "\n") -> None:

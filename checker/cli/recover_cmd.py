@@ -12,14 +12,13 @@ usual, and is verified as any plan; it is carried out at once by the plan script
 (its options are the script's own, as for `reconf up`), or written with `-o`."""
 from __future__ import annotations
 
-import json
 import os
 from typing import Any, Optional
 
 import click
 
 from checker.cli.bringup_cmd import applier, script_argv, with_script_options
-from checker.cli.common import Failure, console, guarded
+from checker.cli.common import Failure, console, guarded, read_run_report
 from checker.cli.live_options import snapshot
 from checker.cli.plan_cmd import default_files, run
 from checker.cli.plan_options import with_plan_options
@@ -38,18 +37,6 @@ from reconf_dsl.span import Span
 def _config(doc: dict[str, Any]) -> Configuration:
     return Configuration(frozenset(doc["components"]), frozenset(tuple(d) for d in doc["degraded"]),
                          frozenset(tuple(r) for r in doc["roles"]))
-
-
-def read_report(path: str) -> dict[str, Any]:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            report = json.load(fh)
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise click.UsageError(f"{path}: cannot read it as a run report ({e})") from None
-    if not isinstance(report, dict) or report.get("kind") != "run-report" or not report.get("observed"):
-        raise click.UsageError(f"{path}: not a plan script's run report with an observed configuration "
-                               "(written by --report, or on any failure)")
-    return report
 
 
 @click.command("recover")
@@ -90,7 +77,8 @@ def recover_cmd(report: Optional[str], back: bool, live: bool, files: tuple[str,
 
 
 def _from_report(report: str, back: bool, sources: Sources, apply: Any, opts: dict[str, Any]) -> None:
-    doc = read_report(report)
+    doc = read_run_report(report, "observed", "a plan script's run report with an observed configuration "
+                          "(written by --report, or on any failure)")
     if doc.get("unread"):
         raise Failure([Diagnostic("RC632", Severity.ERROR, f"{report}: the run could not read "
                                   f"{', '.join(doc['unread'])} (no answer): its configuration is not known",

@@ -3,26 +3,13 @@
 functionality's degraded span (docs/executor.md#a-picture-of-a-run)."""
 from __future__ import annotations
 
-import json
 import sys
 from typing import Any, Optional
 
 import click
 
-from checker.cli.common import guarded, write_atomically
+from checker.cli.common import guarded, read_run_report, write_atomically
 from checker.reports.timeline import timeline, to_svg, to_text
-
-
-def _read(path: str) -> dict[str, Any]:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            report = json.load(fh)
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise click.UsageError(f"{path}: cannot read it as a run report ({e})") from None
-    if not isinstance(report, dict) or report.get("kind") != "run-report" or "plan_document" not in report:
-        raise click.UsageError(f"{path}: not a run report (written by --report of a plan script, "
-                               "`reconf up`, `down` or `recover`)")
-    return report
 
 
 @click.command("timeline")
@@ -42,7 +29,8 @@ def timeline_cmd(report: str, output: Optional[str], width: int, **_: Any) -> No
       python plan.py --yes --report run.json && reconf timeline run.json
       reconf timeline run.json -o run.svg
     """
-    tl = timeline(_read(report))
+    tl = timeline(read_run_report(report, "plan_document", "a run report (written by --report of a plan script, "
+                                  "`reconf up`, `down` or `recover`)"))
     if output:
         write_atomically(output, to_svg(tl))
         click.echo(f"wrote {output}", err=True)
