@@ -115,10 +115,11 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
 def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> str:
     """The same timeline as an SVG picture: steps in blue (red where one failed), degraded
     spans in orange, violations in purple, each row labelled, a second scale along the top."""
+    marks = [Bar(f"monitor of {c}: {n} violations", at, at) for c, (n, at) in sorted(tl.violated.items())]
     rows = [(b, "#c0392b" if not b.ok else "#2e86c1") for b in tl.steps]
     rows += [(b, "#e67e22") for name in sorted(tl.degraded) for b in tl.degraded[name]]
-    rows += [(Bar(f"monitor of {c}: {n} violations", at, at), "#8e44ad") for c, (n, at) in sorted(tl.violated.items())]
-    names = [b.label for b in tl.steps] + sorted(tl.degraded) + [b.label for b, _ in rows[len(rows) - len(tl.violated):]]
+    rows += [(b, "#8e44ad") for b in marks]
+    names = [b.label for b in tl.steps] + sorted(tl.degraded) + [b.label for b in marks]
     scale = (width - label - 10) / max(tl.end, 1e-6)
     height = row * (len(names) + 3)
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '
