@@ -90,6 +90,8 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
                                 "twice, or by two functionalities"),
     ("RC132", "node-on-service", "a port of a `node` component on a `service` connector (its adapter relays "
                                  "topics)"),
+    ("RC133", "bad-duration", "a `takes` line that cannot be: an action that is not one of the six, a time not "
+                              "in s or ms, a negative one, or an action timed twice"),
     ("RC201", "assumption-not-satisfied", "an assumption does not hold (from `check`)"),
     ("RC300", "engines-disagree", "the Python engine and Alloy disagree (a bug in reconf; both verdicts are shown)"),
     ("RC301", "alloy-unavailable", "Java or the Alloy jar missing"),

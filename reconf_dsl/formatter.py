@@ -169,6 +169,8 @@ def _component(out: _Out, c: ir.Component) -> None:
     if c.ftm is not None:
         text = f"ftm {c.ftm.expr}" + (" on " + ", ".join(c.ftm.hosts) if c.ftm.hosts else "")
         out.emit(_at(c.ftm.span), 1, text)
+    if c.takes:
+        out.emit(_at(_span_of(c.takes, c.takes[0].span)), 1, "takes " + ", ".join(map(str, c.takes)))
     for p in c.ports:
         if p.kind == "input":
             assert p.assumption is not None

@@ -159,6 +159,28 @@ class ResourceSetting:
     span: Span = _span()
 
 
+# The six actions by name, in the order the semantic model registers them
+# (checker.semantic_model.actions.KINDS, held to this by a test): what a `takes` line may name.
+ACTIONS = ("remove", "create", "detach", "attach", "degrade", "upgrade")
+
+
+@dataclass(frozen=True)
+class Take:
+    """`takes create 2.5 s`: how long one action on this component takes, as written."""
+
+    action: str
+    value: Fraction
+    unit: str                          # "s" or "ms"
+    span: Span = _span()
+
+    @property
+    def seconds(self) -> Fraction:
+        return self.value * PERIOD_UNITS[self.unit]
+
+    def __str__(self) -> str:
+        return f"{self.action} {format_number(self.value)} {self.unit}"
+
+
 @dataclass(frozen=True)
 class FtmDecl:
     expr: FtmExpr
@@ -235,6 +257,7 @@ class Component:
     resources: tuple[ResourceSetting, ...] = ()
     ftm: Optional[FtmDecl] = None
     node: Optional[RosNode] = None     # not a reconf node: how its adapter drives it
+    takes: tuple[Take, ...] = ()       # actions that take longer or shorter than the measured defaults
     span: Span = _span()
 
     def port(self, name: str) -> Optional[Port]:

@@ -113,7 +113,7 @@ class _ToIR:
                                     related=(Related(fields["node"].span, "the first one"),)))
             if kind in ("ports", "functionalities"):
                 fields[kind].append(value)
-            elif kind in ("faults", "application", "resources") and kind in fields:
+            elif kind in ("faults", "application", "resources", "takes") and kind in fields:
                 fields[kind] = LocatedTuple(fields[kind] + value, fields[kind].span)  # where the first one was
             else:
                 fields[kind] = value
@@ -195,6 +195,25 @@ class _ToIR:
     def ftm_stmt(self, meta: Any, c: list[Any]) -> tuple[str, ir.FtmDecl]:
         hosts = c[1] if len(c) > 1 else ()
         return ("ftm", ir.FtmDecl(c[0], hosts, self.span_of(meta)))
+
+    def takes_stmt(self, meta: Any, c: list[Any]) -> tuple[str, tuple[ir.Take, ...]]:
+        return ("takes", LocatedTuple([t for t in c if t is not None], self.span_of(meta)))
+
+    def take_item(self, meta: Any, c: list[Token]) -> Optional[ir.Take]:
+        action, digits, unit = c
+        value = number(str(digits))
+        if str(action) not in ir.ACTIONS:
+            self.sink.add(error("RC133", f"'{shorten(str(action), MAX_NUMBER_CHARS)}' is not an action",
+                                self.tok(action), notes=("the actions: " + ", ".join(ir.ACTIONS),)))
+        elif value is None or value < 0:
+            self.sink.add(error("RC133", f"'{shorten(str(digits), MAX_NUMBER_CHARS)}' is not a time an action takes",
+                                self.tok(digits), notes=(NUMBER_RANGE,)))
+        elif str(unit) not in ("s", "ms"):
+            self.sink.add(error("RC133", f"unknown unit '{shorten(str(unit), MAX_NUMBER_CHARS)}'", self.tok(unit),
+                                notes=("an action's time is in s or ms",)))
+        else:
+            return ir.Take(str(action), value, str(unit), self.span_of(meta))
+        return None
 
     def ftm_hosts(self, meta: Any, c: list[Any]) -> tuple[str, ...]:
         return tuple(c[0])
@@ -390,6 +409,7 @@ class _Callbacks:
              "node_topic", "node_mode", "effect_deactivate", "effect_hold", "effect_set", "param_name", "param_value",
              "input_stmt", "output_stmt",
              "faults_stmt", "application_stmt", "resources_stmt", "ftm_stmt", "ftm_hosts", "ftm_expr",
+             "takes_stmt", "take_item",
              "functionality", "criticality", "mode", "assume_stmt", "guarantee_stmt", "nothing", "data", "rate",
              "topic_decl", "service_decl", "conn_name", "attachment", "portref_list", "portref", "name_list")
 

@@ -137,6 +137,12 @@ def _check_component(sink: DiagnosticSink, c: ir.Component, msgs: set[str], host
             sink.add(error("RC124", f"unknown application characteristic '{a}'", c.span,
                            notes=("known: " + ", ".join(sorted(KNOWN_APPLICATION)),)))
     _check_resources(sink, c.resources)
+    timed: dict[str, ir.Take] = {}
+    for t in c.takes:
+        if t.action in timed:
+            sink.add(error("RC133", f"'{t.action}' is timed twice in component '{c.name}'", t.span,
+                           related=(Related(timed[t.action].span, "the first time"),)))
+        timed.setdefault(t.action, t)
     if c.ftm is not None:
         e: Optional[ir.FtmExpr] = c.ftm.expr
         while e is not None:

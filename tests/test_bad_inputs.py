@@ -48,6 +48,8 @@ BAD_INPUTS: dict[str, list[tuple[str, str]]] = {
     "non_utf8": [("RC005", "2:12")],
     "only_comments": [("RC115", "1:1")],
     "port_on_two_topics": [("RC123", "11:20")],
+    "bad_takes": [("RC133", "5:23"), ("RC133", "5:46"), ("RC133", "6:16")],
+    "takes_twice": [("RC133", "6:9")],
     "replaces_unknown": [("RC118", "3:1")],
     "service_two_servers": [("RC117", "17:36")],
     "single_two_publishers": [("RC116", "17:45")],
