@@ -28,6 +28,7 @@ from checker.cli.common import (
     engine_option,
     guarded,
     plural,
+    read_run_report,
     write_atomically,
 )
 from checker.cli.plan_options import with_common, with_plan_options
@@ -206,15 +207,17 @@ def _by(judged: PlanJudgement) -> str:
 def run(label: str, system: System, make: Callable[..., Plan], sources: Sources, *, strategy: str,
         use_alloy: bool, output: Optional[str], output_format: OutputFormat, files: tuple[str, ...] = (),
         target: Optional[System] = None, engine: Engine = Engine.PYTHON, max_steps: int = 12,
-        detailed_exitcode: bool = False, chain: bool = False,
+        detailed_exitcode: bool = False, chain: bool = False, durations_from: Optional[str] = None,
         apply: Optional[Callable[[dict[str, Any]], int]] = None) -> None:
     """Plan, verify, show. With `chain`, `make` takes a `Fallback` and plans through
     `checker.planning.chain`: a strategy that finds no plan, or whose plan Alloy refutes, hands
     over to the next; otherwise `make()` plans alone and a refuted plan means no plan. With
     `apply` and no `output`, the verified plan's script document is handed to `apply`, whose
-    answer is the exit status (`reconf up`, `reconf down`)."""
+    answer is the exit status (`reconf up`, `reconf down`). With `durations_from`, the plan's
+    seconds are estimated with what that run report timed (docs/soundness.md#seconds-on-the-wire)."""
 
     fmt = output_format
+    report = read_run_report(durations_from, "timings", "a run report with timed steps") if durations_from else None
     with status("planning…") as say:
         def judge(p: Plan) -> dict[str, Any]:
             say(f"verifying the plan of the {p.strategy} strategy in the Alloy Analyzer ({len(p.states)} states)…")
@@ -228,6 +231,8 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
         except NoSafePlan as e:
             return no_plan(label, e.reasons, fmt)
     p, evidence = verified.plan, verified.evidence
+    if report is not None and durations_from is not None:
+        p.times = p.durations().observed(report, durations_from)
     if verified.not_run is not None:      # not answered: not "unsafe" (docs/exit-codes.md)
         raise Failure([Diagnostic("RC303", Severity.ERROR, f"Alloy could not verify the plan to {label}: "
                                   f"{verified.not_run}", Span.unknown("<alloy>"),
@@ -269,6 +274,7 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
               f"{plural(deg['longest'], 'step')}"
               + (f" ({deg['longest_functionality']})" if deg["longest_functionality"] else "") + ".")
     out.print(f"[bold]Disruption:[/] {p.disruption} (Σ criticality × steps degraded)")
+    out.print(f"[bold]Time:[/] {seconds_line(p)}")
     al = _verification(out, evidence)
     if al:
         if al.get("slice"):
@@ -300,6 +306,17 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
                   + (f" ({plural(ended, 'orphan')} of a plan to end)" if ended else ""))
     if output:
         out.print(f"Wrote {output}: run it with `python3 {output}` (or `--dry-run` to replay it without ROS).")
+
+
+def seconds_line(p: Plan, shown: int = 3) -> str:
+    """The plan's expected time on the wire and what stays degraded how long, most first."""
+    sec = p.seconds()
+    longest = sorted(sec.seconds.items(), key=lambda kv: (-kv[1], kv[0]))
+    said = ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in longest[:shown]) + (", …" if len(longest) > shown else "")
+    what = (f"degraded ~{sec.weighted:.2f} s (Σ criticality × seconds degraded of what served before: {said})"
+            if longest else "nothing that served before is degraded")
+    return (f"~{sec.total:.1f} s for the {plural(len(p.steps), 'step')}; {what}; "
+            f"durations: {', '.join(p.durations().sources)}")
 
 
 def _verification(out: Any, evidence: dict[str, Any]) -> Optional[dict[str, Any]]:

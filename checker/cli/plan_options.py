@@ -30,6 +30,9 @@ plan_options: list[Callable[[Any], Any]] = [
     click.option("-o", "--output", type=click.Path(dir_okay=False), help="write the plan as a ROS 2 Python script"),
     click.option("--output-format", "output_format", type=click.Choice([f.value for f in OutputFormat]),
                  default="text", show_default=True, callback=lambda c, p, v: OutputFormat(v)),
+    click.option("--durations", "durations_from", metavar="REPORT", type=click.Path(dir_okay=False),
+                 help="estimate the plan's seconds with the step times a run report measured (medians per "
+                      "action and component) instead of the measured defaults and `takes` lines"),
     click.option("--detailed-exitcode", "detailed_exitcode", is_flag=True,
                  help="exit 0 when there is nothing to do, 3 for a safe plan with steps (1 and 2 as always)"),
 ]

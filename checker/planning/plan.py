@@ -15,6 +15,7 @@ from dataclasses import replace as dc_replace
 from itertools import pairwise
 from typing import Any, Iterable, Optional, Sequence
 
+from checker.planning.durations import Degradation, Durations, degraded_seconds, durations
 from checker.planning.states import States
 from checker.semantic_model.actions import (
     Action,
@@ -190,6 +191,8 @@ class Plan:
     # a recovery's plan (checker.planning.recovery): from an observed configuration that may
     # not be valid, its first steps degrade what fails; None for every other plan
     recovery: Optional["Recovery"] = None
+    # how long each action takes (checker.planning.durations); None: the system's own
+    times: Optional[Durations] = None
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -205,13 +208,24 @@ class Plan:
         left = ""
         if self.goal.degraded:
             left = "; left degraded: " + ", ".join(f"{c}.{f}" for c, f in sorted(self.goal.degraded))
-        return f"{plural(len(self.steps), 'step')} ({parts}); disruption {self.disruption}; strategy {self.strategy}{left}"
+        sec = self.seconds()
+        return (f"{plural(len(self.steps), 'step')} ({parts}); disruption {self.disruption}; "
+                f"~{sec.weighted:.2f} s degraded in ~{sec.total:.1f} s; strategy {self.strategy}{left}")
+
+    def durations(self) -> Durations:
+        return self.times if self.times is not None else durations(self.system)
+
+    def seconds(self) -> Degradation:
+        """The plan's expected seconds on the wire, and degraded (checker.planning.durations)."""
+        return degraded_seconds(self.system, self.states, self.steps, self.durations())
 
     def to_dict(self) -> dict[str, Any]:
         """The plan as data: its first state in full and, per step, what the step changed (states
         as deltas, so the document grows with the plan's length, not length × size)."""
         out: dict[str, Any] = {
-            "strategy": self.strategy, "disruption": self.disruption, "steps": [a.to_dict() for a in self.steps],
+            "strategy": self.strategy, "disruption": self.disruption,
+            "seconds": dict(self.seconds().to_dict(), durations=self.durations().to_dict()),
+            "steps": [a.to_dict() for a in self.steps],
             "start": state_dict(self.states[0]),
             "changes": [state_change(before, after) for before, after in pairwise(self.states)],
             "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
@@ -389,6 +403,7 @@ class Problem:
     removed: list[str] = field(default_factory=list)
     added: list[str] = field(default_factory=list)
     renames: dict[str, str] = field(default_factory=dict)
+    times: Optional[Durations] = None   # how long each action takes; None: the system's own
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,9 @@ class Kind(Protocol):
     @property
     def params(self) -> tuple[str, ...]: ...
 
+    @property
+    def seconds(self) -> float: ...
+
     def owns(self, action: "Action") -> bool: ...
 
     def make(self, values: dict[str, str]) -> "ActionBase": ...
@@ -99,13 +102,16 @@ class ActionKind(Generic[A]):
     preconditions not checked), `change_field` (the field of a `Change` whose elements are the
     actions of this kind a change is made of) and `params` (the kinds of its Alloy arguments,
     in the order of the Alloy predicate's parameters after the two configurations; each
-    argument's meaning is read off the action's fields by `ARGUMENT_FIELDS`)."""
+    argument's meaning is read off the action's fields by `ARGUMENT_FIELDS`), and `seconds`
+    (how long it takes on the wire by default: the median of the executor's step reports over
+    `bench_live`'s scenarios, docs/soundness.md#seconds-on-the-wire)."""
 
     cls: type[A]
     precondition: Callable[["Snapshot", A], list["Refusal"]]
     effect: Callable[["_Catalogue", Configuration, A], Configuration]
     change_field: str
     params: tuple[str, ...]
+    seconds: float
 
     @property
     def name(self) -> str:

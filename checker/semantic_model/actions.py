@@ -687,17 +687,17 @@ def apply(system: System, config: Configuration, action: Action) -> Configuratio
 
 KINDS: tuple[Kind, ...] = (
     ActionKind[Remove](cls=Remove, precondition=_remove, effect=_after_remove, change_field="removed",
-                       params=("component",)),
+                       params=("component",), seconds=0.09),
     ActionKind[Create](cls=Create, precondition=_create, effect=_after_create, change_field="created",
-                       params=("component",)),
+                       params=("component",), seconds=1.0),
     ActionKind[Detach](cls=Detach, precondition=_detach, effect=_after_detach, change_field="detached",
-                       params=("connector", "port")),
+                       params=("connector", "port"), seconds=0.11),
     ActionKind[Attach](cls=Attach, precondition=_attach, effect=_after_attach, change_field="attached",
-                       params=("connector", "port")),
+                       params=("connector", "port"), seconds=0.07),
     ActionKind[Degrade](cls=Degrade, precondition=_degrade, effect=_after_degrade, change_field="degraded",
-                        params=("functionality",)),
+                        params=("functionality",), seconds=0.05),
     ActionKind[Upgrade](cls=Upgrade, precondition=_upgrade, effect=_after_upgrade, change_field="upgraded",
-                        params=("functionality",)),
+                        params=("functionality",), seconds=0.04),
 )
 """Every action, in the order the Alloy modules declare them."""
 

@@ -1,0 +1,126 @@
+"""How long each action takes on the wire, and how long a plan keeps what served degraded.
+
+An action's duration, in order of precedence (docs/soundness.md#seconds-on-the-wire):
+
+1. what a run report timed for that action on that component, or for that action on any
+   component (`Durations.observed`: the median of the steps the executor confirmed);
+2. the component's `takes` line in the `.arch` (`takes create 2.5 s`);
+3. the measured default of the action's kind (`checker.semantic_model.actions.KINDS`,
+   `ActionKind.seconds`: medians of the executor's step reports in `bench_live`).
+
+Degraded seconds (`degraded_seconds`): a step takes effect when the executor has confirmed it
+on the wire, at its end, so while step i runs the system is in the state before it. Each
+functionality that is degraded in that state, of a component that served before the plan
+(present in its first state) and is still there after the step, is degraded for the step's
+duration. A component the plan creates served no one before: its degraded modes until its
+first upgrade cost nothing, which is why creating it before anyone degrades is free. Summed
+per functionality, and over functionalities weighted by criticality: the plan's degraded
+functionality-seconds, the quantity the timeline of a run measures step by step
+(checker.reports.timeline) and the default strategy's order minimises
+(checker.planning.prepare).
+"""
+from __future__ import annotations
+
+import statistics
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Optional, Sequence
+
+from checker.semantic_model.actions import KINDS, Action, catalogue
+from checker.semantic_model.config import Configuration, FuncId
+from reconf_dsl.ir import System
+
+__all__ = ["Durations", "Degradation", "durations", "degraded_seconds"]
+
+
+@dataclass(frozen=True)
+class Durations:
+    """Seconds per action: by kind, by (component, kind), and where they came from."""
+
+    kinds: Mapping[str, float]
+    components: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    sources: tuple[str, ...] = ("measured defaults",)
+
+    def of(self, action: Action) -> float:
+        return self.components.get((action.component, action.kind), self.kinds[action.kind])
+
+    def observed(self, report: Mapping[str, Any], where: str) -> "Durations":
+        """These durations, overridden by the medians a run report timed (its `timings`, each
+        step named by the plan document it carries): per (component, action) and per action."""
+        steps = ((report.get("plan_document") or {}).get("plan") or {}).get("steps") or []
+        per_kind: dict[str, list[float]] = {}
+        per_comp: dict[tuple[str, str], list[float]] = {}
+        for t in report.get("timings") or []:
+            i = t.get("step", 0) - 1
+            if not t.get("ok") or not 0 <= i < len(steps) or steps[i].get("action") not in self.kinds:
+                continue
+            kind, comp = steps[i]["action"], steps[i].get("component", "")
+            per_kind.setdefault(kind, []).append(float(t["seconds"]))
+            per_comp.setdefault((comp, kind), []).append(float(t["seconds"]))
+        if not per_kind:
+            return self
+        kinds = {**self.kinds, **{k: statistics.median(v) for k, v in per_kind.items()}}
+        comps = {**self.components, **{k: statistics.median(v) for k, v in per_comp.items()}}
+        return Durations(kinds, comps, self.sources + (f"{where} ({sum(map(len, per_kind.values()))} steps timed)",))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kinds": dict(self.kinds), "sources": list(self.sources),
+                "components": [{"component": c, "action": k, "seconds": s}
+                               for (c, k), s in sorted(self.components.items())]}
+
+
+def durations(system: System) -> Durations:
+    """The measured defaults, with the `takes` lines of `system`'s components over them."""
+    comps = {(c.name, t.action): float(t.seconds) for c in system.components for t in c.takes}
+    sources = ("measured defaults",) + (("the architecture's `takes` lines",) if comps else ())
+    return Durations({k.name: k.seconds for k in KINDS}, comps, sources)
+
+
+@dataclass(frozen=True)
+class Degradation:
+    """A plan's expected time on the wire: `total` s of steps, and per functionality that
+    served before the plan the seconds it spends degraded; `weighted` is their sum weighted by
+    criticality (the quantity minimised)."""
+
+    total: float
+    seconds: Mapping[FuncId, float]
+    weighted: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"plan": round(self.total, 3), "weighted": round(self.weighted, 3),
+                "functionalities": [{"component": c, "functionality": f, "seconds": round(s, 3)}
+                                    for (c, f), s in sorted(self.seconds.items())]}
+
+
+def degraded_seconds(system: System, states: Sequence[Configuration], steps: Sequence[Action],
+                     times: Durations) -> Degradation:
+    """The degraded seconds of the plan `steps` whose states are `states` (see the module's
+    docstring for what counts)."""
+    funcs = catalogue(system).funcs
+    served = states[0].components if states else frozenset()
+    per: dict[FuncId, float] = {}
+    total = 0.0
+    for before, a, after in zip(states, steps, states[1:]):
+        d = times.of(a)
+        total += d
+        for fid in before.degraded:
+            if fid[0] in served and fid[0] in before.components and fid[0] in after.components:
+                per[fid] = per.get(fid, 0.0) + d
+    weighted = sum(s * (funcs[f].criticality if f in funcs else 1) for f, s in per.items())
+    return Degradation(total, per, weighted)
+
+
+def seconds_cost(system: System, start: Configuration, steps: Sequence[Action], times: Durations,
+                 effect_of: Any) -> Optional[float]:
+    """The weighted degraded seconds of `steps` from `start`, None when a step is refused
+    (`effect_of(config, action)` returns the next configuration, or None when refused)."""
+    funcs = catalogue(system).funcs
+    config, weighted = start, 0.0
+    for a in steps:
+        after = effect_of(config, a)
+        if after is None:
+            return None
+        d = times.of(a)
+        weighted += d * sum(funcs[f].criticality if f in funcs else 1 for f in config.degraded
+                            if f[0] in start.components and f[0] in config.components and f[0] in after.components)
+        config = after
+    return weighted
