@@ -15,7 +15,9 @@ from checker.ftm.diagnose import ftm_diagnostics
 from checker.ftm.expand import ExpansionInfo, FtmRuleBroken, expand
 from checker.ftm.library import LAYER_ORDER
 from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
+from checker.planning.durations import durations
 from checker.planning.plan import settle, verify
+from checker.planning.prepare import prepare_first
 from checker.semantic_model.actions import (
     Action,
     Attach,
@@ -260,7 +262,7 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     steps, end = _link_before_resume(plan, hoods, late, steps, end, strategy)
     post = solve(Problem(system, end, final, renames=dict(plan.renames)), strategy).steps \
         if late or keep else _resume_steps(system, end)
-    whole = verify(system, start, pre + steps + post, final, strategy, plan.renames)
+    whole = _prepared(system, start, pre + steps + post, final, strategy, plan.renames, hoods)
     # what the middle part leaves degraded is only so while the protocols are suspended; the
     # whole plan's own residual notes say what stays degraded at the end
     passing = set(middle.goal.residual_notes())
@@ -271,6 +273,22 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
         raise NoSafePlan(problems)
     _watch(whole, old_infos, new_infos)
     return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _prepared(system: ir.System, start: Configuration, steps: list[Action], final: Goal, strategy: str,
+              renames: dict[str, str], hoods: dict[str, set[str]]) -> Plan:
+    """The verified plan of `steps`, its new nodes created and their inputs attached before the
+    suspension, and its removes after the resume (checker.planning.prepare), where that keeps
+    every protocol suspended while its neighbourhood changes (a create and a new node's input
+    disturb none; a remove does, so removes stay where they are); `steps` as they are for the
+    paper's strategy, or where it does not."""
+    if strategy != "paper":
+        ordered = prepare_first(system, start, steps, final, durations(system), removes_last=False)
+        if ordered is not steps:
+            whole = verify(system, start, ordered, final, strategy, renames)
+            if not suspension_problems(whole, hoods):
+                return whole
+    return verify(system, start, steps, final, strategy, renames)
 
 
 def _neighbourhoods(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo],

@@ -8,10 +8,12 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from checker.planning.default import default_steps
+from checker.planning.durations import durations
 from checker.planning.exhaustive import Budget, exhaustive_search
 from checker.planning.improve import cost, improve
 from checker.planning.paper import paper_steps
 from checker.planning.plan import NoSafePlan, Plan, Problem, ready, verify
+from checker.planning.prepare import prepare_first, weighted_seconds
 from checker.semantic_model.actions import Action
 
 Steps = tuple[list[Action], Optional[str]]     # the steps, and a note on how they were found
@@ -27,6 +29,21 @@ class Strategy:
 
 
 def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
+    """The default strategy's order (`_default_order`), prepared first and cleaned up last
+    (`checker.planning.prepare`) where that saves degraded seconds."""
+    steps, note = _default_order(problem)
+    times = problem.times or durations(problem.system)
+    system, start, goal = problem.system, problem.start, problem.goal
+    ordered = prepare_first(system, start, steps, goal, times)
+    if ordered is steps:
+        return steps, note
+    was, now = (weighted_seconds(system, start, s, goal, times) or 0.0 for s in (steps, ordered))
+    said = (f"prepared first, cleaned up last: the creates of new components and their inputs' attaches "
+            f"before the first degrade, the removes after the last upgrade (~{was:.2f} s degraded → ~{now:.2f} s)")
+    return ordered, (f"{note}; {said}" if note else said)
+
+
+def _default_order(problem: Problem) -> tuple[list[Action], Optional[str]]:
     """The default strategy's plan, or the paper's (locally improved) when that is less disruptive."""
     system, start, goal = problem.system, problem.start, problem.goal
     reasons: list[str] = []
@@ -90,6 +107,7 @@ def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()
         raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
     steps, note = REGISTRY[strategy].steps(problem, budget, tried)
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
+    plan.times = problem.times
     if note:
         plan.notes.append(note)
     return plan

@@ -48,7 +48,14 @@ def test_plan_transition_json() -> None:
     doc = json.loads(r.stdout)
     assert doc["verdict"] == "plan" and doc["operation"] == "move server from PBR to LFR"
     kinds = [s["action"] for s in doc["plan"]["steps"]]
-    assert kinds[0] == "degrade" and kinds[-1] == "upgrade"
+    # prepared first: the new nodes are created (and their inputs attached) before anyone degrades
+    first = kinds.index("degrade")
+    assert kinds[0] == "create" and "create" not in kinds[first:] and kinds[-1] == "upgrade"
+    # and the JSON says for how long the client's side (the follower) is expected to wait
+    seconds = doc["plan"]["seconds"]
+    follower = next(f["seconds"] for f in seconds["functionalities"] if f["component"] == "follower")
+    creates = 4 * seconds["durations"]["kinds"]["create"]
+    assert 0 < follower < seconds["plan"] - creates
 
 
 def test_plan_transition_refuses_an_ill_formed_ftm() -> None:

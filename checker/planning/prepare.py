@@ -1,0 +1,103 @@
+"""Prepare first, clean up last: a plan's steps ordered for its time on the wire
+(docs/soundness.md#prepare-first-clean-up-last).
+
+A component the plan creates serves no one until its first upgrade: its `create` and the
+attaches of its inputs before that upgrade (*preparing* steps) disturb nothing that runs, and a
+`remove` takes away a component nothing reads any more. On the wire a create is the slowest
+step by far (a process start and a discovery round, `KINDS`' `seconds`), so where it falls
+inside a degraded window it is most of that window. `prepare_first` moves the preparing steps,
+in their order, before everything else and the removes after everything else, where every
+step's preconditions still hold (each move is checked on its own, so one that would break a
+state is left where it was), and keeps the new order only when its degraded seconds
+(`checker.planning.durations`) are lower. The plan is then verified as any plan.
+"""
+from __future__ import annotations
+
+from typing import Optional, Sequence
+
+from checker.planning.durations import Durations
+from checker.planning.plan import Goal
+from checker.semantic_model.actions import Action, Attach, Create, Remove, Snapshot, Upgrade, catalogue, check, effect
+from checker.semantic_model.config import Configuration
+from reconf_dsl.ir import System
+
+__all__ = ["prepare_first", "weighted_seconds"]
+
+MOVES_LIMIT = 400
+"""Plans longer than this get the all-at-once moves only (each single move replays the plan)."""
+
+
+def weighted_seconds(system: System, start: Configuration, steps: Sequence[Action], goal: Goal,
+                     times: Durations) -> Optional[float]:
+    """The criticality-weighted degraded seconds of `steps`, or None when a step is refused or
+    the goal is missed (what counts: `checker.planning.durations`)."""
+    cat = catalogue(system)
+    config, total = start, 0.0
+    for a in steps:
+        if check(Snapshot(cat, config), a):
+            return None
+        after = effect(system, config, a)
+        total += times.of(a) * sum(cat.funcs[f].criticality for f in config.degraded if f in cat.funcs
+                                   and f[0] in start.components and f[0] in after.components)
+        config = after
+    return total if goal.reached(config) else None
+
+
+def _preparing(system: System, start: Configuration, steps: Sequence[Action]) -> list[int]:
+    """The indices of the preparing steps: creates of new components, and attaches of their
+    inputs before their first upgrade."""
+    new = {a.component for a in steps if isinstance(a, Create) and a.component not in start.components}
+    upgraded: set[str] = set()
+    out = []
+    for i, a in enumerate(steps):
+        if isinstance(a, Upgrade):
+            upgraded.add(a.component)
+        elif isinstance(a, Create) and a.component in new:
+            out.append(i)
+        elif isinstance(a, Attach) and a.component in new and a.component not in upgraded:
+            comp = system.component(a.component)
+            port = comp.port(a.port) if comp is not None else None
+            if port is not None and port.kind == "input":
+                out.append(i)
+    return out
+
+
+def _move(system: System, start: Configuration, steps: list[Action], goal: Goal, times: Durations,
+          picked: list[int], front: bool) -> list[Action]:
+    """`steps` with the `picked` ones (indices) moved to the front (the back), in their order,
+    all at once where the checks allow, or else each on its own as far as they allow."""
+    if not picked:
+        return steps
+    chosen = set(picked)
+    moved = [steps[i] for i in picked]
+    rest = [a for i, a in enumerate(steps) if i not in chosen]
+    cand = moved + rest if front else rest + moved
+    if weighted_seconds(system, start, cand, goal, times) is not None:
+        return cand
+    if len(steps) > MOVES_LIMIT:
+        return steps
+    tagged = list(enumerate(steps))
+    for k in picked if front else reversed(picked):
+        i = next(n for n, (orig, _) in enumerate(tagged) if orig == k)
+        item, others = tagged[i], tagged[:i] + tagged[i + 1:]
+        for j in (range(0, i) if front else range(len(others), i, -1)):
+            trial = others[:j] + [item] + others[j:]
+            if weighted_seconds(system, start, [a for _, a in trial], goal, times) is not None:
+                tagged = trial
+                break
+    return [a for _, a in tagged]
+
+
+def prepare_first(system: System, start: Configuration, steps: list[Action], goal: Goal,
+                  times: Durations, removes_last: bool = True) -> list[Action]:
+    """`steps` with the preparing steps first and (with `removes_last`) the removes last, where
+    that keeps every precondition and lowers the degraded seconds; `steps` unchanged otherwise."""
+    before = weighted_seconds(system, start, steps, goal, times)
+    if not before:
+        return steps
+    out = _move(system, start, steps, goal, times, _preparing(system, start, steps), front=True)
+    if removes_last:
+        out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)],
+                    front=False)
+    after = weighted_seconds(system, start, out, goal, times)
+    return out if after is not None and after < before else steps
