@@ -81,3 +81,23 @@ def test_a_monitor_that_saw_a_violation_is_marked_after_its_step() -> None:
     line = to_text(tl, width=40).splitlines()[-1]
     assert line.startswith("listener") and "2 violations, first seen after the step ending at" in line
     assert "monitor of listener: 2 violations" in to_svg(tl)
+
+
+def test_the_plan_s_estimate_is_the_quantity_the_timeline_measures() -> None:
+    """A run whose every step took exactly the plan's duration for it shows each functionality
+    degraded for exactly the seconds the plan expected (checker.planning.durations)."""
+    from checker.planning import plan_replace
+    from reconf_dsl.loader import load
+    plan = plan_replace(load([os.path.join(ROOT, "examples", "chatter.arch")]), "talker", "talker_v2",
+                        strategy="paper")
+    times, at, timings = plan.durations(), 1000.0, []
+    for i, a in enumerate(plan.steps, 1):
+        timings.append({"step": i, "action": a.kind, "at": at, "seconds": times.of(a), "ok": True})
+        at += times.of(a)
+    doc = dict(report(), timings=timings, violated={}, outcome="done",
+               plan_document={"plan": plan.to_dict()})
+    tl = timeline(doc)
+    assert tl.estimate == {"listener.listen": pytest.approx(tl.degraded_seconds("listener.listen"))}
+    assert tl.planned == pytest.approx(tl.end, abs=1e-3)
+    line = next(x for x in to_text(tl).splitlines() if x.startswith("listener.listen"))
+    assert line.endswith(f"(plan ~{tl.estimate['listener.listen']:.2f} s)")

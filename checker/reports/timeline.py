@@ -34,6 +34,10 @@ class Timeline:
     steps: list[Bar] = field(default_factory=list)
     degraded: dict[str, list[Bar]] = field(default_factory=dict)    # "comp.func" -> its spans
     violated: dict[str, tuple[int, float]] = field(default_factory=dict)   # monitor -> (violations, first seen at)
+    # the plan's estimate (checker.planning.durations): its seconds in all, and "comp.func" -> the
+    # seconds it expected each functionality that served before the plan to stay degraded
+    planned: float = 0.0
+    estimate: dict[str, float] = field(default_factory=dict)
 
     @property
     def end(self) -> float:
@@ -57,6 +61,10 @@ def timeline(report: dict[str, Any]) -> Timeline:
     timings = sorted(report.get("timings") or [], key=lambda t: t["step"])
     tl = Timeline(f"{report.get('system', '?')}: {len(timings)} of {len(steps)} steps timed",
                   str(report.get("outcome", "?")))
+    seconds = plan.get("seconds") or {}      # absent from plans made before estimates were
+    tl.planned = float(seconds.get("plan", 0.0))
+    tl.estimate = {f"{f['component']}.{f['functionality']}": float(f["seconds"])
+                   for f in seconds.get("functionalities", [])}
     if not timings:
         return tl
     t0 = timings[0]["at"]
@@ -94,7 +102,8 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     if not tl.steps:
         return f"{tl.title}: no step was timed ({tl.outcome})\n"
     scale = width / max(tl.end, 1e-6)
-    lines = [f"{tl.title}, {tl.outcome}, {tl.end:.2f} s; one column is {tl.end / width:.3f} s",
+    planned = f" (the plan expected ~{tl.planned:.2f} s)" if tl.planned else ""
+    lines = [f"{tl.title}, {tl.outcome}, {tl.end:.2f} s{planned}; one column is {tl.end / width:.3f} s",
              f"{'step':<{label}} |{'0 s':<{width - 8}}{tl.end:>6.2f} s|"]
     for b in tl.steps:
         lines.append(f"{b.label[:label]:<{label}} |{_row([b], scale, width, '█')}| {b.end - b.start:6.3f} s"
@@ -102,8 +111,9 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     if tl.degraded:
         lines.append(f"{'degraded':<{label}} |{'-' * width}|")
     for name in sorted(tl.degraded):
+        expected = f" (plan ~{tl.estimate[name]:.2f} s)" if name in tl.estimate else ""
         lines.append(f"{name[:label]:<{label}} |{_row(tl.degraded[name], scale, width, '░')}| "
-                     f"{tl.degraded_seconds(name):6.3f} s")
+                     f"{tl.degraded_seconds(name):6.3f} s{expected}")
     if tl.violated:
         lines.append(f"{'monitors that saw a violation':<{label}} |{'-' * width}|")
     for comp, (n, at) in sorted(tl.violated.items()):
@@ -123,14 +133,16 @@ def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> s
     scale = (width - label - 10) / max(tl.end, 1e-6)
     height = row * (len(names) + 3)
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '
-           f'font-size="11">', f'<text x="4" y="{row}">{escape(tl.title)}, {escape(tl.outcome)}, {tl.end:.2f} s</text>']
+           f'font-size="11">', f'<text x="4" y="{row}">{escape(tl.title)}, {escape(tl.outcome)}, {tl.end:.2f} s'
+           + (f' (the plan expected ~{tl.planned:.2f} s)' if tl.planned else '') + '</text>']
     for s in range(int(tl.end) + 1):
         x = label + s * scale
         out.append(f'<line x1="{x:.1f}" y1="{row * 1.5:.0f}" x2="{x:.1f}" y2="{height}" stroke="#ddd"/>'
                    f'<text x="{x + 2:.1f}" y="{row * 2 - 2}" fill="#888">{s} s</text>')
     index = {name: i for i, name in enumerate(names)}
     for i, name in enumerate(names):
-        out.append(f'<text x="4" y="{row * (i + 3) - 4}">{escape(name[:60])}</text>')
+        expected = f" (plan ~{tl.estimate[name]:.2f} s)" if name in tl.estimate else ""
+        out.append(f'<text x="4" y="{row * (i + 3) - 4}">{escape(name[:60])}{expected}</text>')
     for b, colour in rows:
         y = row * (index[b.label] + 2) + 2
         out.append(f'<rect x="{label + b.start * scale:.1f}" y="{y}" width="{max(1.0, (b.end - b.start) * scale):.1f}" '
