@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reconfiguration plan for the ROS 2 system chatter: 5 steps, strategy default.
 
-Architecture fingerprint: sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26
+Architecture fingerprint: sha256:17c989dbb5df61a6894b234c81e1123137d50bb228850ec81b63050cbff9e9c5
 
     python3 this_file.py --dry-run     replay the plan against the embedded model (no ROS needed)
     python3 this_file.py               apply the plan to the running system (needs rclpy)
@@ -2550,7 +2550,7 @@ DOC = json.loads(r"""{
  "evidence": {
   "python_engine": "all 6 states valid"
  },
- "fingerprint": "sha256:fca61ca1f5da5acfc1d61d4e3c1d55432640bc26bed19a696c8b3ad0ae073e26",
+ "fingerprint": "sha256:17c989dbb5df61a6894b234c81e1123137d50bb228850ec81b63050cbff9e9c5",
  "format_version": 2,
  "model": {
   "components": [
@@ -2636,6 +2636,12 @@ DOC = json.loads(r"""{
   "left_degraded": [],
   "notes": [],
   "renames": {},
+  "seconds": {
+   "durations": {"components": [], "kinds": {"attach": 0.07, "create": 1.0, "degrade": 0.05, "detach": 0.11, "remove": 0.09, "upgrade": 0.04}, "sources": ["measured defaults"]},
+   "functionalities": [],
+   "plan": 1.31,
+   "weighted": 0
+  },
   "start": {
    "components": ["listener", "talker"],
    "degraded": [],
