@@ -23,7 +23,6 @@ from checker.semantic_model.actions import (
     Attach,
     Degrade,
     Detach,
-    Remove,
     Snapshot,
     Upgrade,
     catalogue,
@@ -127,9 +126,10 @@ def affected_protocols(old: ir.System, new: ir.System, old_info: ExpansionInfo,
 
 
 def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, str]) -> bool:
-    """Whether `a` disturbs a running node of `hood`: removes one, detaches a port, or attaches a
-    publisher (attaching a new node's input only prepares it)."""
-    if isinstance(a, (Remove, Detach)):
+    """Whether `a` disturbs a running node of `hood`: detaches a port, or attaches a publisher
+    (attaching a new node's input only prepares it; a remove takes away a node that its
+    precondition has isolated, which nothing reads from or publishes to any more)."""
+    if isinstance(a, Detach):
         name = a.component
     elif isinstance(a, Attach):
         comp = system.component(a.component)
@@ -279,11 +279,11 @@ def _prepared(system: ir.System, start: Configuration, steps: list[Action], fina
               renames: dict[str, str], hoods: dict[str, set[str]]) -> Plan:
     """The verified plan of `steps`, its new nodes created and their inputs attached before the
     suspension, and its removes after the resume (checker.planning.prepare), where that keeps
-    every protocol suspended while its neighbourhood changes (a create and a new node's input
-    disturb none; a remove does, so removes stay where they are); `steps` as they are for the
-    paper's strategy, or where it does not."""
+    every protocol suspended while its neighbourhood changes (a create, a new node's input and
+    the remove of an isolated node disturb none); `steps` as they are for the paper's strategy,
+    or where it does not."""
     if strategy != "paper":
-        ordered = prepare_first(system, start, steps, final, durations(system), removes_last=False)
+        ordered = prepare_first(system, start, steps, final, durations(system))
         if ordered is not steps:
             whole = verify(system, start, ordered, final, strategy, renames)
             if not suspension_problems(whole, hoods):

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import statistics
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Optional, Sequence
+from typing import Any, Mapping, Sequence
 
 from checker.semantic_model.actions import KINDS, Action, catalogue
 from checker.semantic_model.config import Configuration, FuncId
@@ -91,36 +91,38 @@ class Degradation:
                                     for (c, f), s in sorted(self.seconds.items())]}
 
 
-def degraded_seconds(system: System, states: Sequence[Configuration], steps: Sequence[Action],
-                     times: Durations) -> Degradation:
-    """The degraded seconds of the plan `steps` whose states are `states` (see the module's
-    docstring for what counts)."""
-    funcs = catalogue(system).funcs
-    served = states[0].components if states else frozenset()
+def degraded_seconds(system: System, start: Configuration, steps: Sequence[Action], times: Durations) -> Degradation:
+    """The degraded seconds of the plan `steps` from `start` (see the module's docstring for
+    what counts), in time linear in the plan's length: a clock of the steps' durations, and per
+    functionality the time its degraded run began. Only a degrade, an upgrade, a create or a
+    remove changes which functionalities are degraded, as the actions' effects say."""
+    cat = catalogue(system)
+    served = start.components
+    since: dict[FuncId, float] = {f: 0.0 for f in start.degraded if f[0] in served}
     per: dict[FuncId, float] = {}
-    total = 0.0
-    for before, a, after in zip(states, steps, states[1:]):
-        d = times.of(a)
-        total += d
-        for fid in before.degraded:
-            if fid[0] in served and fid[0] in before.components and fid[0] in after.components:
-                per[fid] = per.get(fid, 0.0) + d
-    weighted = sum(s * (funcs[f].criticality if f in funcs else 1) for f, s in per.items())
-    return Degradation(total, per, weighted)
 
+    def ends(fid: FuncId, at: float) -> None:
+        if fid in since:
+            per[fid] = per.get(fid, 0.0) + at - since.pop(fid)
 
-def seconds_cost(system: System, start: Configuration, steps: Sequence[Action], times: Durations,
-                 effect_of: Any) -> Optional[float]:
-    """The weighted degraded seconds of `steps` from `start`, None when a step is refused
-    (`effect_of(config, action)` returns the next configuration, or None when refused)."""
-    funcs = catalogue(system).funcs
-    config, weighted = start, 0.0
+    clock = 0.0
     for a in steps:
-        after = effect_of(config, a)
-        if after is None:
-            return None
-        d = times.of(a)
-        weighted += d * sum(funcs[f].criticality if f in funcs else 1 for f in config.degraded
-                            if f[0] in start.components and f[0] in config.components and f[0] in after.components)
-        config = after
-    return weighted
+        before, clock = clock, clock + times.of(a)
+        kind, comp = a.kind, a.component
+        if comp not in served:
+            continue
+        if kind == "degrade":
+            since.setdefault((comp, getattr(a, "functionality")), clock)
+        elif kind == "upgrade":
+            ends((comp, getattr(a, "functionality")), clock)
+        elif kind == "create":
+            for f in cat.comps[comp].functionalities:
+                since.setdefault((comp, f.name), clock)
+        elif kind == "remove":              # its own remove does not count: it is gone after it
+            for f in cat.comps[comp].functionalities:
+                ends((comp, f.name), before)
+    for fid in list(since):
+        ends(fid, clock)
+    per = {f: s for f, s in per.items() if s > 0}
+    weighted = sum(s * (cat.funcs[f].criticality if f in cat.funcs else 1) for f, s in per.items())
+    return Degradation(clock, per, weighted)

@@ -217,7 +217,7 @@ class Plan:
 
     def seconds(self) -> Degradation:
         """The plan's expected seconds on the wire, and degraded (checker.planning.durations)."""
-        return degraded_seconds(self.system, self.states, self.steps, self.durations())
+        return degraded_seconds(self.system, self.states[0], self.steps, self.durations())
 
     def to_dict(self) -> dict[str, Any]:
         """The plan as data: its first state in full and, per step, what the step changed (states

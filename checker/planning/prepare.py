@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Optional, Sequence
 
-from checker.planning.durations import Durations
+from checker.planning.durations import Durations, degraded_seconds
 from checker.planning.plan import Goal
 from checker.semantic_model.actions import Action, Attach, Create, Remove, Snapshot, Upgrade, catalogue, check, effect
 from checker.semantic_model.config import Configuration
@@ -32,15 +32,12 @@ def weighted_seconds(system: System, start: Configuration, steps: Sequence[Actio
     """The criticality-weighted degraded seconds of `steps`, or None when a step is refused or
     the goal is missed (what counts: `checker.planning.durations`)."""
     cat = catalogue(system)
-    config, total = start, 0.0
+    config = start
     for a in steps:
         if check(Snapshot(cat, config), a):
             return None
-        after = effect(system, config, a)
-        total += times.of(a) * sum(cat.funcs[f].criticality for f in config.degraded if f in cat.funcs
-                                   and f[0] in start.components and f[0] in after.components)
-        config = after
-    return total if goal.reached(config) else None
+        config = effect(system, config, a)
+    return degraded_seconds(system, start, steps, times).weighted if goal.reached(config) else None
 
 
 def _preparing(system: System, start: Configuration, steps: Sequence[Action]) -> list[int]:
@@ -89,15 +86,13 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
 
 
 def prepare_first(system: System, start: Configuration, steps: list[Action], goal: Goal,
-                  times: Durations, removes_last: bool = True) -> list[Action]:
-    """`steps` with the preparing steps first and (with `removes_last`) the removes last, where
-    that keeps every precondition and lowers the degraded seconds; `steps` unchanged otherwise."""
+                  times: Durations) -> list[Action]:
+    """`steps` with the preparing steps first and the removes last, where that keeps every
+    precondition and lowers the degraded seconds; `steps` unchanged otherwise."""
     before = weighted_seconds(system, start, steps, goal, times)
     if not before:
         return steps
     out = _move(system, start, steps, goal, times, _preparing(system, start, steps), front=True)
-    if removes_last:
-        out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)],
-                    front=False)
+    out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)], front=False)
     after = weighted_seconds(system, start, out, goal, times)
     return out if after is not None and after < before else steps

@@ -56,7 +56,7 @@ def test_degraded_seconds_count_what_served_while_each_step_runs() -> None:
     while steps 2..7 run. talker_v2, created degraded, served no one before: it does not count."""
     plan = plan_replace(talker_system(), "talker", "talker_v2", strategy="paper")
     times = durations(plan.system)
-    sec = degraded_seconds(plan.system, plan.states, plan.steps, times)
+    sec = degraded_seconds(plan.system, plan.states[0], plan.steps, times)
     assert set(sec.seconds) == {("listener", "listen")}
     assert sec.seconds[("listener", "listen")] == pytest.approx(sum(times.of(a) for a in plan.steps[1:]))
     assert sec.total == pytest.approx(sum(times.of(a) for a in plan.steps))
