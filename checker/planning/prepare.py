@@ -23,8 +23,8 @@ from reconf_dsl.ir import System
 
 __all__ = ["prepare_first", "weighted_seconds"]
 
-MOVES_LIMIT = 400
-"""Plans longer than this get the all-at-once moves only (each single move replays the plan)."""
+TRIALS = 200
+"""How many orders the single moves may check, at most (each check replays the plan)."""
 
 
 def weighted_seconds(system: System, start: Configuration, steps: Sequence[Action], goal: Goal,
@@ -71,13 +71,14 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
     cand = moved + rest if front else rest + moved
     if weighted_seconds(system, start, cand, goal, times) is not None:
         return cand
-    if len(steps) > MOVES_LIMIT:
-        return steps
-    tagged = list(enumerate(steps))
+    tagged, trials = list(enumerate(steps)), TRIALS
     for k in picked if front else reversed(picked):
         i = next(n for n, (orig, _) in enumerate(tagged) if orig == k)
         item, others = tagged[i], tagged[:i] + tagged[i + 1:]
         for j in (range(0, i) if front else range(len(others), i, -1)):
+            trials -= 1
+            if trials < 0:
+                return [a for _, a in tagged]
             trial = others[:j] + [item] + others[j:]
             if weighted_seconds(system, start, [a for _, a in trial], goal, times) is not None:
                 tagged = trial
