@@ -69,6 +69,8 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
     moved = [steps[i] for i in picked]
     rest = [a for i, a in enumerate(steps) if i not in chosen]
     cand = moved + rest if front else rest + moved
+    if cand == steps:
+        return steps
     if weighted_seconds(system, start, cand, goal, times) is not None:
         return cand
     tagged, trials = list(enumerate(steps)), TRIALS
@@ -90,10 +92,10 @@ def prepare_first(system: System, start: Configuration, steps: list[Action], goa
                   times: Durations) -> list[Action]:
     """`steps` with the preparing steps first and the removes last, where that keeps every
     precondition and lowers the degraded seconds; `steps` unchanged otherwise."""
-    before = weighted_seconds(system, start, steps, goal, times)
+    before = degraded_seconds(system, start, steps, times).weighted    # `steps` is a checked plan
     if not before:
         return steps
     out = _move(system, start, steps, goal, times, _preparing(system, start, steps), front=True)
     out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)], front=False)
-    after = weighted_seconds(system, start, out, goal, times)
-    return out if after is not None and after < before else steps
+    # every order `_move` returns was checked
+    return out if degraded_seconds(system, start, out, times).weighted < before else steps

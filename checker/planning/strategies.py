@@ -8,12 +8,12 @@ from dataclasses import dataclass
 from typing import Callable, Optional
 
 from checker.planning.default import default_steps
-from checker.planning.durations import durations
+from checker.planning.durations import degraded_seconds, durations
 from checker.planning.exhaustive import Budget, exhaustive_search
 from checker.planning.improve import cost, improve
 from checker.planning.paper import paper_steps
 from checker.planning.plan import NoSafePlan, Plan, Problem, ready, verify
-from checker.planning.prepare import prepare_first, weighted_seconds
+from checker.planning.prepare import prepare_first
 from checker.semantic_model.actions import Action
 
 Steps = tuple[list[Action], Optional[str]]     # the steps, and a note on how they were found
@@ -37,7 +37,7 @@ def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
     ordered = prepare_first(system, start, steps, goal, times)
     if ordered is steps:
         return steps, note
-    was, now = (weighted_seconds(system, start, s, goal, times) or 0.0 for s in (steps, ordered))
+    was, now = (degraded_seconds(system, start, s, times).weighted for s in (steps, ordered))
     said = (f"prepared first, cleaned up last: the creates of new components and their inputs' attaches "
             f"before the first degrade, the removes after the last upgrade (~{was:.2f} s degraded → ~{now:.2f} s)")
     return ordered, (f"{note}; {said}" if note else said)
