@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import statistics
 import tempfile
 import time
@@ -36,6 +37,8 @@ EX = ROOT / "examples"
 # name, architecture, plan arguments
 SCENARIOS = [
     ("chatter replace talker", "chatter.arch", ["replace", "talker"]),
+    # /chatter made `single`: the listener must degrade while one talker leaves and the other comes
+    ("chatter replace talker on a single topic", "chatter.arch single", ["replace", "talker"]),
     ("robot remove obstacle_detector", "robot.arch", ["remove", "obstacle_detector"]),
     ("redundant replace lidar_rear", "redundant.arch", ["replace", "lidar_rear"]),
     ("chain5 replace stage0", "chain5.arch", ["replace", "stage0"]),
@@ -51,12 +54,25 @@ def pct(xs: list[float], q: float) -> float:
     return xs[min(len(xs) - 1, int(round(q * (len(xs) - 1))))] if xs else float("nan")
 
 
+def arch_file(arch: str, work: Path) -> str:
+    """The architecture a scenario names: an example, or (`NAME single`) the example with its
+    topics made `single`, written into `work`."""
+    name, _, variant = arch.partition(" ")
+    if not variant:
+        return str(EX / name)
+    text = re.sub(r"^(topic \S+: \S+ @ [^{]+?) \{", r"\1 single {", (EX / name).read_text(), flags=re.M)
+    work.mkdir(parents=True, exist_ok=True)
+    (work / name).write_text(text)
+    return str(work / name)
+
+
 def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, Any]:
+    path = arch_file(arch, work / "arch")
     with LiveSystem(work) as live:
         live.watch()
-        live.deploy(str(EX / arch))
+        live.deploy(path)
         live.wait_ready(timeout=30)
-        plan_args = list(args) + ([] if args[0] == "migrate" else ["-f", str(EX / arch)]) + ["--strategy", strategy]
+        plan_args = list(args) + ([] if args[0] == "migrate" else ["-f", path]) + ["--strategy", strategy]
         script = live.plan_script(plan_args)
         t0 = time.monotonic()
         res = live.run_plan(script)
