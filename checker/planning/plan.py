@@ -403,7 +403,6 @@ class Problem:
     removed: list[str] = field(default_factory=list)
     added: list[str] = field(default_factory=list)
     renames: dict[str, str] = field(default_factory=dict)
-    times: Optional[Durations] = None   # how long each action takes; None: the system's own
 
 
 @dataclass(frozen=True)

@@ -32,8 +32,8 @@ def _default(problem: Problem) -> tuple[list[Action], Optional[str]]:
     """The default strategy's order (`_default_order`), prepared first and cleaned up last
     (`checker.planning.prepare`) where that saves degraded seconds."""
     steps, note = _default_order(problem)
-    times = problem.times or durations(problem.system)
     system, start, goal = problem.system, problem.start, problem.goal
+    times = durations(system)
     ordered = prepare_first(system, start, steps, goal, times)
     if ordered is steps:
         return steps, note
@@ -107,7 +107,6 @@ def solve(problem: Problem, strategy: str = "default", budget: Budget = Budget()
         raise ValueError(f"unknown strategy {strategy!r}; choose one of {', '.join(STRATEGIES)}")
     steps, note = REGISTRY[strategy].steps(problem, budget, tried)
     plan = verify(problem.system, problem.start, steps, problem.goal, strategy, problem.renames)
-    plan.times = problem.times
     if note:
         plan.notes.append(note)
     return plan
