@@ -140,6 +140,8 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
                                      "`allow-unsafe-base = true`: a warning, the head passes alone, to be deployed "
                                      "by other means"),
     ("RC511", "report-not-written", "`reconf gate`: a `--report` file cannot be written"),
+    ("RC512", "degraded-seconds-over-policy", "`reconf gate`: the plan is expected to keep what served degraded "
+                                              "longer than the policy's `max-degraded-seconds`"),
     ("RC601", "discover-placeholder", "warning, `reconf discover`: a guess where only the graph is known (a node "
                                       "without `reconf.model`, a topic with no rate or no publisher), marked "
                                       "`// placeholder:` in the written `.arch`"),

@@ -72,6 +72,8 @@ def test_a_string_for_a_boolean_is_refused_with_the_fix(here) -> None:
 @pytest.mark.parametrize("text, message", [
     ('max-disruption = "4"\n', 'max-disruption must be a whole number ≥ 0, not the string "4"'),
     ("max-disruption = 2.5\n", "not the number 2.5"),
+    ('max-degraded-seconds = "1"\n', 'max-degraded-seconds must be a number of seconds ≥ 0, not the string "1"'),
+    ("max-degraded-seconds = -0.5\n", "not the number -0.5"),
     ('never-degrade = "listen"\n', 'never-degrade must be a list of'),
     ("never-degrade = [3]\n", "each entry of never-degrade must be a name in quotes, not the number 3"),
     ('never-degrade = [""]\n', "an empty name in never-degrade"),

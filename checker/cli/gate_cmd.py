@@ -114,6 +114,7 @@ def gate_cmd(base: str, head: str, policy_file: Optional[str], allow_unsafe_base
     \b
     Policy keys ([tool.reconf] in pyproject.toml, or reconf.toml):
       max-disruption = N        Σ criticality × steps degraded, at most N
+      max-degraded-seconds = S  Σ criticality × seconds degraded, as the plan expects, at most S
       never-degrade = [...]     COMPONENT.FUNCTIONALITY or FUNCTIONALITY never degraded
       keep-ftm = true | [...]   faults covered by these components' (or FTMs') mechanisms stay covered
       strategy = "default"      planning strategy

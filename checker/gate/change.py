@@ -16,7 +16,7 @@ from checker.alloy.engines import Engine, EngineUnavailable
 from checker.ftm.plan_change import plan_change, planned_on
 from checker.gate.check import check_system
 from checker.gate.policy import Policy, coverage, covered, ftm_names
-from checker.planning import NoSafePlan
+from checker.planning import NoSafePlan, Plan
 from checker.planning.alloy_verify import alloy_evidence
 from checker.planning.plan import degraded_runs
 from checker.planning.verified import plan_verified
@@ -133,6 +133,8 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, out
                 notes=(f"plan: {p.summary()}", "disruption = Σ criticality × steps degraded")))
         else:
             out.ok("gate.policy", name, policy.span("max-disruption"))
+    if policy.max_degraded_seconds is not None:
+        _judge_seconds(out, p, policy, new)
     degraded = degraded_steps(p)
     for i, entry in enumerate(policy.never_degrade):
         hits = sorted((k, v) for k, v in degraded.items() if policy.forbids_degrading(*k) == entry)
@@ -147,6 +149,23 @@ def plan_findings(old: System, new: System, policy: Policy, use_alloy: bool, out
                 f"({', '.join(map(str, steps))}); never-degrade in {policy.where} forbids it", span,
                 related=(Related(policy.entry_span("never-degrade", i), f"never-degrade includes {entry!r}"),),
                 notes=(f"plan: {p.summary()}",)))
+
+
+def _judge_seconds(out: Outcome, p: Plan, policy: Policy, new: System) -> None:
+    """The plan's expected degraded seconds (Σ criticality × seconds, docs/soundness.md#seconds-on-the-wire)
+    against the policy's `max-degraded-seconds`."""
+    limit, sec = policy.max_degraded_seconds, p.seconds()
+    name = f"degraded seconds at most {limit:g}"
+    if sec.weighted <= (limit or 0.0):
+        out.ok("gate.policy", name, policy.span("max-degraded-seconds"))
+        return
+    worst = sorted(sec.seconds.items(), key=lambda kv: -kv[1])[:3]
+    out.fail("gate.policy", name, error(
+        "RC512", f"the migration plan is expected to keep what served degraded for {sec.weighted:.2f} s "
+        f"(Σ criticality × seconds), over max-degraded-seconds = {limit:g} of {policy.where}", new.span,
+        related=(Related(policy.span("max-degraded-seconds"), f"max-degraded-seconds = {limit:g}"),),
+        notes=(f"plan: {p.summary()}", "longest: " + ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in worst),
+               f"durations: {', '.join(p.durations().sources)}")))
 
 
 def verified_in_alloy(p: Any) -> dict[str, Any]:

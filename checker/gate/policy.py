@@ -7,6 +7,7 @@ In `reconf.toml` the keys may stand at the top level or under `[tool.reconf]`.
 
     [tool.reconf]
     max-disruption = 4                     # Σ criticality × steps degraded (docs/design.md#disruption)
+    max-degraded-seconds = 1.5             # Σ criticality × seconds degraded on the wire, as the plan expects
     never-degrade = ["listener.listen", "control"]   # COMPONENT.FUNCTIONALITY or FUNCTIONALITY
     keep-ftm = true                        # or a list of component names and FTM names ("PBR")
     strategy = "default"                   # planning strategy: default, paper, exhaustive
@@ -41,7 +42,7 @@ from reconf_dsl.span import Span
 
 # What each FTM covers: the library's Table I, read once (never written out again here).
 COVERAGE: dict[str, frozenset[str]] = {name: m.covers for name, m in LIBRARY.items()}
-KEYS = ("max-disruption", "never-degrade", "keep-ftm", "strategy", "allow-unsafe-base")
+KEYS = ("max-disruption", "max-degraded-seconds", "never-degrade", "keep-ftm", "strategy", "allow-unsafe-base")
 TABLE = "tool.reconf"
 
 
@@ -75,6 +76,7 @@ class Policy:
     # key → the span of each entry of its list, in order (for never-degrade and keep-ftm)
     entry_spans: dict[str, tuple[Span, ...]] = field(default_factory=dict, compare=False)
     origin: str = ""                        # the git revision it was read from; "" for a file here
+    max_degraded_seconds: Optional[float] = None
 
     @property
     def where(self) -> str:
@@ -103,6 +105,7 @@ class Policy:
 
     def to_json(self) -> dict[str, Any]:
         return {"source": self.source or None, "max-disruption": self.max_disruption,
+                "max-degraded-seconds": self.max_degraded_seconds,
                 "never-degrade": list(self.never_degrade),
                 "keep-ftm": True if "*" in self.keep_ftm else list(self.keep_ftm), "strategy": self.strategy,
                 "allow-unsafe-base": self.allow_unsafe_base}
@@ -327,6 +330,7 @@ def parse_policy(table: dict[str, Any], shown: str, text: str = "", tables: tupl
     r = _PolicyReader(locate(text, shown, tables), Span(shown, 1, 1, 1, 1))
     r.read_keys(table)
     md = r.max_disruption()
+    ms = r.max_degraded_seconds()
     nd, nd_spans = r.never_degrade()
     kf, kf_spans = r.names("keep-ftm", "component and FTM names", True)
     strategy = r.strategy()
@@ -334,7 +338,7 @@ def parse_policy(table: dict[str, Any], shown: str, text: str = "", tables: tupl
     if r.errors:
         raise DiagnosticError(sorted(r.errors, key=lambda d: (d.span.line, d.span.col)))
     return Policy(md, tuple(nd), tuple(kf), str(strategy), shown, r.spans, unsafe is True,
-                  {"never-degrade": tuple(nd_spans), "keep-ftm": tuple(kf_spans)})
+                  {"never-degrade": tuple(nd_spans), "keep-ftm": tuple(kf_spans)}, max_degraded_seconds=ms)
 
 
 @dataclass
@@ -379,6 +383,14 @@ class _PolicyReader:
                                      self.value_span("max-disruption"), notes=notes))
             return None
         return md
+
+    def max_degraded_seconds(self) -> Optional[float]:
+        ms = self.values.get("max-degraded-seconds")
+        if ms is not None and (isinstance(ms, bool) or not isinstance(ms, (int, float)) or not 0 <= ms < float("inf")):
+            self.errors.append(error("RC505", f"max-degraded-seconds must be a number of seconds ≥ 0, not {_describe(ms)}",
+                                     self.value_span("max-degraded-seconds")))
+            return None
+        return None if ms is None else float(ms)
 
     def names(self, key: str, what: str, allow_bool: bool) -> tuple[list[str], list[Span]]:
         """A list of names (or, with `allow_bool`, true for every one and false for none)."""
