@@ -193,6 +193,8 @@ def _names_for(toks: list[str], names: _Names) -> list[tuple[str, str]]:
         return [(f, "fault") for f in sorted(KNOWN_FAULTS)]
     if last in ("application", ",") and "application" in recent:
         return [(a, "application") for a in sorted(KNOWN_APPLICATION)]
+    if last == "takes" or (last == "," and "takes" in recent[-8:]):
+        return [(a, "action") for a in ir.ACTIONS]
     if last in ("(", ",") and "functionality" in recent:
         return [(p, "port") for p in names.ports()]
     if last in (":", "assume", "="):

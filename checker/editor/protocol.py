@@ -22,7 +22,8 @@ SYMBOL_KINDS = {"component": lsp.SymbolKind.Class, "input": lsp.SymbolKind.Field
 COMPLETION_KINDS = {"keyword": lsp.CompletionItemKind.Keyword, "component": lsp.CompletionItemKind.Class,
                     "port": lsp.CompletionItemKind.Field, "message": lsp.CompletionItemKind.Struct,
                     "host": lsp.CompletionItemKind.Value, "ftm": lsp.CompletionItemKind.EnumMember,
-                    "fault": lsp.CompletionItemKind.EnumMember, "application": lsp.CompletionItemKind.EnumMember}
+                    "fault": lsp.CompletionItemKind.EnumMember, "application": lsp.CompletionItemKind.EnumMember,
+                    "action": lsp.CompletionItemKind.EnumMember}
 
 
 def make_server(alloy: bool = True, version: str = "0") -> tuple[LanguageServer, Session]:

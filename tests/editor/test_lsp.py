@@ -151,3 +151,10 @@ async def test_completion_of_names_where_the_grammar_expects_one(client: Languag
     items = await client.text_document_completion_async(lsp.CompletionParams(
         lsp.TextDocumentIdentifier(uri), lsp.Position(len(lines) - 1, len(lines[-1]))))
     assert {"input", "output", "functionality", "host"} <= {i.label for i in items.items}
+    cut = text.index("  output out: String\n") + len("  output out: String\n")
+    typed = text[:cut] + "  takes create 2 s, "
+    change(client, uri, 4, typed + "\n" + text[cut:])
+    lines = typed.splitlines()
+    items = await client.text_document_completion_async(lsp.CompletionParams(
+        lsp.TextDocumentIdentifier(uri), lsp.Position(len(lines) - 1, len(lines[-1]))))
+    assert [i.label for i in items.items] == ["remove", "create", "detach", "attach", "degrade", "upgrade"]
