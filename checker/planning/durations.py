@@ -2,10 +2,11 @@
 
 An action's duration, in order of precedence (docs/soundness.md#seconds-on-the-wire):
 
-1. what a run report timed for that action on that component, or for that action on any
-   component (`Durations.observed`: the median of the steps the executor confirmed);
+1. what a run report timed for that action on that component (`Durations.observed`: the
+   median of the steps the executor confirmed);
 2. the component's `takes` line in the `.arch` (`takes create 2.5 s`);
-3. the measured default of the action's kind (`checker.semantic_model.actions.KINDS`,
+3. what a run report timed for that action on any component;
+4. the measured default of the action's kind (`checker.semantic_model.actions.KINDS`,
    `ActionKind.seconds`: medians of the executor's step reports in `bench_live`).
 
 Degraded seconds (`degraded_seconds`): a step takes effect when the executor has confirmed it
@@ -70,7 +71,7 @@ class Durations:
 
 def durations(system: System) -> Durations:
     """The measured defaults, with the `takes` lines of `system`'s components over them."""
-    comps = {(c.name, t.action): float(t.seconds) for c in system.components for t in c.takes}
+    comps = {(c.name, t.action): float(t.seconds) for c in system.components + system.versions for t in c.takes}
     sources = ("measured defaults",) + (("the architecture's `takes` lines",) if comps else ())
     return Durations({k.name: k.seconds for k in KINDS}, comps, sources)
 

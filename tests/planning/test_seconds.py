@@ -29,11 +29,11 @@ def test_the_six_actions_the_language_times_are_the_registry_s() -> None:
 
 def test_a_takes_line_overrides_the_default_for_its_component_only() -> None:
     text = open(os.path.join(EXAMPLES, "chatter.arch")).read().replace(
-        "  host robot\n  output out: String\n", "  host robot\n  output out: String\n  takes create 2.5 s, upgrade 40 ms\n", 1)
+        "  host robot\n  output out: String\n", "  host robot\n  output out: String\n  takes create 2.5 s, upgrade 40 ms\n", 2)
     assert "takes create" in text
     times = durations(load_text(text, "chatter.arch"))
-    assert times.components == {("talker", "create"): 2.5, ("talker", "upgrade"): 0.04}
-    assert times.of(Create("talker")) == 2.5 and times.of(Create("talker_v2")) == times.kinds["create"]
+    assert times.components == {(c, a): s for c in ("talker", "talker_v2") for a, s in (("create", 2.5), ("upgrade", 0.04))}
+    assert times.of(Create("talker_v2")) == 2.5 and times.of(Create("listener")) == times.kinds["create"]
     assert "takes" in times.sources[-1]
 
 
