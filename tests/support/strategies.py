@@ -70,7 +70,9 @@ def components(draw: st.DrawFn) -> ir.Component:
         faults=tuple(draw(st.lists(names, max_size=2))), application=tuple(draw(st.lists(names, max_size=2))),
         resources=tuple(ir.ResourceSetting(k, v) for k, v in draw(st.lists(
             st.tuples(names, names | st.integers(0, 64).map(str)), max_size=2))),
-        ftm=ftm, node=draw(st.none() | ros_nodes))
+        ftm=ftm, node=draw(st.none() | ros_nodes),
+        takes=tuple(draw(st.lists(st.builds(ir.Take, st.sampled_from(ir.ACTIONS), rate_values.filter(lambda v: v >= 0),
+                                            st.sampled_from(["s", "ms"])), max_size=3))))
 
 
 portrefs = st.builds(ir.PortRef, names, names)
