@@ -23,6 +23,7 @@ from checker.semantic_model.actions import (
     Attach,
     Degrade,
     Detach,
+    Remove,
     Snapshot,
     Upgrade,
     catalogue,
@@ -126,10 +127,9 @@ def affected_protocols(old: ir.System, new: ir.System, old_info: ExpansionInfo,
 
 
 def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, str]) -> bool:
-    """Whether `a` disturbs a running node of `hood`: detaches a port, or attaches a publisher
-    (attaching a new node's input only prepares it; a remove takes away a node that its
-    precondition has isolated, which nothing reads from or publishes to any more)."""
-    if isinstance(a, Detach):
+    """Whether `a` disturbs a running node of `hood`: removes one, detaches a port, or attaches a
+    publisher (attaching a new node's input only prepares it)."""
+    if isinstance(a, (Remove, Detach)):
         name = a.component
     elif isinstance(a, Attach):
         comp = system.component(a.component)
@@ -277,13 +277,15 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
 
 def _prepared(system: ir.System, start: Configuration, steps: list[Action], final: Goal, strategy: str,
               renames: dict[str, str], hoods: dict[str, set[str]]) -> Plan:
-    """The verified plan of `steps`, its new nodes created and their inputs attached before the
-    suspension, and its removes after the resume (checker.planning.prepare), where that keeps
-    every protocol suspended while its neighbourhood changes (a create, a new node's input and
-    the remove of an isolated node disturb none); `steps` as they are for the paper's strategy,
-    or where it does not."""
+    """The verified plan of `steps`, its new nodes created before the suspension
+    (checker.planning.prepare), where that keeps every protocol suspended while its
+    neighbourhood changes; `steps` as they are for the paper's strategy, or where it does not.
+    Only the creates move: a node just created is attached to nothing. Its inputs, attached
+    before the suspension too, let a new Proceed hear the application's replies to requests
+    the old path carried, and the application answered wrong from then on in 1 of 3 PBR(TR) ->
+    PBR runs at 50 requests/s (docs/ftm.md#a-transition-under-load); the removes stay inside."""
     if strategy != "paper":
-        ordered = prepare_first(system, start, steps, final, durations(system))
+        ordered = prepare_first(system, start, steps, final, durations(system), inputs=False, removes=False)
         if ordered is not steps:
             whole = verify(system, start, ordered, final, strategy, renames)
             if not suspension_problems(whole, hoods):

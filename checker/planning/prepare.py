@@ -40,9 +40,9 @@ def weighted_seconds(system: System, start: Configuration, steps: Sequence[Actio
     return degraded_seconds(system, start, steps, times).weighted if goal.reached(config) else None
 
 
-def _preparing(system: System, start: Configuration, steps: Sequence[Action]) -> list[int]:
-    """The indices of the preparing steps: creates of new components, and attaches of their
-    inputs before their first upgrade."""
+def _preparing(system: System, start: Configuration, steps: Sequence[Action], inputs: bool) -> list[int]:
+    """The indices of the preparing steps: creates of new components, and (with `inputs`)
+    attaches of their inputs before their first upgrade."""
     new = {a.component for a in steps if isinstance(a, Create) and a.component not in start.components}
     upgraded: set[str] = set()
     out = []
@@ -51,7 +51,7 @@ def _preparing(system: System, start: Configuration, steps: Sequence[Action]) ->
             upgraded.add(a.component)
         elif isinstance(a, Create) and a.component in new:
             out.append(i)
-        elif isinstance(a, Attach) and a.component in new and a.component not in upgraded:
+        elif inputs and isinstance(a, Attach) and a.component in new and a.component not in upgraded:
             comp = system.component(a.component)
             port = comp.port(a.port) if comp is not None else None
             if port is not None and port.kind == "input":
@@ -89,13 +89,16 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
 
 
 def prepare_first(system: System, start: Configuration, steps: list[Action], goal: Goal,
-                  times: Durations) -> list[Action]:
-    """`steps` with the preparing steps first and the removes last, where that keeps every
+                  times: Durations, inputs: bool = True, removes: bool = True) -> list[Action]:
+    """`steps` with the preparing steps first (the creates, and with `inputs` the attaches of the
+    new components' inputs) and (with `removes`) the removes last, where that keeps every
     precondition and lowers the degraded seconds; `steps` unchanged otherwise."""
     before = degraded_seconds(system, start, steps, times).weighted    # `steps` is a checked plan
     if not before:
         return steps
-    out = _move(system, start, steps, goal, times, _preparing(system, start, steps), front=True)
-    out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)], front=False)
+    out = _move(system, start, steps, goal, times, _preparing(system, start, steps, inputs), front=True)
+    if removes:
+        out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)],
+                    front=False)
     # every order `_move` returns was checked
     return out if degraded_seconds(system, start, out, times).weighted < before else steps
