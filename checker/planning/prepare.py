@@ -13,31 +13,19 @@ state is left where it was), and keeps the new order only when its degraded seco
 """
 from __future__ import annotations
 
-from typing import Optional, Sequence
+from typing import Sequence
 
 from checker.planning.durations import Durations, degraded_seconds
+from checker.planning.improve import cost
 from checker.planning.plan import Goal
-from checker.semantic_model.actions import Action, Attach, Create, Remove, Snapshot, Upgrade, catalogue, check, effect
+from checker.semantic_model.actions import Action, Attach, Create, Remove, Upgrade
 from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
-__all__ = ["prepare_first", "weighted_seconds"]
+__all__ = ["prepare_first"]
 
 TRIALS = 200
 """How many orders the single moves may check, at most (each check replays the plan)."""
-
-
-def weighted_seconds(system: System, start: Configuration, steps: Sequence[Action], goal: Goal,
-                     times: Durations) -> Optional[float]:
-    """The criticality-weighted degraded seconds of `steps`, or None when a step is refused or
-    the goal is missed (what counts: `checker.planning.durations`)."""
-    cat = catalogue(system)
-    config = start
-    for a in steps:
-        if check(Snapshot(cat, config), a):
-            return None
-        config = effect(system, config, a)
-    return degraded_seconds(system, start, steps, times).weighted if goal.reached(config) else None
 
 
 def _preparing(system: System, start: Configuration, steps: Sequence[Action], inputs: bool) -> list[int]:
@@ -59,8 +47,8 @@ def _preparing(system: System, start: Configuration, steps: Sequence[Action], in
     return out
 
 
-def _move(system: System, start: Configuration, steps: list[Action], goal: Goal, times: Durations,
-          picked: list[int], front: bool) -> list[Action]:
+def _move(system: System, start: Configuration, steps: list[Action], goal: Goal, picked: list[int],
+          front: bool) -> list[Action]:
     """`steps` with the `picked` ones (indices) moved to the front (the back), in their order,
     all at once where the checks allow, or else each on its own as far as they allow."""
     if not picked:
@@ -71,7 +59,7 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
     cand = moved + rest if front else rest + moved
     if cand == steps:
         return steps
-    if weighted_seconds(system, start, cand, goal, times) is not None:
+    if cost(system, start, cand, goal) is not None:      # every precondition holds, the goal is reached
         return cand
     tagged, trials = list(enumerate(steps)), TRIALS
     for k in picked if front else reversed(picked):
@@ -82,7 +70,7 @@ def _move(system: System, start: Configuration, steps: list[Action], goal: Goal,
             if trials < 0:
                 return [a for _, a in tagged]
             trial = others[:j] + [item] + others[j:]
-            if weighted_seconds(system, start, [a for _, a in trial], goal, times) is not None:
+            if cost(system, start, [a for _, a in trial], goal) is not None:
                 tagged = trial
                 break
     return [a for _, a in tagged]
@@ -96,9 +84,8 @@ def prepare_first(system: System, start: Configuration, steps: list[Action], goa
     before = degraded_seconds(system, start, steps, times).weighted    # `steps` is a checked plan
     if not before:
         return steps
-    out = _move(system, start, steps, goal, times, _preparing(system, start, steps, inputs), front=True)
+    out = _move(system, start, steps, goal, _preparing(system, start, steps, inputs), front=True)
     if removes:
-        out = _move(system, start, out, goal, times, [i for i, a in enumerate(out) if isinstance(a, Remove)],
-                    front=False)
+        out = _move(system, start, out, goal, [i for i, a in enumerate(out) if isinstance(a, Remove)], front=False)
     # every order `_move` returns was checked
     return out if degraded_seconds(system, start, out, times).weighted < before else steps

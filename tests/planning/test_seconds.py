@@ -10,8 +10,9 @@ import pytest
 from checker.ftm.transition import plan_transition
 from checker.planning import plan_replace
 from checker.planning.durations import degraded_seconds, durations
+from checker.planning.improve import cost
 from checker.planning.plan import verify
-from checker.planning.prepare import _move, prepare_first, weighted_seconds
+from checker.planning.prepare import _move, prepare_first
 from checker.semantic_model.actions import KINDS, Create, Degrade
 from reconf_dsl import ir
 from reconf_dsl.loader import load, load_text
@@ -100,11 +101,11 @@ def test_a_move_the_preconditions_refuse_is_not_made() -> None:
     """Moving the listener's upgrade (index 6) to the front would upgrade it with no publisher:
     refused all at once, so it goes as far forward as the checks allow, and the plan stays valid."""
     plan = plan_replace(talker_system(), "talker", "talker_v2", strategy="paper")
-    start, goal, times = plan.states[0], plan.goal, durations(plan.system)
-    moved = _move(plan.system, start, plan.steps, goal, times, [6], front=True)
-    assert weighted_seconds(plan.system, start, moved, goal, times) is not None
+    start, goal = plan.states[0], plan.goal
+    moved = _move(plan.system, start, plan.steps, goal, [6], front=True)
+    assert cost(plan.system, start, moved, goal) is not None
     assert moved == plan.steps        # it needs talker_v2 attached, the step just before it
     verify(plan.system, start, moved, goal, "test")
     # a remove moved last: valid, and the plan still verifies
-    later = _move(plan.system, start, plan.steps, goal, times, [2], front=False)
-    assert later[-1].kind == "remove" and weighted_seconds(plan.system, start, later, goal, times) is not None
+    later = _move(plan.system, start, plan.steps, goal, [2], front=False)
+    assert later[-1].kind == "remove" and cost(plan.system, start, later, goal) is not None
