@@ -308,13 +308,11 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
         out.print(f"Wrote {output}: run it with `python3 {output}` (or `--dry-run` to replay it without ROS).")
 
 
-def seconds_line(p: Plan, shown: int = 3) -> str:
+def seconds_line(p: Plan) -> str:
     """The plan's expected time on the wire and what stays degraded how long, most first."""
     sec = p.seconds()
-    longest = sorted(sec.seconds.items(), key=lambda kv: (-kv[1], kv[0]))
-    said = ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in longest[:shown]) + (", …" if len(longest) > shown else "")
-    what = (f"degraded ~{sec.weighted:.2f} s (Σ criticality × seconds degraded of what served before: {said})"
-            if longest else "nothing that served before is degraded")
+    what = (f"degraded ~{sec.weighted:.2f} s (Σ criticality × seconds degraded of what served before: "
+            f"{sec.longest()})" if sec.seconds else "nothing that served before is degraded")
     return (f"~{sec.total:.1f} s for the {plural(len(p.steps), 'step')}; {what}; "
             f"durations: {', '.join(p.durations().sources)}")
 

@@ -159,12 +159,11 @@ def _judge_seconds(out: Outcome, p: Plan, policy: Policy, new: System) -> None:
     if sec.weighted <= (limit or 0.0):
         out.ok("gate.policy", name, policy.span("max-degraded-seconds"))
         return
-    worst = sorted(sec.seconds.items(), key=lambda kv: -kv[1])[:3]
     out.fail("gate.policy", name, error(
         "RC512", f"the migration plan is expected to keep what served degraded for {sec.weighted:.2f} s "
         f"(Σ criticality × seconds), over max-degraded-seconds = {limit:g} of {policy.where}", new.span,
         related=(Related(policy.span("max-degraded-seconds"), f"max-degraded-seconds = {limit:g}"),),
-        notes=(f"plan: {p.summary()}", "longest: " + ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in worst),
+        notes=(f"plan: {p.summary()}", f"longest: {sec.longest()}",
                f"durations: {', '.join(p.durations().sources)}")))
 
 

@@ -86,6 +86,11 @@ class Degradation:
     seconds: Mapping[FuncId, float]
     weighted: float
 
+    def longest(self, shown: int = 3) -> str:
+        """The `shown` functionalities degraded longest, most first, with their seconds."""
+        ranked = sorted(self.seconds.items(), key=lambda kv: (-kv[1], kv[0]))
+        return ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in ranked[:shown]) + (", …" if len(ranked) > shown else "")
+
     def to_dict(self) -> dict[str, Any]:
         return {"plan": round(self.total, 3), "weighted": round(self.weighted, 3),
                 "functionalities": [{"component": c, "functionality": f, "seconds": round(s, 3)}

@@ -46,6 +46,14 @@ class Timeline:
     def degraded_seconds(self, name: str) -> float:
         return sum(b.end - b.start for b in self.degraded.get(name, []))
 
+    def planned_note(self) -> str:
+        """What the plan expected the run to take, for the title ("" for a plan without seconds)."""
+        return f" (the plan expected ~{self.planned:.2f} s)" if self.planned else ""
+
+    def expected(self, name: str) -> str:
+        """What the plan expected of the degraded row `name`, for its end ("" if nothing)."""
+        return f" (plan ~{self.estimate[name]:.2f} s)" if name in self.estimate else ""
+
 
 def _describe(step: dict[str, Any]) -> str:
     a = step["action"]
@@ -102,8 +110,7 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     if not tl.steps:
         return f"{tl.title}: no step was timed ({tl.outcome})\n"
     scale = width / max(tl.end, 1e-6)
-    planned = f" (the plan expected ~{tl.planned:.2f} s)" if tl.planned else ""
-    lines = [f"{tl.title}, {tl.outcome}, {tl.end:.2f} s{planned}; one column is {tl.end / width:.3f} s",
+    lines = [f"{tl.title}, {tl.outcome}, {tl.end:.2f} s{tl.planned_note()}; one column is {tl.end / width:.3f} s",
              f"{'step':<{label}} |{'0 s':<{width - 8}}{tl.end:>6.2f} s|"]
     for b in tl.steps:
         lines.append(f"{b.label[:label]:<{label}} |{_row([b], scale, width, '█')}| {b.end - b.start:6.3f} s"
@@ -111,9 +118,8 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     if tl.degraded:
         lines.append(f"{'degraded':<{label}} |{'-' * width}|")
     for name in sorted(tl.degraded):
-        expected = f" (plan ~{tl.estimate[name]:.2f} s)" if name in tl.estimate else ""
         lines.append(f"{name[:label]:<{label}} |{_row(tl.degraded[name], scale, width, '░')}| "
-                     f"{tl.degraded_seconds(name):6.3f} s{expected}")
+                     f"{tl.degraded_seconds(name):6.3f} s{tl.expected(name)}")
     if tl.violated:
         lines.append(f"{'monitors that saw a violation':<{label}} |{'-' * width}|")
     for comp, (n, at) in sorted(tl.violated.items()):
@@ -134,15 +140,14 @@ def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> s
     height = row * (len(names) + 3)
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '
            f'font-size="11">', f'<text x="4" y="{row}">{escape(tl.title)}, {escape(tl.outcome)}, {tl.end:.2f} s'
-           + (f' (the plan expected ~{tl.planned:.2f} s)' if tl.planned else '') + '</text>']
+           f'{tl.planned_note()}</text>']
     for s in range(int(tl.end) + 1):
         x = label + s * scale
         out.append(f'<line x1="{x:.1f}" y1="{row * 1.5:.0f}" x2="{x:.1f}" y2="{height}" stroke="#ddd"/>'
                    f'<text x="{x + 2:.1f}" y="{row * 2 - 2}" fill="#888">{s} s</text>')
     index = {name: i for i, name in enumerate(names)}
     for i, name in enumerate(names):
-        expected = f" (plan ~{tl.estimate[name]:.2f} s)" if name in tl.estimate else ""
-        out.append(f'<text x="4" y="{row * (i + 3) - 4}">{escape(name[:60])}{expected}</text>')
+        out.append(f'<text x="4" y="{row * (i + 3) - 4}">{escape(name[:60])}{tl.expected(name)}</text>')
     for b, colour in rows:
         y = row * (index[b.label] + 2) + 2
         out.append(f'<rect x="{label + b.start * scale:.1f}" y="{y}" width="{max(1.0, (b.end - b.start) * scale):.1f}" '
