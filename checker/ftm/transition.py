@@ -16,6 +16,7 @@ from checker.ftm.expand import ExpansionInfo, FtmRuleBroken, expand
 from checker.ftm.library import LAYER_ORDER
 from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
 from checker.planning.durations import durations
+from checker.planning.lossless import reaches, request_problems, targets_of
 from checker.planning.plan import settle, verify
 from checker.planning.prepare import prepare_first
 from checker.semantic_model.actions import (
@@ -417,7 +418,7 @@ def _request_path(system: ir.System, start: Configuration, old_infos: list[Expan
     """The roles and components that carry each served proxy's requests to a protocol in
     `start` (up to the first protocols reached): the planner keeps them until the new path
     is linked."""
-    targets = _targets(protocols(old_infos, new_infos))
+    targets = targets_of(protocols(old_infos, new_infos))
     st = Snapshot(catalogue(system), start)
     roles: set[tuple[str, str, str]] = set()
     comps: set[str] = set()
@@ -520,51 +521,7 @@ def reaches_protocol(system: ir.System, state: Configuration, proxy: str, client
     """Whether, in `state`, the requests `proxy` publishes (on any connector but the clients'
     connectors `clients`) reach a present protocol of `targets`, through the readers of each
     connector and what those publish (a suspended protocol queues them)."""
-    return _reaches(Snapshot(catalogue(system), state), proxy, clients, targets)
-
-
-def _reaches(st: Snapshot, proxy: str, clients: set[str], targets: set[str]) -> bool:
-    seen, frontier = {proxy}, [proxy]
-    while frontier:
-        comp = frontier.pop()
-        for conn in {k for k, _ in st.attached_outputs(comp)} - clients:
-            for reader in st.readers([conn]) - seen:   # present components only
-                if reader in targets:
-                    return True
-                seen.add(reader)
-                frontier.append(reader)
-    return False
-
-
-def _targets(pairs: list[tuple[str, str]]) -> dict[str, set[str]]:
-    """proxy -> its protocols, from `Plan.protocols`' (proxy, protocol) pairs."""
-    out: dict[str, set[str]] = {}
-    for proxy, protocol in pairs:
-        out.setdefault(proxy, set()).add(protocol)
-    return out
-
-
-def request_problems(plan: Plan) -> list[str]:
-    """Every state of `plan` in which a request could be lost: a `serving` proxy's requests
-    reach none of its protocols (`Plan.protocols`), or a `handover` proxy that still publishes
-    on its clients' connector has requests that reach none. A degraded proxy still relays (its
-    degraded mode guarantees the types without the rate). The Alloy plan module states the
-    same (`lossless_states`)."""
-    cat = catalogue(plan.system)
-    clients = {conn for conn, _ in plan.serving + plan.handover}
-    targets = _targets(plan.protocols)
-    out = []
-    for k, state in enumerate(plan.states):
-        st = Snapshot(cat, state)
-        for conn, proxy in plan.serving:
-            if not _reaches(st, proxy, clients, targets.get(proxy, set())):
-                out.append(f"state {k}: the requests of {proxy} reach no protocol")
-        for conn, proxy in plan.handover:
-            if conn not in {sent for sent, _ in st.attached_outputs(proxy)}:
-                continue
-            if not _reaches(st, proxy, clients, targets.get(proxy, set())):
-                out.append(f"state {k}: the requests of {proxy} reach no protocol while it still publishes on {conn}")
-    return out
+    return reaches(Snapshot(catalogue(system), state), proxy, clients, targets)
 
 
 def _refuse_lost_requests(t: Transition) -> Transition:
