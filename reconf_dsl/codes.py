@@ -111,6 +111,10 @@ CODES: tuple[Code, ...] = tuple(Code(*row) for row in (
                                        "docs/executor.md (format 1 or 2)"),
     ("RC309", "plan-name-unknown", "`plan verify`: the plan names a component, port, connector or functionality the "
                                    "architecture does not declare"),
+    ("RC310", "plan-batch-unsafe", "`plan verify`: a batch of steps the document runs together is unsafe in some "
+                                   "order its steps can complete in (a state some order reaches is not valid or well "
+                                   "formed, or a step is refused in it), or is not a run of steps on distinct "
+                                   "components"),
     ("RC401", "ftm-ill-formed", "a fault-tolerance mechanism expression is not well formed"),
     ("RC402", "ftm-fault-not-covered", "the attached mechanism does not tolerate a declared fault"),
     ("RC403", "ftm-application-mismatch", "the mechanism needs an application characteristic the component lacks "

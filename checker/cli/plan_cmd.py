@@ -253,6 +253,18 @@ def run(label: str, system: System, make: Callable[..., Plan], sources: Sources,
     sys.exit(EXIT_CHANGES if code == EXIT_OK and detailed_exitcode and p.steps else code)
 
 
+STYLES = {"create": "green", "remove": "red", "attach": "cyan", "detach": "magenta", "degrade": "yellow",
+          "upgrade": "blue"}
+
+
+def list_steps(out: Any, p: Plan) -> None:
+    """The plan's steps, numbered; with batches, each batch's steps marked ┌ │ └."""
+    marks = {i: "┌" if i == a else "└" if i == b else "│" for a, b in p.batches for i in range(a, b + 1)}
+    for i, a in enumerate(p.steps, 1):
+        mark = f"{marks.get(i, ' ')} " if marks else ""
+        out.print(f"  {i:>3}. {mark}[{STYLES[a.kind]}]{a.symbol}[/] {a.describe()}", markup=True)
+
+
 def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -> None:
     out = console()
     after = ""
@@ -260,10 +272,7 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
         tried = [a.strategy for a in p.attempts]
         after = f"; {' and '.join([', '.join(tried[:-1]), tried[-1]] if len(tried) > 1 else tried)} failed, see below"
     out.print(f"reconf will {label} in {plural(len(p.steps), 'step')} (strategy [bold]{p.strategy}[/]{after}):\n")
-    styles = {"create": "green", "remove": "red", "attach": "cyan", "detach": "magenta", "degrade": "yellow",
-              "upgrade": "blue"}
-    for i, a in enumerate(p.steps, 1):
-        out.print(f"  {i:>3}. [{styles[a.kind]}]{a.symbol}[/] {a.describe()}", markup=True)
+    list_steps(out, p)
     counts: dict[str, int] = {}
     for a in p.steps:
         counts[a.kind] = counts.get(a.kind, 0) + 1
@@ -291,6 +300,12 @@ def show(label: str, p: Plan, evidence: dict[str, Any], output: Optional[str]) -
                       f"{agree(once, 'was', 'were')} judged once)")
         if al.get("lossless"):
             out.print(f"              [green]✓[/] Alloy: client side kept: {'; '.join(al['lossless'])} in every state")
+        if al.get("batches"):
+            b = al["batches"]
+            ok = b["batches"] - len(b["refused"])
+            out.print(f"              [green]✓[/] Alloy: {plural(ok, 'batch', 'batches')} of steps run together: "
+                      f"{plural(b['states'], 'state')} some order reaches valid, {plural(b['moves'], 'move')} "
+                      "instances of their actions")
     else:
         out.print("              [yellow]![/] Alloy verification skipped (--no-alloy)")
     for attempt in p.attempts:
@@ -328,7 +343,9 @@ def _verification(out: Any, evidence: dict[str, Any]) -> Optional[dict[str, Any]
         out.print(f"              from there every precondition holds, {plural(states - restore, 'state')} valid")
     else:
         out.print("[bold]Verification:[/] [green]✓[/] Python engine: every precondition holds, "
-                  + (f"all {states} states valid" if states != 1 else "the 1 state is valid"))
+                  + (f"all {states} states valid" if states != 1 else "the 1 state is valid")
+                  + (f"; in each of {plural(py['batches'], 'batch', 'batches')} of steps run together, in every order"
+                     if py.get("batches") else ""))
     al = evidence.get("alloy")
     if al:
         out.print(f"              [green]✓[/] Alloy: {plural(al['states'], 'state')} valid, "

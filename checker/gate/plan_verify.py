@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 from checker.alloy.engines import Engine
-from checker.planning.alloy_verify import alloy_evidence
+from checker.planning.alloy_verify import alloy_batches, alloy_evidence
+from checker.planning.batches import batch_refusal
 from checker.planning.plan import Goal, Plan
 from checker.reports.plan_reader import PlanInput
 from checker.semantic_model.actions import state_refusals, step_refusals
@@ -29,7 +30,7 @@ from reconf_dsl.span import Span
 __all__ = ["PlanJudgement", "verify_plan", "CODES"]
 
 # The code of each kind of broken rule (reconf_dsl/codes.py).
-CODES = {"step": "RC304", "effect": "RC305", "formed": "RC306", "valid": "RC307"}
+CODES = {"step": "RC304", "effect": "RC305", "formed": "RC306", "valid": "RC307", "batch": "RC310"}
 
 
 @dataclass
@@ -98,14 +99,30 @@ def verify_plan(system: System, plan: PlanInput, engine: Engine = Engine.BOTH) -
     out = PlanJudgement(plan)
     if engine.python:
         clock = time.perf_counter()
-        found = first_broken(system, plan)
+        found = first_broken(system, plan) or _unsafe_batch(system, plan)
         out.engines["python"] = {"engine": "python", "valid": found is None, "states": len(plan.states),
                                  "reason": found.message if found else "", "seconds": round(time.perf_counter() - clock, 3)}
         if found is not None:
             out.diagnostics.append(found)
     if engine.alloy:
-        out.engines["alloy"] = alloy_evidence(_as_plan(system, plan), given=True)
+        as_plan = _as_plan(system, plan)
+        out.engines["alloy"] = alloy = alloy_evidence(as_plan, given=True)
+        if plan.batches and alloy.get("valid"):
+            alloy["batches"] = judged = alloy_batches(as_plan, plan.batches)
+            if judged["refused"]:
+                which, why = next(iter(judged["refused"].items()))
+                alloy.update(valid=False, reason=f"the batch of steps {which}: {why}")
     return out
+
+
+def _unsafe_batch(system: System, plan: PlanInput) -> Optional[Diagnostic]:
+    """The first batch of the document that is unsafe in some order (checker.planning.batches), or None."""
+    as_plan = _as_plan(system, plan)
+    for (first, last), span in zip(plan.batches, plan.batch_spans):
+        why = batch_refusal(as_plan, first, last)
+        if why:
+            return error(CODES["batch"], f"steps {first}–{last}, run together, are unsafe: {why}", span)
+    return None
 
 
 def _as_plan(system: System, plan: PlanInput) -> Plan:

@@ -5,13 +5,16 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass, field
 from dataclasses import replace as dc_replace
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, Sequence
 
 from checker.alloy import alloy_plan_verdict, alloy_verdict
 from checker.alloy.errors import AlloyError
 from checker.alloy.instance import AlloyPlanVerdict
 from checker.planning import Plan
-from checker.planning.slicing import PlanSlicer
+from checker.planning.batches import moves
+from checker.planning.slicing import PlanSlicer, slice_plan
+from checker.semantic_model.actions import Action, effect
+from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import Predicate
 from reconf_dsl.words import plural
 
@@ -336,3 +339,66 @@ def _state_refused(verdict: "AlloyPlanVerdict", i: int, name: str) -> str:
     if not verdict.stable[i]:
         return f"a connector the slice relies on is unsatisfied in {name}"
     return ""
+
+
+def _chains(k: int) -> list[list[int]]:
+    """Paths through the subsets of a batch of `k` steps (bit masks) that take every move
+    (`batches.moves`) once: each path adds one step at a time."""
+    unused = set(moves(k))
+    out = []
+    while unused:
+        mask, j = min(unused)
+        path = [mask]
+        while j >= 0:
+            unused.discard((mask, j))
+            mask |= 1 << j
+            path.append(mask)
+            j = next((i for i in range(k) if (mask, i) in unused), -1)
+        out.append(path)
+    return out
+
+
+def _batch_module(plan: Plan, first: int, last: int) -> tuple[Plan, list[Action | None], list[int]]:
+    """The batch of steps `first`..`last` as one module's states and moves: every subset of its
+    steps done from the state before it (each path of `_chains` in turn), the step of each move,
+    None between two paths; and the index of every state that ends a move."""
+    steps = plan.steps[first - 1:last]
+    states = {0: plan.states[first - 1]}
+    for mask in range(1, 1 << len(steps)):
+        j = mask.bit_length() - 1
+        states[mask] = effect(plan.system, states[mask & ~(1 << j)], steps[j])
+    configs: list[Configuration] = []
+    actions: list[Action | None] = []
+    for path in _chains(len(steps)):
+        if configs:
+            actions.append(None)
+        configs.append(states[path[0]])
+        for a, b in zip(path, path[1:]):
+            actions.append(steps[(a ^ b).bit_length() - 1])
+            configs.append(states[b])
+    module = dc_replace(plan, steps=list(steps), states=configs, stable=[], notes=[])
+    return slice_plan(module), actions, [i for i, a in enumerate(actions) if a is not None]
+
+
+def alloy_batches(plan: Plan, batches: Sequence[tuple[int, int]]) -> dict[str, Any]:
+    """Alloy's judgement of each batch (checker.planning.batches): in every state some order of
+    its steps reaches, the configuration valid, well formed and losing no request; every move
+    an instance of its action. `refused` maps a batch (first, last) to Alloy's reason."""
+    refused: dict[tuple[int, int], str] = {}
+    seconds, states, moved = 0.0, 0, 0
+    for first, last in batches:
+        target, actions, ends = _batch_module(plan, first, last)
+        verdict = alloy_plan_verdict(target.system, target.states, serving=target.serving,
+                                     protocols=target.protocols, handover=target.handover, actions=actions)
+        seconds += verdict.seconds
+        states, moved = states + len(target.states), moved + len(ends)
+        bad = [_state_refused(verdict, i, "a state some order reaches") for i in range(len(target.states))]
+        why = next((b for b in bad if b), "")
+        if not why:
+            wrong = next((i for i in ends if actions[i].kind not in verdict.steps[i]), None)   # type: ignore[union-attr]
+            if wrong is not None:
+                why = f"in some order, {actions[wrong].describe()} is not an instance of its action"  # type: ignore[union-attr]
+        if why:
+            refused[(first, last)] = why
+    return {"batches": len(batches), "states": states, "moves": moved, "seconds": round(seconds, 3),
+            "refused": {f"{a}-{b}": why for (a, b), why in refused.items()}}

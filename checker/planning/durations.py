@@ -13,7 +13,8 @@ Degraded seconds (`degraded_seconds`): a step takes effect when the executor has
 on the wire, at its end, so while step i runs the system is in the state before it. Each
 functionality that is degraded in that state, of a component that served before the plan
 (present in its first state) and is still there after the step, is degraded for the step's
-duration. A component the plan creates served no one before: its degraded modes until its
+duration. The steps of a batch (checker.planning.batches) all begin at the batch's start and
+each takes effect at its own end; the next step begins after the slowest. A component the plan creates served no one before: its degraded modes until its
 first upgrade cost nothing, which is why creating it before anyone degrades is free. Summed
 per functionality, and over functionalities weighted by criticality: the plan's degraded
 functionality-seconds, the quantity the timeline of a run measures step by step
@@ -30,7 +31,7 @@ from checker.semantic_model.actions import KINDS, Action, catalogue
 from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import System
 
-__all__ = ["Durations", "Degradation", "durations", "degraded_seconds"]
+__all__ = ["Durations", "Degradation", "durations", "degraded_seconds", "schedule"]
 
 
 @dataclass(frozen=True)
@@ -97,7 +98,24 @@ class Degradation:
                                     for (c, f), s in sorted(self.seconds.items())]}
 
 
-def degraded_seconds(system: System, start: Configuration, steps: Sequence[Action], times: Durations) -> Degradation:
+def schedule(steps: Sequence[Action], times: Durations,
+             batches: Sequence[tuple[int, int]] = ()) -> tuple[list[tuple[float, float]], float]:
+    """When each step begins and ends, and when the last ends: one after the other, and the
+    steps of a batch (first and last step, from 1) all at the batch's start, the next step
+    after the batch's slowest."""
+    firsts = {a - 1: b for a, b in batches}
+    out: list[tuple[float, float]] = []
+    clock, i = 0.0, 0
+    while i < len(steps):
+        last = firsts.get(i, i + 1)
+        ends = [clock + times.of(a) for a in steps[i:last]]
+        out += [(clock, end) for end in ends]
+        clock, i = max(ends), last
+    return out, clock
+
+
+def degraded_seconds(system: System, start: Configuration, steps: Sequence[Action], times: Durations,
+                     batches: Sequence[tuple[int, int]] = ()) -> Degradation:
     """The degraded seconds of the plan `steps` from `start` (see the module's docstring for
     what counts), in time linear in the plan's length: a clock of the steps' durations, and per
     functionality the time its degraded run began. Only a degrade, an upgrade, a create or a
@@ -111,9 +129,8 @@ def degraded_seconds(system: System, start: Configuration, steps: Sequence[Actio
         if fid in since:
             per[fid] = per.get(fid, 0.0) + at - since.pop(fid)
 
-    clock = 0.0
-    for a in steps:
-        before, clock = clock, clock + times.of(a)
+    spans, total = schedule(steps, times, batches)
+    for a, (before, clock) in zip(steps, spans):
         kind, comp = a.kind, a.component
         if comp not in served:
             continue
@@ -128,7 +145,7 @@ def degraded_seconds(system: System, start: Configuration, steps: Sequence[Actio
             for f in cat.comps[comp].functionalities:
                 ends((comp, f.name), before)
     for fid in list(since):
-        ends(fid, clock)
+        ends(fid, total)
     per = {f: s for f, s in per.items() if s > 0}
     weighted = sum(s * (cat.funcs[f].criticality if f in cat.funcs else 1) for f, s in per.items())
-    return Degradation(clock, per, weighted)
+    return Degradation(total, per, weighted)

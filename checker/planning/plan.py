@@ -193,6 +193,9 @@ class Plan:
     recovery: Optional["Recovery"] = None
     # how long each action takes (checker.planning.durations); None: the system's own
     times: Optional[Durations] = None
+    # runs of steps carried out together, (first, last) from 1, each proved safe in every
+    # order its steps can complete in (checker.planning.batches)
+    batches: list[tuple[int, int]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -217,7 +220,7 @@ class Plan:
 
     def seconds(self) -> Degradation:
         """The plan's expected seconds on the wire, and degraded (checker.planning.durations)."""
-        return degraded_seconds(self.system, self.states[0], self.steps, self.durations())
+        return degraded_seconds(self.system, self.states[0], self.steps, self.durations(), self.batches)
 
     def to_dict(self) -> dict[str, Any]:
         """The plan as data: its first state in full and, per step, what the step changed (states
@@ -230,6 +233,8 @@ class Plan:
             "changes": [state_change(before, after) for before, after in pairwise(self.states)],
             "renames": dict(self.renames), "notes": list(self.notes), "verification": self.verification,
             "left_degraded": [{"component": c, "functionality": f, "why": w} for (c, f), w in self.goal.why]}
+        if self.batches:
+            out["batches"] = [list(b) for b in self.batches]
         if self.attempts:
             out["attempts"] = [a.to_dict() for a in self.attempts]
         if self.recovery is not None:

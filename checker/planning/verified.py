@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from typing import Any, Callable, Optional
 
 from checker.planning.alloy_search import plan_with_alloy
-from checker.planning.alloy_verify import PlanVerdicts, alloy_evidence
+from checker.planning.alloy_verify import PlanVerdicts, alloy_batches, alloy_evidence
+from checker.planning.batches import batch_plan, parallel_note
 from checker.planning.chain import Fallback
 from checker.planning.plan import Plan, Problem
 from reconf_dsl.words import plural
@@ -50,6 +51,7 @@ def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
     if alloy_planner:
         p = alloy_planned(p, max_steps)
     evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
+    _batched(p, evidence["python"])
     rest = p
     if p.recovery is not None and p.recovery.restore and p.recovery.rest is not None:
         # a recovery's first steps restore validity: judged by the proved property
@@ -59,7 +61,34 @@ def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
         rest = p.recovery.rest
     if verdicts is not None:
         evidence["alloy"] = verdicts.evidence(rest)
+        if p.batches and evidence["alloy"].get("valid"):
+            evidence["alloy"] = dict(evidence["alloy"], batches=_alloy_batches(p))
+    if p.batches:
+        p.notes.append(parallel_note(p.batches))
     return Verified(p, evidence)
+
+
+def _batched(p: Plan, python: dict[str, Any]) -> None:
+    """Group `p`'s steps into batches the Python engine proves (checker.planning.batches); not
+    the paper strategy's, which stays Algorithm 1 as the baseline, nor a recovery's restoring
+    steps."""
+    if p.strategy == "paper" or not p.steps:
+        return
+    p.batches = batch_plan(p, p.recovery.restore + 1 if p.recovery is not None else 1)
+    if p.batches:
+        python["batches"] = len(p.batches)
+
+
+def _alloy_batches(p: Plan) -> dict[str, Any]:
+    """Alloy's judgement of `p`'s batches; a batch it refuses runs one step at a time, with a
+    warning (the engines disagree: a bug in reconf)."""
+    judged = alloy_batches(p, p.batches)
+    if judged["refused"]:
+        p.batches = [b for b in p.batches if f"{b[0]}-{b[1]}" not in judged["refused"]]
+        p.notes += [
+            f"warning: Alloy refused the batch of steps {k}, which the Python engine allowed ({why}); its steps run one "
+            "at a time; please report it" for k, why in judged["refused"].items()]
+    return judged
 
 
 def alloy_planned(p: Plan, max_steps: int) -> Plan:

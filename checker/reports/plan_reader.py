@@ -41,6 +41,9 @@ class PlanInput:
     step_spans: tuple[Span, ...]
     state_spans: tuple[Span, ...]
     format_version: int
+    # the runs of steps the document carries out together: (first, last) from 1, and where each is
+    batches: tuple[tuple[int, int], ...] = ()
+    batch_spans: tuple[Span, ...] = ()
 
 
 class _Doc:
@@ -103,8 +106,24 @@ def read_plan(file: str, text: str, system: System) -> PlanInput:
         version = 1
     else:
         states, spans = _changed_states(doc, plan, root, system, len(steps))
+    batches = _batches(doc, plan, root, len(steps))
     return PlanInput(file, tuple(a for a, _ in steps), states, tuple(doc.span(p) for _, p in steps),
-                     tuple(doc.span(p) for p in spans), version)
+                     tuple(doc.span(p) for p in spans), version, tuple(b for b, _ in batches),
+                     tuple(doc.span(p) for _, p in batches))
+
+
+def _batches(doc: _Doc, plan: dict[str, Any], root: str, steps: int) -> list[tuple[tuple[int, int], str]]:
+    """The plan's `batches` (optional): each a [first, last] pair of step numbers, from 1, first < last."""
+    out = []
+    for i, b in enumerate(doc.get(plan, root, "batches", list, "the plan", required=False) or []):
+        here = f"{root}/batches/{i}"
+        if not (isinstance(b, list) and len(b) == 2 and all(type(n) is int for n in b)):
+            raise doc.bad(here, f"batch {i + 1} must be a pair [first, last] of step numbers")
+        if not 1 <= b[0] < b[1] <= steps:
+            raise doc.bad(here, f"batch {i + 1} ({b[0]}–{b[1]}) is not a run of at least two of the plan's "
+                                f"{steps} steps")
+        out.append(((b[0], b[1]), here))
+    return out
 
 
 def _steps(doc: _Doc, plan: dict[str, Any], root: str, system: System) -> list[tuple[Action, str]]:

@@ -52,11 +52,13 @@ def test_plan_transition_json() -> None:
     # rest is the suspension, and the resume is last
     first = kinds.index("degrade")
     assert kinds[:first] == ["create"] * 4 and "create" not in kinds[first:] and kinds[-1] == "upgrade"
-    # and the JSON says for how long the client's side (the follower) is expected to wait
+    # the four creates run together, as one batch
+    assert doc["plan"]["batches"][0] == [1, 4]
+    # and the JSON says for how long the client's side (the follower) is expected to wait: not
+    # while the nodes start
     seconds = doc["plan"]["seconds"]
     follower = next(f["seconds"] for f in seconds["functionalities"] if f["component"] == "follower")
-    creates = 4 * seconds["durations"]["kinds"]["create"]
-    assert 0 < follower < seconds["plan"] - creates
+    assert 0 < follower < seconds["plan"] - seconds["durations"]["kinds"]["create"]
 
 
 def test_plan_transition_refuses_an_ill_formed_ftm() -> None:
