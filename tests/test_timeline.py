@@ -101,3 +101,45 @@ def test_the_plan_s_estimate_is_the_quantity_the_timeline_measures() -> None:
     assert tl.planned == pytest.approx(tl.end, abs=1e-3)
     line = next(x for x in to_text(tl).splitlines() if x.startswith("listener.listen"))
     assert line.endswith(f"(plan ~{tl.estimate['listener.listen']:.2f} s)")
+
+
+def test_a_batch_s_steps_overlap_and_each_takes_effect_at_its_own_end() -> None:
+    """The FTM transition's batches (checker.planning.batches): a run whose steps took exactly
+    their durations, each batch's steps from the batch's start, measures what the plan expected,
+    and a step of a batch takes effect at its own end, not at the batch's."""
+    from checker.ftm.transition import plan_transition
+    from checker.planning.batches import batch_plan
+    from checker.planning.durations import schedule
+    from reconf_dsl.loader import load
+    plan = plan_transition(load([os.path.join(ROOT, "examples", "ftm", "deterministic_pbr.arch")]),
+                           "server", "LFR").plan
+    plan.batches = batch_plan(plan)
+    times = plan.durations()
+    spans, _ = schedule(plan.steps, times, plan.batches)
+    timings = [{"step": i, "action": a.kind, "at": 1000.0 + s, "seconds": e - s, "ok": True}
+               for i, (a, (s, e)) in enumerate(zip(plan.steps, spans), 1)]
+    doc = dict(report(), timings=timings, violated={}, outcome="done", plan_document={"plan": plan.to_dict()})
+    tl = timeline(doc)
+    assert tl.planned == pytest.approx(tl.end, abs=1e-3)
+    for name, expected in tl.estimate.items():
+        assert tl.degraded_seconds(name) == pytest.approx(expected, abs=1e-3), name
+    a, b = next((a, b) for a, b in plan.batches if {s.kind for s in plan.steps[a - 1:b]} == {"degrade"})
+    first = [s for s in plan.steps[a - 1:b]]
+    ends = {f"{s.component}.{getattr(s, 'functionality')}": spans[i][1] for i, s in enumerate(first, a - 1)}
+    for name, end in ends.items():
+        assert tl.degraded[name][0].start == pytest.approx(end - spans[0][0], abs=1e-3), name
+
+
+def test_the_largest_input_gaps_of_the_run_are_named() -> None:
+    """A report keeps each monitored input's largest wait, and whether the run saw it; the
+    timeline names those the run saw, largest first, in the text and the picture."""
+    gaps = {"listener.in": {"seconds": 0.104, "during_run": True},
+            "talker_v2.out_echo": {"seconds": 0.31, "during_run": True},
+            "logger.in": {"seconds": 2.5, "during_run": False}}       # before the run: not the run's
+    tl = timeline(dict(report(), gaps=gaps))
+    assert tl.gaps == {"listener.in": 0.104, "talker_v2.out_echo": 0.31}
+    text = to_text(tl)
+    assert text.rstrip().splitlines()[-1] == \
+        "largest input gaps during the run: talker_v2.out_echo 0.310 s, listener.in 0.104 s"
+    assert "largest input gaps during the run: talker_v2.out_echo 0.310 s" in to_svg(tl)
+    assert "largest input gaps" not in to_text(timeline(report()))

@@ -2,10 +2,10 @@
 from its start to its end as the executor timed it, and each functionality's degraded span,
 from the end of the step that degraded it (or the run's start) to the end of the step that
 upgraded it (or the run's end). Every step a report times was confirmed on the wire before the
-next began (docs/control-interface.md#the-six-actions), so a span is what the nodes showed, to
-the step. Each monitor that saw a normal mode's assumption violated is marked where the executor first
-saw it (after a step; a report written before the run carried this says nothing of it). As text
-for a terminal, or SVG."""
+next began, or, in a batch, before the batch's end (docs/control-interface.md#the-six-actions,
+docs/executor.md#batches), so a span is what the nodes showed, to the step. Each monitor that saw a normal mode's assumption violated is marked where the executor first
+saw it (after a step; a report written before the run carried this says nothing of it), and the
+largest waits for data the monitored inputs saw during the run. As text for a terminal, or SVG."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -38,6 +38,9 @@ class Timeline:
     # seconds it expected each functionality that served before the plan to stay degraded
     planned: float = 0.0
     estimate: dict[str, float] = field(default_factory=dict)
+    # "comp.port" -> the largest wait for data a monitored input saw during the run (s), as its
+    # node's last status said (absent from reports written before the run kept them)
+    gaps: dict[str, float] = field(default_factory=dict)
 
     @property
     def end(self) -> float:
@@ -45,6 +48,11 @@ class Timeline:
 
     def degraded_seconds(self, name: str) -> float:
         return sum(b.end - b.start for b in self.degraded.get(name, []))
+
+    def gaps_note(self, shown: int = 3) -> str:
+        """The largest input gaps the monitors saw during the run, most first ("" if none)."""
+        ranked = sorted(self.gaps.items(), key=lambda kv: (-kv[1], kv[0]))
+        return ", ".join(f"{k} {v:.3f} s" for k, v in ranked[:shown]) + (", …" if len(ranked) > shown else "")
 
     def planned_note(self) -> str:
         """What the plan expected the run to take, for the title ("" for a plan without seconds)."""
@@ -73,26 +81,41 @@ def timeline(report: dict[str, Any]) -> Timeline:
     tl.planned = float(seconds.get("plan", 0.0))
     tl.estimate = {f"{f['component']}.{f['functionality']}": float(f["seconds"])
                    for f in seconds.get("functionalities", [])}
+    tl.gaps = {k: float(g["seconds"]) for k, g in (report.get("gaps") or {}).items() if g.get("during_run")}
     if not timings:
         return tl
     t0 = timings[0]["at"]
     for t in timings:
         tl.steps.append(Bar(f"{t['step']:3d}. {_describe(steps[t['step'] - 1])}", t["at"] - t0,
                             t["at"] - t0 + t["seconds"], bool(t["ok"])))
-    # the state before a timed step holds from the previous step's end (or the start) to its end;
-    # a step that failed reached no state of the plan: the span of the one before runs on
-    held = [(timings[0]["step"] - 1, 0.0)] + [(t["step"], b.end) for t, b in zip(timings, tl.steps) if t["ok"]]
-    for (k, since), until in zip(held, [s for _, s in held[1:]] + [tl.end]):
-        for comp, func in states[k].to_doc()["degraded"]:
-            spans = tl.degraded.setdefault(f"{comp}.{func}", [])
-            if spans and abs(spans[-1].end - since) < 1e-9:
-                spans[-1].end = until
-            else:
-                spans.append(Bar(f"{comp}.{func}", since, until))
+    _degraded_spans(tl, timings, states, steps)
     ends = {t["step"]: b.end for t, b in zip(timings, tl.steps)}
     for comp, v in sorted((report.get("violated") or {}).items()):
         tl.violated[comp] = (int(v["violations"]), ends.get(int(v["after_step"]), 0.0))
     return tl
+
+
+def _degraded_spans(tl: Timeline, timings: list[dict[str, Any]], states: PlanStates,
+                    steps: list[dict[str, Any]]) -> None:
+    """Each functionality's degraded spans: a step takes effect at its own end, in the order the
+    steps ended (the steps of a batch overlap, on distinct components: docs/executor.md#batches),
+    but a component's remove ends its spans at the remove's start (it serves no one while it goes,
+    as the plan's estimate counts); a step that failed changed nothing of the plan's."""
+    state = states[timings[0]["step"] - 1]
+    since = {f"{c}.{f}": 0.0 for c, f in state.degraded}
+    for t, b in sorted(zip(timings, tl.steps), key=lambda tb: tb[1].end):
+        if not t["ok"]:
+            continue
+        state = states.alone(state, t["step"])
+        now = {f"{c}.{f}" for c, f in state.degraded}
+        for name in now - set(since):
+            since[name] = b.end
+        end = b.start if steps[t["step"] - 1]["action"] == "remove" else b.end
+        for name in set(since) - now:
+            began = since.pop(name)
+            tl.degraded.setdefault(name, []).append(Bar(name, began, max(end, began)))
+    for name, at in since.items():
+        tl.degraded.setdefault(name, []).append(Bar(name, at, tl.end))
 
 
 def _row(bars: list[Bar], scale: float, width: int, mark: str) -> str:
@@ -125,6 +148,8 @@ def to_text(tl: Timeline, width: int = 60, label: int = 48) -> str:
     for comp, (n, at) in sorted(tl.violated.items()):
         lines.append(f"{comp[:label]:<{label}} |{_row([Bar(comp, at, at)], scale, width, '!')}| "
                      f"{n} violation{'s' if n != 1 else ''}, first seen after the step ending at {at:.2f} s")
+    if tl.gaps:
+        lines.append(f"largest input gaps during the run: {tl.gaps_note()}")
     return "\n".join(lines) + "\n"
 
 
@@ -137,7 +162,7 @@ def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> s
     rows += [(b, "#8e44ad") for b in marks]
     names = [b.label for b in tl.steps] + sorted(tl.degraded) + [b.label for b in marks]
     scale = (width - label - 10) / max(tl.end, 1e-6)
-    height = row * (len(names) + 3)
+    height = row * (len(names) + 3 + bool(tl.gaps))
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="monospace" '
            f'font-size="11">', f'<text x="4" y="{row}">{escape(tl.title)}, {escape(tl.outcome)}, {tl.end:.2f} s'
            f'{tl.planned_note()}</text>']
@@ -153,4 +178,7 @@ def to_svg(tl: Timeline, width: int = 900, label: int = 380, row: int = 16) -> s
         out.append(f'<rect x="{label + b.start * scale:.1f}" y="{y}" width="{max(1.0, (b.end - b.start) * scale):.1f}" '
                    f'height="{row - 4}" fill="{colour}"><title>{escape(b.label)}: {b.start:.3f}-{b.end:.3f} s'
                    f'</title></rect>')
+    if tl.gaps:
+        out.append(f'<text x="4" y="{row * (len(names) + 3) - 4}">largest input gaps during the run: '
+                   f'{escape(tl.gaps_note())}</text>')
     return "\n".join(out + ["</svg>"]) + "\n"

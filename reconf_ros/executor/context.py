@@ -14,7 +14,7 @@ from .naming import Names
 from .plan_states import PlanStates
 from .remote import Hosts
 from .semantics import Model
-from .steps import Step, plan_steps
+from .steps import Step, batches, plan_steps
 
 
 class Writer(Protocol):
@@ -119,10 +119,13 @@ class Context:
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
     exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
+    gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
         self.steps: list[Step] = plan_steps(self.doc)
+        # steps performed together; one at a time with --one-at-a-time (docs/executor.md#batches)
+        self.batches: list[tuple[int, int]] = [] if getattr(self.args, "one_at_a_time", False) else batches(self.doc)
         self.states = PlanStates(self.doc["plan"])
         self.runs: dict[str, Optional[str]] = {c["name"]: c.get("run") for c in self.doc["model"]["components"]}
         self.log_dir: str = self.args.log_dir or os.path.join(

@@ -151,6 +151,17 @@ def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
     return out
 
 
+def largest_gaps(ctx: Context, comps: Iterable[str]) -> dict[str, float]:
+    """Each heard-from monitored input's largest wait for data since its node started
+    (`in.<port>.max_gap_s` of its status, docs/control-interface.md): "component.port" -> s."""
+    out = {}
+    for c in comps:
+        for key, value in (ctx.rt.status(ctx.names.fqn(c)) or {}).items():
+            if key.startswith("in.") and key.endswith(".max_gap_s"):
+                out[f"{c}.{key[3:-len('.max_gap_s')]}"] = float(value)
+    return out
+
+
 def check_touched(ctx: Context, expected: State, when: str) -> None:
     """Every component the plan has touched reads back as `expected` has it."""
     # a node that answered its services may not be in this node's graph yet, nor heard on

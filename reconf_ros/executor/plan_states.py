@@ -96,6 +96,11 @@ class PlanStates:
         self.last = (i, state)
         return state
 
+    def alone(self, before: State, i: int) -> State:
+        """`before` with step `i`'s change alone applied (format 2), or the state after step `i`
+        (format 1, which has no batches)."""
+        return before.changed(self.changes[i - 1]) if self.changes else self[i]
+
     def __iter__(self) -> Iterator[State]:
         if not self.n:
             return

@@ -14,6 +14,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from typing import Any, Iterable, Optional
 
@@ -123,6 +124,16 @@ def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
     adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
     path on its host) and how it was started, for the step's line. Raises StepFailed, or a
     `HostError` naming the host when its agent cannot be reached or refuses."""
+    with _LAUNCHING:
+        return _launch(ctx, comp)
+
+
+# the creates of a batch start their processes one at a time: the plan file, the launcher's
+# socket and an agent's connection are each written by one thread (docs/executor.md#batches)
+_LAUNCHING = threading.Lock()
+
+
+def _launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
     env = {CREATED_ENV: ctx.names.created_mark(comp)}
     agent = host_agent(ctx, comp)
     if agent is None or ctx.hosts is None:

@@ -31,6 +31,7 @@ import secrets
 import signal
 import socket
 import subprocess
+import threading
 import time
 from typing import Any, Optional
 
@@ -91,6 +92,7 @@ class Agent:
         self.host, self.address, self.token, self.timeout = host, address, token, timeout
         self.sock: Optional[socket.socket] = None
         self.stream: Any = None
+        self.lock = threading.Lock()     # one request at a time on the connection (a batch's steps share it)
 
     def where(self) -> str:
         return f"host {self.host} ({self.address})"
@@ -130,6 +132,10 @@ class Agent:
     def request(self, doc: dict[str, Any], wait: float = 0.0) -> dict[str, Any]:
         """Send one request and return its answer (a refusal raises OSError with the reason);
         `wait`: how much longer than the timeout the agent may take (a wait for an exit)."""
+        with self.lock:
+            return self._request(doc, wait)
+
+    def _request(self, doc: dict[str, Any], wait: float) -> dict[str, Any]:
         for attempt in (1, 2):
             try:
                 if self.sock is None:
@@ -219,9 +225,7 @@ class Hosts:
                           f"{', '.join(sorted(self.where)) or 'no host'})")
         if address == LOCAL:
             return None
-        if host not in self.agents:
-            self.agents[host] = Agent(host, address, self.token, self.timeout)
-        return self.agents[host]
+        return self.agents.setdefault(host, Agent(host, address, self.token, self.timeout))
 
     def start(self, agent: Agent, argv: list[str], log: str, env: dict[str, str],
               files: Optional[dict[str, str]] = None) -> RemoteProcess:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
 import time
 from typing import Any, Optional
 
@@ -14,6 +15,7 @@ from .handlers import perform
 from .observe import (
     as_state,
     check_touched,
+    largest_gaps,
     neighbourhood,
     observe,
     read_all,
@@ -23,11 +25,21 @@ from .observe import (
     wait_status,
     wait_statuses,
 )
+from .plan_states import State
 from .processes import end_orphans, warm
 from .remote import HostError
 from .run_report import failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
-from .steps import EXIT_FAILED, EXIT_OK, plan_steps, plural
+from .steps import EXIT_FAILED, EXIT_OK, batch_end, plan_steps, plural
+
+
+def busy(timings: list[StepTiming]) -> float:
+    """The seconds in which some step ran: the steps of a batch overlap, and count once."""
+    total, reach = 0.0, float("-inf")
+    for start, end in sorted((t.at, t.at + t.seconds) for t in timings):
+        total += max(0.0, end - max(start, reach))
+        reach = max(reach, end)
+    return total
 
 
 def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> bool:
@@ -100,18 +112,22 @@ class Executor:
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
         # creates joins them as it comes up (handlers.baseline)
         ctx.baseline = violations(ctx, ctx.states[first - 1].components)
+        ctx.gaps = largest_gaps(ctx, ctx.states[first - 1].components)
         ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
                 f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
-        for i in range(first, last + 1):
-            if not self._step(i):
-                return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
-            if ctx.args.pause > 0 and i < last and not ctx.interrupts.stop:
+        i = first
+        while i <= last:
+            end = batch_end(ctx, i, last)
+            if not (self._step(i) if end == i else self._batch(i, end)):
+                return failed(ctx, ctx.step, ctx.steps[ctx.step - 1], ctx.failure)
+            i = end + 1
+            if ctx.args.pause > 0 and i <= last and not ctx.interrupts.stop:
                 ctx.rt.deadline = time.monotonic() + ctx.args.pause + 1.0
                 ctx.rt.wait(lambda: ctx.interrupts.stop, ctx.args.pause)
-            if ctx.interrupts.stop and i < last:
-                return interrupted(ctx, i)
+            if ctx.interrupts.stop and i <= last:
+                return interrupted(ctx, i - 1)
         return self._finish(first, hood, t0, check_at)
 
     def _failed_outside(self, e: Exception) -> int:
@@ -168,6 +184,65 @@ class Executor:
         counted(ctx, i)
         return True
 
+    def _batch(self, first: int, last: int) -> bool:
+        """Perform steps `first`..`last` together (docs/executor.md#batches), each in a thread
+        of its own with its wire conditions, then read back what the plan has touched; on the
+        first failure the others stop at their next wait, and the batch fails with it."""
+        ctx = self.ctx
+        ctx.say(f"steps {first}–{last} together:")
+        for i in range(first, last + 1):
+            ctx.say(ctx.steps[i - 1].label(i))
+        ctx.step, was = first, ctx.states[first - 1]
+        failures: dict[int, str] = {}
+        workers = [threading.Thread(target=self._together, args=(i, was, failures), daemon=True)
+                   for i in range(first, last + 1)]
+        s0 = time.monotonic()
+        try:
+            for w in workers:
+                w.start()
+            for w in workers:
+                while w.is_alive():     # in steps, so that a signal is taken at once
+                    w.join(0.05)
+        except KeyboardInterrupt:       # a second signal: the others stop at their next wait
+            ctx.rt.halt.set()
+            for w in workers:
+                w.join(ctx.args.timeout)
+            raise
+        finally:
+            ctx.rt.halt.clear()
+            ctx.timings.sort(key=lambda t: t.step)
+        if failures:
+            ctx.step = min(failures, key=lambda i: (failures[i].startswith("stopped: "), i))
+            ctx.failure = failures[ctx.step]
+            return False
+        ctx.step = last
+        try:
+            ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+            check_touched(ctx, ctx.states[last], f"after steps {first}–{last}")
+        except (StepFailed, OSError) as e:
+            ctx.failure, ctx.failed_host = str(e), e.host if isinstance(e, HostError) else ""
+            return False
+        ctx.say(f"      steps {first}–{last} done in {time.monotonic() - s0:.3f} s")
+        counted(ctx, last)
+        return True
+
+    def _together(self, i: int, was: State, failures: dict[int, str]) -> None:
+        """Step `i` of a batch that began in state `was`: its wire conditions are judged against
+        `was` with this step alone done (its steps commute: docs/soundness.md#batches)."""
+        ctx, step = self.ctx, self.ctx.steps[i - 1]
+        s0, at = time.monotonic(), round(time.time(), 3)
+        try:
+            perform(ctx, step, was, ctx.states.alone(was, i))
+        except (StepFailed, OSError) as e:
+            failures[i] = str(e)
+            if isinstance(e, HostError):
+                ctx.failed_host = e.host
+            ctx.rt.halt.set()
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            return
+        ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
+        ctx.say(f"      step {i} done in {time.monotonic() - s0:.3f} s")
+
     def _finish(self, first: int, hood: set[str], t0: float, check_at: float) -> int:
         """After the last step: the neighbourhood reads back as the plan's last state, the
         touched functionalities meet their assumptions on the wire, and no monitor's count moved
@@ -190,7 +265,7 @@ class Executor:
         ctx.say(("no step" if done <= 0 else f"all {done} steps" if done != 1 else "the 1 step")
                 + f" done in {time.monotonic() - t0:.2f} s "
                 f"(checking the live system {check_at - t0:.2f} s, steps "
-                f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
+                f"{busy(ctx.timings):.2f} s){upto}")
         if unmet or seen_bad:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")

@@ -9,7 +9,7 @@ import time
 from typing import Any, Optional
 
 from .context import Context, StepTiming
-from .observe import Observed, read_all, unusual
+from .observe import Observed, largest_gaps, read_all, unusual
 from .plan_states import State
 from .processes import list_started
 from .runtime import StepFailed
@@ -34,6 +34,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "timings": [t.to_doc() for t in ctx.timings],
         # each monitor that saw a normal mode's assumption violated: how often, first after which step
         "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
+        "gaps": gaps(ctx),
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}
@@ -45,6 +46,17 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
     os.replace(tmp, path)
     print(f"report: {path}", file=ctx.err if outcome != "done" else ctx.out)
     return path
+
+
+def gaps(ctx: Context) -> dict[str, dict[str, Any]]:
+    """Each monitored input's largest wait for data as its node's last status says, and whether
+    the run saw it (larger than before the first step, or on a node the run started): "comp.port"
+    -> {"seconds", "during_run"}. Its node's status comes once a second: a gap of the last
+    second before the report may not be in it yet."""
+    if ctx.rt is None:
+        return {}
+    now = largest_gaps(ctx, ctx.baseline)
+    return {k: {"seconds": round(s, 3), "during_run": s > ctx.gaps.get(k, 0.0)} for k, s in sorted(now.items())}
 
 
 def stale(ctx: Context, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:

@@ -6,6 +6,7 @@ replays its plan (`--dry-run`) without ROS."""
 from __future__ import annotations
 
 import os
+import threading
 import time
 from typing import Any, Callable, Iterable, Optional
 
@@ -85,6 +86,10 @@ class Runtime:
         self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
         self.GetParameters, self.SetParameters = GetParameters, SetParameters
         self.timeout = timeout
+        # the steps of a batch run in threads of their own (docs/executor.md#batches): one spins
+        # the node at a time, and a failed step halts the others at their next wait
+        self.lock = threading.RLock()
+        self.halt = threading.Event()
         ns = namespace.strip("/")
         self.namespace = f"/{ns}" if ns else ""
         self.deadline = float("inf")
@@ -122,13 +127,21 @@ class Runtime:
     def status(self, fqn: str) -> Optional[Status]:
         return self.statuses.get(fqn)
 
+    def spin_once(self, seconds: float) -> None:
+        """Spin the node once (for at most `seconds`), one thread at a time; a step of a batch
+        another step of which failed stops here (StepFailed)."""
+        if self.halt.is_set() and threading.current_thread() is not threading.main_thread():
+            raise StepFailed("stopped: another step of its batch failed")
+        with self.lock:
+            self.rclpy.spin_once(self.node, timeout_sec=seconds)
+
     def spin(self, seconds: float) -> None:
         end = time.monotonic() + seconds
         while True:
             left = end - time.monotonic()
             if left <= 0:
                 return
-            self.rclpy.spin_once(self.node, timeout_sec=min(left, 0.02))
+            self.spin_once(min(left, 0.02))
 
     def left(self) -> float:
         remaining = self.deadline - time.monotonic()
@@ -144,7 +157,7 @@ class Runtime:
                 return True
             if time.monotonic() >= end:
                 return False
-            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+            self.spin_once(0.01)
 
     def nodes(self) -> list[str]:
         """Nodes discovered in the graph, and nodes heard on /diagnostics (a reconf node publishes
@@ -180,14 +193,16 @@ class Runtime:
             now - self.graph_since >= GRAPH_QUIET
 
     def client(self, srv_type: Any, name: str) -> Any:
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
+        with self.lock:
+            if name not in self.clients:
+                self.clients[name] = self.node.create_client(srv_type, name)
+            return self.clients[name]
 
     def forget(self, fqn: str) -> None:
         """Drop the clients of a node that is gone (a new node of that name needs new ones)."""
-        for name in [n for n in self.clients if n.startswith(fqn + "/")]:
-            self.node.destroy_client(self.clients.pop(name))
+        with self.lock:
+            for name in [n for n in self.clients if n.startswith(fqn + "/")]:
+                self.node.destroy_client(self.clients.pop(name))
 
     def call(self, srv_type: Any, name: str, request: Any) -> Any:
         """One call that changes something, sent once (reads go through `call_many`)."""
@@ -217,7 +232,7 @@ class Runtime:
                     sent[n] = t
             if len(futs) == len(clients) and all(any(f.done() for f in fs) for fs in futs.values()):
                 break
-            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+            self.spin_once(0.01)
         for n in clients:
             if n not in futs:
                 answers[n] = StepFailed(f"service {n} is not available")

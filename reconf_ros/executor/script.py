@@ -75,6 +75,8 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap.add_argument("--pause", type=float, default=0.0, metavar="S",
                     help="wait S seconds after each step but the last, to watch it on the wire (a signal "
                          "stops the run there)")
+    ap.add_argument("--one-at-a-time", action="store_true",
+                    help="perform every step alone, the steps of the plan's batches too (docs/executor.md#batches)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")

@@ -118,6 +118,22 @@ def plan_steps(doc: dict[str, Any]) -> list[Step]:
     return [Step.from_doc(s) for s in doc["plan"]["steps"]]
 
 
+def batches(doc: dict[str, Any]) -> list[tuple[int, int]]:
+    """The plan's batches: (first, last) step, from 1, of each run of steps carried out together
+    (docs/executor.md#batches)."""
+    return [(int(a), int(b)) for a, b in doc["plan"].get("batches") or []]
+
+
+def batch_end(ctx: Any, i: int, last: int) -> int:
+    """The last step to perform together with step `i` (`i` itself when it is in no batch): the
+    end of its batch, or `last`, where the run stops first. A run that starts inside a batch
+    performs the rest of it together: any part of a batch is one (docs/soundness.md#batches)."""
+    for a, b in ctx.batches:
+        if a <= i <= b:
+            return min(b, last)
+    return i
+
+
 def restoring(doc: dict[str, Any]) -> int:
     """How many first steps of a recovery's plan restore validity (docs/executor.md#failure-and-recovery)."""
     return int((doc["plan"].get("recovery") or {}).get("restore", 0))

@@ -38,6 +38,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -157,6 +158,22 @@ def plan_steps(doc: dict[str, Any]) -> list[Step]:
     return [Step.from_doc(s) for s in doc["plan"]["steps"]]
 
 
+def batches(doc: dict[str, Any]) -> list[tuple[int, int]]:
+    """The plan's batches: (first, last) step, from 1, of each run of steps carried out together
+    (docs/executor.md#batches)."""
+    return [(int(a), int(b)) for a, b in doc["plan"].get("batches") or []]
+
+
+def batch_end(ctx: Any, i: int, last: int) -> int:
+    """The last step to perform together with step `i` (`i` itself when it is in no batch): the
+    end of its batch, or `last`, where the run stops first. A run that starts inside a batch
+    performs the rest of it together: any part of a batch is one (docs/soundness.md#batches)."""
+    for a, b in ctx.batches:
+        if a <= i <= b:
+            return min(b, last)
+    return i
+
+
 def restoring(doc: dict[str, Any]) -> int:
     """How many first steps of a recovery's plan restore validity (docs/executor.md#failure-and-recovery)."""
     return int((doc["plan"].get("recovery") or {}).get("restore", 0))
@@ -270,6 +287,11 @@ class PlanStates:
             state = state.changed(change)
         self.last = (i, state)
         return state
+
+    def alone(self, before: State, i: int) -> State:
+        """`before` with step `i`'s change alone applied (format 2), or the state after step `i`
+        (format 1, which has no batches)."""
+        return before.changed(self.changes[i - 1]) if self.changes else self[i]
 
     def __iter__(self) -> Iterator[State]:
         if not self.n:
@@ -557,6 +579,7 @@ class Agent:
         self.host, self.address, self.token, self.timeout = host, address, token, timeout
         self.sock: Optional[socket.socket] = None
         self.stream: Any = None
+        self.lock = threading.Lock()     # one request at a time on the connection (a batch's steps share it)
 
     def where(self) -> str:
         return f"host {self.host} ({self.address})"
@@ -596,6 +619,10 @@ class Agent:
     def request(self, doc: dict[str, Any], wait: float = 0.0) -> dict[str, Any]:
         """Send one request and return its answer (a refusal raises OSError with the reason);
         `wait`: how much longer than the timeout the agent may take (a wait for an exit)."""
+        with self.lock:
+            return self._request(doc, wait)
+
+    def _request(self, doc: dict[str, Any], wait: float) -> dict[str, Any]:
         for attempt in (1, 2):
             try:
                 if self.sock is None:
@@ -685,9 +712,7 @@ class Hosts:
                           f"{', '.join(sorted(self.where)) or 'no host'})")
         if address == LOCAL:
             return None
-        if host not in self.agents:
-            self.agents[host] = Agent(host, address, self.token, self.timeout)
-        return self.agents[host]
+        return self.agents.setdefault(host, Agent(host, address, self.token, self.timeout))
 
     def start(self, agent: Agent, argv: list[str], log: str, env: dict[str, str],
               files: Optional[dict[str, str]] = None) -> RemoteProcess:
@@ -780,6 +805,10 @@ class Runtime:
         self.Parameter, self.ParameterType, self.ParameterValue = Parameter, ParameterType, ParameterValue
         self.GetParameters, self.SetParameters = GetParameters, SetParameters
         self.timeout = timeout
+        # the steps of a batch run in threads of their own (docs/executor.md#batches): one spins
+        # the node at a time, and a failed step halts the others at their next wait
+        self.lock = threading.RLock()
+        self.halt = threading.Event()
         ns = namespace.strip("/")
         self.namespace = f"/{ns}" if ns else ""
         self.deadline = float("inf")
@@ -817,13 +846,21 @@ class Runtime:
     def status(self, fqn: str) -> Optional[Status]:
         return self.statuses.get(fqn)
 
+    def spin_once(self, seconds: float) -> None:
+        """Spin the node once (for at most `seconds`), one thread at a time; a step of a batch
+        another step of which failed stops here (StepFailed)."""
+        if self.halt.is_set() and threading.current_thread() is not threading.main_thread():
+            raise StepFailed("stopped: another step of its batch failed")
+        with self.lock:
+            self.rclpy.spin_once(self.node, timeout_sec=seconds)
+
     def spin(self, seconds: float) -> None:
         end = time.monotonic() + seconds
         while True:
             left = end - time.monotonic()
             if left <= 0:
                 return
-            self.rclpy.spin_once(self.node, timeout_sec=min(left, 0.02))
+            self.spin_once(min(left, 0.02))
 
     def left(self) -> float:
         remaining = self.deadline - time.monotonic()
@@ -839,7 +876,7 @@ class Runtime:
                 return True
             if time.monotonic() >= end:
                 return False
-            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+            self.spin_once(0.01)
 
     def nodes(self) -> list[str]:
         """Nodes discovered in the graph, and nodes heard on /diagnostics (a reconf node publishes
@@ -875,14 +912,16 @@ class Runtime:
             now - self.graph_since >= GRAPH_QUIET
 
     def client(self, srv_type: Any, name: str) -> Any:
-        if name not in self.clients:
-            self.clients[name] = self.node.create_client(srv_type, name)
-        return self.clients[name]
+        with self.lock:
+            if name not in self.clients:
+                self.clients[name] = self.node.create_client(srv_type, name)
+            return self.clients[name]
 
     def forget(self, fqn: str) -> None:
         """Drop the clients of a node that is gone (a new node of that name needs new ones)."""
-        for name in [n for n in self.clients if n.startswith(fqn + "/")]:
-            self.node.destroy_client(self.clients.pop(name))
+        with self.lock:
+            for name in [n for n in self.clients if n.startswith(fqn + "/")]:
+                self.node.destroy_client(self.clients.pop(name))
 
     def call(self, srv_type: Any, name: str, request: Any) -> Any:
         """One call that changes something, sent once (reads go through `call_many`)."""
@@ -912,7 +951,7 @@ class Runtime:
                     sent[n] = t
             if len(futs) == len(clients) and all(any(f.done() for f in fs) for fs in futs.values()):
                 break
-            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+            self.spin_once(0.01)
         for n in clients:
             if n not in futs:
                 answers[n] = StepFailed(f"service {n} is not available")
@@ -1203,6 +1242,8 @@ class Context:
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
         self.steps: list[Step] = plan_steps(self.doc)
+        # steps performed together; one at a time with --one-at-a-time (docs/executor.md#batches)
+        self.batches: list[tuple[int, int]] = [] if getattr(self.args, "one_at_a_time", False) else batches(self.doc)
         self.states = PlanStates(self.doc["plan"])
         self.runs: dict[str, Optional[str]] = {c["name"]: c.get("run") for c in self.doc["model"]["components"]}
         self.log_dir: str = self.args.log_dir or os.path.join(
@@ -1669,6 +1710,16 @@ def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
     adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
     path on its host) and how it was started, for the step's line. Raises StepFailed, or a
     `HostError` naming the host when its agent cannot be reached or refuses."""
+    with _LAUNCHING:
+        return _launch(ctx, comp)
+
+
+# the creates of a batch start their processes one at a time: the plan file, the launcher's
+# socket and an agent's connection are each written by one thread (docs/executor.md#batches)
+_LAUNCHING = threading.Lock()
+
+
+def _launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
     env = {CREATED_ENV: ctx.names.created_mark(comp)}
     agent = host_agent(ctx, comp)
     if agent is None or ctx.hosts is None:
@@ -2194,6 +2245,15 @@ def _how_to_recover(ctx: Context, path: str) -> None:
 
 # --- reconf_ros/executor/run.py ---
 
+def busy(timings: list[StepTiming]) -> float:
+    """The seconds in which some step ran: the steps of a batch overlap, and count once."""
+    total, reach = 0.0, float("-inf")
+    for start, end in sorted((t.at, t.at + t.seconds) for t in timings):
+        total += max(0.0, end - max(start, reach))
+        reach = max(reach, end)
+    return total
+
+
 def confirmed(doc: dict[str, Any], args: argparse.Namespace, out: Writer) -> bool:
     """List the steps to apply; unless --yes, ask."""
     first, last = args.from_step, args.to_step
@@ -2268,14 +2328,17 @@ class Executor:
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
                 f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
-        for i in range(first, last + 1):
-            if not self._step(i):
-                return failed(ctx, i, ctx.steps[i - 1], ctx.failure)
-            if ctx.args.pause > 0 and i < last and not ctx.interrupts.stop:
+        i = first
+        while i <= last:
+            end = batch_end(ctx, i, last)
+            if not (self._step(i) if end == i else self._batch(i, end)):
+                return failed(ctx, ctx.step, ctx.steps[ctx.step - 1], ctx.failure)
+            i = end + 1
+            if ctx.args.pause > 0 and i <= last and not ctx.interrupts.stop:
                 ctx.rt.deadline = time.monotonic() + ctx.args.pause + 1.0
                 ctx.rt.wait(lambda: ctx.interrupts.stop, ctx.args.pause)
-            if ctx.interrupts.stop and i < last:
-                return interrupted(ctx, i)
+            if ctx.interrupts.stop and i <= last:
+                return interrupted(ctx, i - 1)
         return self._finish(first, hood, t0, check_at)
 
     def _failed_outside(self, e: Exception) -> int:
@@ -2332,6 +2395,65 @@ class Executor:
         counted(ctx, i)
         return True
 
+    def _batch(self, first: int, last: int) -> bool:
+        """Perform steps `first`..`last` together (docs/executor.md#batches), each in a thread
+        of its own with its wire conditions, then read back what the plan has touched; on the
+        first failure the others stop at their next wait, and the batch fails with it."""
+        ctx = self.ctx
+        ctx.say(f"steps {first}–{last} together:")
+        for i in range(first, last + 1):
+            ctx.say(ctx.steps[i - 1].label(i))
+        ctx.step, was = first, ctx.states[first - 1]
+        failures: dict[int, str] = {}
+        workers = [threading.Thread(target=self._together, args=(i, was, failures), daemon=True)
+                   for i in range(first, last + 1)]
+        s0 = time.monotonic()
+        try:
+            for w in workers:
+                w.start()
+            for w in workers:
+                while w.is_alive():     # in steps, so that a signal is taken at once
+                    w.join(0.05)
+        except KeyboardInterrupt:       # a second signal: the others stop at their next wait
+            ctx.rt.halt.set()
+            for w in workers:
+                w.join(ctx.args.timeout)
+            raise
+        finally:
+            ctx.rt.halt.clear()
+            ctx.timings.sort(key=lambda t: t.step)
+        if failures:
+            ctx.step = min(failures, key=lambda i: (failures[i].startswith("stopped: "), i))
+            ctx.failure = failures[ctx.step]
+            return False
+        ctx.step = last
+        try:
+            ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
+            check_touched(ctx, ctx.states[last], f"after steps {first}–{last}")
+        except (StepFailed, OSError) as e:
+            ctx.failure, ctx.failed_host = str(e), e.host if isinstance(e, HostError) else ""
+            return False
+        ctx.say(f"      steps {first}–{last} done in {time.monotonic() - s0:.3f} s")
+        counted(ctx, last)
+        return True
+
+    def _together(self, i: int, was: State, failures: dict[int, str]) -> None:
+        """Step `i` of a batch that began in state `was`: its wire conditions are judged against
+        `was` with this step alone done (its steps commute: docs/soundness.md#batches)."""
+        ctx, step = self.ctx, self.ctx.steps[i - 1]
+        s0, at = time.monotonic(), round(time.time(), 3)
+        try:
+            perform(ctx, step, was, ctx.states.alone(was, i))
+        except (StepFailed, OSError) as e:
+            failures[i] = str(e)
+            if isinstance(e, HostError):
+                ctx.failed_host = e.host
+            ctx.rt.halt.set()
+            ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, False))
+            return
+        ctx.timings.append(StepTiming(i, at, time.monotonic() - s0, True, step.action))
+        ctx.say(f"      step {i} done in {time.monotonic() - s0:.3f} s")
+
     def _finish(self, first: int, hood: set[str], t0: float, check_at: float) -> int:
         """After the last step: the neighbourhood reads back as the plan's last state, the
         touched functionalities meet their assumptions on the wire, and no monitor's count moved
@@ -2354,7 +2476,7 @@ class Executor:
         ctx.say(("no step" if done <= 0 else f"all {done} steps" if done != 1 else "the 1 step")
                 + f" done in {time.monotonic() - t0:.2f} s "
                 f"(checking the live system {check_at - t0:.2f} s, steps "
-                f"{sum(t.seconds for t in ctx.timings):.2f} s){upto}")
+                f"{busy(ctx.timings):.2f} s){upto}")
         if unmet or seen_bad:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
@@ -2443,6 +2565,8 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap.add_argument("--pause", type=float, default=0.0, metavar="S",
                     help="wait S seconds after each step but the last, to watch it on the wire (a signal "
                          "stops the run there)")
+    ap.add_argument("--one-at-a-time", action="store_true",
+                    help="perform every step alone, the steps of the plan's batches too (docs/executor.md#batches)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")
