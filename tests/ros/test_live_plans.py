@@ -117,3 +117,58 @@ def test_nodes_use_no_shared_memory(live: LiveSystem) -> None:
             continue
     assert maps, live.pids
     assert [pid for pid, text in maps.items() if "/dev/shm/fastdds" in text] == []
+
+
+def test_a_batch_stops_at_its_first_failure(live: LiveSystem) -> None:
+    """The migration runs steps 3–4 together (the listener's new neighbour's upgrade and the new
+    talker's create: docs/executor.md#batches); with the new talker's process exiting at once,
+    the run fails at that step, naming why, with the configuration the nodes showed in its
+    report, and nothing after the batch is done."""
+    arch = live.dir / "migrated.arch"
+    arch.write_text(open(example("chatter_migrated.arch")).read().replace(
+        'run "reconf-node reconf_ros.demo.chatter:talker_fast"', 'run "python3 -c \'raise SystemExit(3)\'"'))
+    live.deploy(example("chatter.arch"))
+    live.wait_ready()
+    res = live.run_plan(live.plan_script(["migrate", example("chatter.arch"), str(arch)]))
+    out = res.stdout + res.stderr
+    assert res.returncode == 1, out
+    assert "steps 3–4 together:" in out and "exited with status 3 before talker_fast came up" in out, out
+    report = live.report()
+    assert report["outcome"] == "failed" and report["failed_step"] == 4, report
+    assert {t["step"]: t["ok"] for t in report["timings"]}[4] is False
+    assert max(t["step"] for t in report["timings"]) == 4            # nothing after the batch
+    observed = report["observed"]
+    assert observed is not None and report["observed_valid"] is True
+    assert "talker_fast" not in observed["components"] and "talker" in observed["components"]
+
+
+def test_a_halted_step_stops_at_its_next_wait(live: LiveSystem) -> None:
+    """A step of a batch another step of which failed stops at its next wait, in its own thread;
+    the main thread and the next batch are not stopped (Runtime.halt)."""
+    import threading
+
+    from reconf_ros.executor.runtime import Runtime, StepFailed
+    rt = Runtime("halt", "", 1.0)
+    try:
+        seen: list[BaseException] = []
+
+        def step() -> None:
+            try:
+                rt.wait(lambda: False, 1.5)
+            except StepFailed as e:
+                seen.append(e)
+
+        worker = threading.Thread(target=step)
+        worker.start()
+        rt.halt.set()
+        worker.join(2.0)
+        assert not worker.is_alive() and seen and "another step of its batch failed" in str(seen[0])
+        assert rt.wait(lambda: True, 0.1)          # the main thread goes on
+        rt.halt.clear()
+        worker = threading.Thread(target=step)
+        worker.start()
+        worker.join(0.3)
+        assert worker.is_alive()                   # the next batch's steps are not stopped
+        worker.join(3.0)
+    finally:
+        rt.close()
