@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from checker.reports.timeline import timeline
 from reconf_ros.executor.plan_states import PlanStates
 from reconf_ros.tools.livetest import LiveSystem
 
@@ -66,16 +67,17 @@ def arch_file(arch: str, work: Path) -> str:
     return str(work / name)
 
 
-def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, Any]:
+def measure(arch: str, args: list[str], strategy: str, work: Path, manager: bool = False) -> dict[str, Any]:
     path = arch_file(arch, work / "arch")
     with LiveSystem(work) as live:
         live.watch()
+        sock = live.manager() if manager else ""
         live.deploy(path)
         live.wait_ready(timeout=30)
         plan_args = list(args) + ([] if args[0] == "migrate" else ["-f", path]) + ["--strategy", strategy]
         script = live.plan_script(plan_args)
         t0 = time.monotonic()
-        res = live.run_plan(script)
+        res = live.run_plan(script, *(["--manager", sock] if sock else []))
         wall = time.monotonic() - t0
         report = live.report()
         final = (report.get("observed") or {}).get("components", [])
@@ -100,17 +102,20 @@ def measure(arch: str, args: list[str], strategy: str, work: Path) -> dict[str, 
                     gap_ratio = max(gap_ratio, float(x) / period)
     timings = report.get("timings", [])
     # degraded: steps and seconds each functionality that served before the plan spent degraded
-    # (normal at the end), as the plan's estimate counts them (checker.planning.durations)
+    # (normal at the end), as the plan's estimate counts them (checker.planning.durations); the
+    # seconds as `reconf timeline` measures them (the steps of a batch overlap)
     end = states[-1] if states else {"degraded": []}
     residual = {tuple(d) for d in end["degraded"]}
     served = set(states[0]["components"]) if states else set()
+    drawn = timeline(report) if timings else None
     steps_deg, secs_deg = 0, 0.0
     for f in {tuple(d) for s in states[1:] for d in s["degraded"] if d[0] in served} - residual:
         n = [i for i, s in enumerate(states[1:], 1) if list(f) in s["degraded"] and f[0] in s["components"]]
         steps_deg = max(steps_deg, len(n))
-        secs_deg = max(secs_deg, sum(t["seconds"] for t in timings if t["step"] in {i + 1 for i in n}))
+        secs_deg = max(secs_deg, drawn.degraded_seconds(".".join(f)) if drawn else 0.0)
     return {"ok": res.returncode == 0, "violations": len(live.violations(statuses)), "wall": wall,
             "steps": [t["seconds"] for t in timings], "timings": timings, "gap_ratio": gap_ratio, "lost": lost,
+            "creates": [t["seconds"] for t in timings if t.get("action") == "create"],
             "steps_degraded": steps_deg, "seconds_degraded": secs_deg, "stderr": res.stderr[-400:],
             "seconds_planned": max((f["seconds"] for f in (doc.get("plan", {}).get("seconds") or {}).get(
                 "functionalities", []) if (f["component"], f["functionality"]) not in residual), default=0.0),
@@ -183,16 +188,18 @@ def row(name: str, runs: list[dict[str, Any]]) -> str:
     def stat(key: str, fmt: str = "{:.2f}") -> str:
         xs = [r[key] for r in runs]
         return "/".join(fmt.format(x) for x in (statistics.median(xs), pct(xs, 0.95), max(xs)))
-    steps = [s for r in runs for s in r["steps"]]
-    step = "/".join(f"{x:.3f}" for x in (statistics.median(steps), pct(steps, 0.95), max(steps))) if steps else "-"
+    def spread(xs: list[float]) -> str:
+        return "/".join(f"{x:.3f}" for x in (statistics.median(xs), pct(xs, 0.95), max(xs))) if xs else "-"
+    step = spread([s for r in runs for s in r["steps"]])
+    creates = spread([s for r in runs for s in r.get("creates", [])])
     bad = sum(1 for r in runs if not r["ok"] or r["violations"])
-    return (f"| {name} | {len(runs)} | {bad} | {stat('wall')} | {step} | {stat('gap_ratio')} | "
+    return (f"| {name} | {len(runs)} | {bad} | {stat('wall')} | {step} | {creates} | {stat('gap_ratio')} | "
             f"{stat('lost', '{:.0f}')} | {stat('steps_degraded', '{:.0f}')} | {stat('seconds_degraded')} | "
             f"{stat('seconds_planned')} |")
 
 
-HEADER = ("| scenario | runs | failed or violated | plan wall s | step s | largest gap / period | "
-          "lost | steps degraded | s degraded | s degraded, planned |\n|---|---|---|---|---|---|---|---|---|---|")
+HEADER = ("| scenario | runs | failed or violated | plan wall s | step s | create s | largest gap / period | "
+          "lost | steps degraded | s degraded | s degraded, planned |\n|---|---|---|---|---|---|---|---|---|---|---|")
 
 
 def saved_table(path: Path) -> None:
@@ -213,6 +220,9 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--only", default="", help="scenarios whose name contains this")
     ap.add_argument("--strategies", default="default,paper")
+    ap.add_argument("--how", default="script",
+                    help="script (the plan script on its own), manager (through a manager started with the "
+                         "system, which forks the new nodes from its launcher), or both, comma-separated")
     ap.add_argument("--big-runs", type=int, default=5)
     ap.add_argument("--big-n", type=int, default=50)
     ap.add_argument("--save", default="", help="append each scenario run's figures to this file (JSON lines)")
@@ -231,19 +241,19 @@ def main() -> None:
         for k, (name, arch, plan_args) in enumerate(SCENARIOS):
             if args.only not in name or args.runs < 1:
                 continue
-            for strategy in args.strategies.split(","):
-                runs = []
+            for strategy, how in [(s, h) for s in args.strategies.split(",") for h in args.how.split(",")]:
+                runs, label = [], f"{name} ({strategy}{', through a manager' if how == 'manager' else ''})"
                 for i in range(args.runs):
-                    r = measure(arch, plan_args, strategy, Path(tmp) / f"row{k}-{strategy}-{i}")
+                    r = measure(arch, plan_args, strategy, Path(tmp) / f"row{k}-{strategy}-{how}-{i}", how == "manager")
                     if args.save:
                         with open(args.save, "a", encoding="utf-8") as fh:
-                            fh.write(json.dumps({"row": f"{name} ({strategy})", **r}) + "\n")
+                            fh.write(json.dumps({"row": label, **r}) + "\n")
                     if not r["ok"] or r["violations"]:
                         print(f"  (run {i}: {'failed' if not r['ok'] else 'violation'}: {r['stderr']})", flush=True)
                         for line in r["seen"]:
                             print(f"  (run {i}: {line})", flush=True)
                     runs.append(r)
-                print(row(f"{name} ({strategy})", runs), flush=True)
+                print(row(label, runs), flush=True)
         if args.big_runs:
             print(f"\n| {args.big_n}-component live system, replace the hub (default strategy) | runs | failed | "
                   "runs with a violation during the plan | plan wall s (median/p95/max) | create s | attach s |")

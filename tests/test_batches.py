@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace as dc_replace
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,11 @@ def _transition() -> Any:
     return plan_transition(load([PBR]), "server", "LFR").plan
 
 
+def _batched() -> Any:
+    """The transition's plan as `reconf plan` makes it: its steps in the order they run, batched."""
+    return plan_verified(_transition, use_alloy=False, chain=False).plan
+
+
 def test_a_batch_of_k_steps_has_every_order_judged() -> None:
     """k·2^(k-1) moves, each from a subset without the step to the subset with it."""
     for k in range(1, BATCH_MAX + 1):
@@ -42,9 +48,10 @@ def test_a_batch_of_k_steps_has_every_order_judged() -> None:
 
 
 def test_the_ftm_transition_runs_its_independent_steps_together() -> None:
-    plan = _transition()
-    found = batch_plan(plan)
+    plan = _batched()
+    found = plan.batches
     assert found and all(2 <= b - a + 1 <= BATCH_MAX for a, b in found)
+    assert batch_plan(plan, move=False) == (plan.steps, found)      # its order is the one that runs
     creates = [i for i, a in enumerate(plan.steps, 1) if a.kind == "create"]
     assert any(a <= creates[0] and creates[-1] <= b for a, b in found), "the four creates run together"
     for a, b in found:
@@ -54,8 +61,8 @@ def test_the_ftm_transition_runs_its_independent_steps_together() -> None:
 
 @pytest.mark.alloy
 def test_alloy_agrees_on_every_batch_of_the_transition() -> None:
-    plan = _transition()
-    found = batch_plan(plan)
+    plan = _batched()
+    found = plan.batches
     judged = alloy_batches(plan, found)
     assert judged["refused"] == {} and judged["batches"] == len(found)
     assert judged["moves"] == sum((b - a + 1) * 2 ** (b - a) for a, b in found)
@@ -71,7 +78,7 @@ def test_an_unsafe_batch_is_refused_by_the_python_engine() -> None:
     why = batch_refusal(plan, at, at + 1)
     assert "in some order" in why and "detach talker.out from /chatter" in why
     assert "acted on twice" in batch_refusal(plan, at + 1, at + 2)     # the detach and the remove of talker
-    assert batch_plan(plan) == []
+    assert batch_plan(plan) == (plan.steps, [])
 
 
 @pytest.mark.alloy
@@ -94,12 +101,12 @@ def test_a_lattice_refuses_a_step_without_changing() -> None:
 
 
 def test_a_batch_takes_as_long_as_its_slowest_step() -> None:
-    plan = _transition()
+    plan = _batched()
     times = plan.durations()
-    spans, total = schedule(plan.steps, times, plan.batches or batch_plan(plan))
+    spans, total = schedule(plan.steps, times, plan.batches)
     one_by_one = sum(times.of(a) for a in plan.steps)
     assert total < one_by_one
-    a, b = batch_plan(plan)[0]
+    a, b = plan.batches[0]
     assert {s for s, _ in spans[a - 1:b]} == {spans[a - 1][0]}
     assert spans[b][0] == pytest.approx(max(e for _, e in spans[a - 1:b]))
     flat = Durations({k: 1.0 for k in times.kinds}, {}, ("test",))
@@ -110,6 +117,7 @@ def test_the_paper_strategy_runs_one_step_at_a_time() -> None:
     system = with_ftm(load([PBR]), "server", parse_ftm("PBR"))
     verified = plan_verified(lambda: plan_transition(system, "server", "LFR").plan, use_alloy=False, chain=False)
     assert verified.plan.batches and verified.evidence["python"]["batches"] == len(verified.plan.batches)
+    assert verified.plan.disruption <= plan_transition(system, "server", "LFR").plan.disruption
     assert verified.plan.to_dict()["batches"] == [list(b) for b in verified.plan.batches]
     paper = plan_verified(lambda: plan_replace(load([CHATTER]), "talker", "talker_v2", strategy="paper"),
                           use_alloy=False, chain=False)
@@ -141,8 +149,7 @@ def test_plan_verify_judges_a_documents_batches(tmp_path: Path) -> None:
         if engine == "python":
             (d,) = out["diagnostics"]
             assert d["code"] == "RC310" and f"steps {at}–{at + 1}" in d["message"]
-    plan = _transition()
-    plan.batches = batch_plan(plan)
+    plan = _batched()
     text = json.dumps({"plan": plan.to_dict()})
     judged = verify_plan(plan.system, read_plan("t.json", text, plan.system), Engine.BOTH)
     assert judged.safe, judged.engines
@@ -157,3 +164,20 @@ def test_a_batch_that_is_not_a_run_of_steps_is_a_bad_document(tmp_path: Path) ->
     (tmp_path / "p.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
     r = invoke("plan", "verify", str(tmp_path / "p.json"), "-f", CHATTER, "--engine", "python")
     assert r.exit_code == 2 and "RC308" in r.stderr and "batch 1 (3–3)" in r.stderr
+
+
+def test_batches_never_cost_seconds_nor_relink_while_a_protocol_is_suspended() -> None:
+    """The plan's degraded seconds with its batches are no more than one step at a time; a
+    protocol's suspension or resumption runs beside mode changes only; and a moved step is a
+    re-linking one, the modes changed in the order the plan chose."""
+    plan, before = _batched(), _transition()
+    alone = dc_replace(plan, batches=[])
+    assert plan.seconds().weighted <= alone.seconds().weighted and plan.seconds().total < alone.seconds().total
+    protocols = {p for _, p in plan.protocols}
+    for a, b in plan.batches:
+        kinds = {s.kind for s in plan.steps[a - 1:b]}
+        if any(s.kind in ("degrade", "upgrade") and s.component in protocols for s in plan.steps[a - 1:b]):
+            assert kinds <= {"degrade", "upgrade"}, (a, b)
+    modes = [s for s in before.steps if s.kind in ("degrade", "upgrade", "create")]
+    assert [s for s in plan.steps if s.kind in ("degrade", "upgrade", "create")] == modes
+    assert sorted(map(repr, plan.steps)) == sorted(map(repr, before.steps))

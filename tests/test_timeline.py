@@ -108,12 +108,11 @@ def test_a_batch_s_steps_overlap_and_each_takes_effect_at_its_own_end() -> None:
     their durations, each batch's steps from the batch's start, measures what the plan expected,
     and a step of a batch takes effect at its own end, not at the batch's."""
     from checker.ftm.transition import plan_transition
-    from checker.planning.batches import batch_plan
     from checker.planning.durations import schedule
+    from checker.planning.verified import plan_verified
     from reconf_dsl.loader import load
-    plan = plan_transition(load([os.path.join(ROOT, "examples", "ftm", "deterministic_pbr.arch")]),
-                           "server", "LFR").plan
-    plan.batches = batch_plan(plan)
+    plan = plan_verified(lambda: plan_transition(load([os.path.join(ROOT, "examples", "ftm", "deterministic_pbr.arch")]),
+                                                 "server", "LFR").plan, use_alloy=False, chain=False).plan
     times = plan.durations()
     spans, _ = schedule(plan.steps, times, plan.batches)
     timings = [{"step": i, "action": a.kind, "at": 1000.0 + s, "seconds": e - s, "ok": True}

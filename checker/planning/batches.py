@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterator, Optional, Sequence
 
+from checker.planning.durations import degraded_seconds
 from checker.planning.lossless import request_problems
 from checker.planning.plan import FULL_CHECK_LIMIT, Plan
 from checker.semantic_model.actions import Action, effect, preconditions, state_refusals
@@ -104,25 +105,115 @@ def _states(plan: Plan, states: Sequence[Configuration]) -> str:
     return f"in some order, a client request could be lost: {lost[0].split(': ', 1)[1]}" if lost else ""
 
 
-def batch_plan(plan: Plan, first: int = 1) -> list[tuple[int, int]]:
-    """The batches of `plan` (first and last step, from 1; at least two steps each), grown
-    greedily along its order from step `first`: a step joins the batch before it when every
-    order of the two keeps the guarantees (`Lattice.add`). None past BATCH_BUDGET."""
-    steps = plan.steps
+# the kinds of step that may be moved earlier, past steps of these kinds only, to run with a
+# batch: re-linking and removing, never a mode change (which keeps the order the plan chose for
+# the wire: a suspension before the request path is re-linked, the watchers resumed last) nor a
+# create (a created component's degraded modes count from its create on)
+MOVABLE = ("attach", "detach", "remove")
+LOOKAHEAD = 12
+
+
+def batch_plan(plan: Plan, first: int = 1, move: bool = True) -> tuple[list[Action], list[tuple[int, int]]]:
+    """The steps of `plan` in the order they run and its batches (first and last step, from 1;
+    at least two steps each), grown greedily from step `first`: a step joins the batch before it
+    when every order of the two keeps the guarantees (`Lattice.add`); with `move`, a later
+    re-linking step (MOVABLE, within LOOKAHEAD, past re-linking steps of other components) joins
+    it when it does and the plan stays valid in its new order. No batch past BATCH_BUDGET."""
+    steps = list(plan.steps)
     if (len(steps) + 1) * max(1, len(plan.states[0].components)) > BATCH_BUDGET:
-        return []
+        return steps, []
+    states = list(plan.states)
     out: list[tuple[int, int]] = []
     i = first - 1
     while i < len(steps):
-        lat = Lattice.of(plan, plan.states[i])
+        lat = Lattice.of(plan, states[i])
         lat.add(steps[i])
         j = i + 1
-        while j < len(steps) and len(lat.steps) < BATCH_MAX and lat.add(steps[j]):
+        while j < len(steps) and len(lat.steps) < BATCH_MAX:
+            cost = _Cost(plan, steps, out, i)
+            if not (_joins(plan, lat, steps[j], cost.no_worse(steps, j))
+                    or move and _moved(plan, steps, states, lat, j, cost)):
+                break
             j += 1
         if j - i > 1:
             out.append((i + 1, j))
         i = j
-    return out
+    return steps, out
+
+
+def _suspends(plan: Plan, a: Action) -> bool:
+    """Whether `a` suspends or resumes a protocol the plan keeps requests flowing to."""
+    return a.kind in ("degrade", "upgrade") and any(a.component == p for _, p in plan.protocols)
+
+
+@dataclass
+class _Cost:
+    """The plan's degraded seconds weighted by criticality (checker.planning.durations) with the
+    batches found so far and the one growing from step `i` (from 0): a step joins a batch only
+    when that does not rise (a degrade run beside a create would start the wait early)."""
+
+    plan: Plan
+    steps: list[Action]
+    out: list[tuple[int, int]]
+    i: int
+
+    def weighted(self, steps: Sequence[Action], j: int) -> float:
+        batches = self.out + ([(self.i + 1, j)] if j - self.i > 1 else [])
+        return degraded_seconds(self.plan.system, self.plan.states[0], steps, self.plan.durations(), batches).weighted
+
+    def no_worse(self, steps: Sequence[Action], j: int) -> bool:
+        """Whether `steps` with the batch grown to step j + 1 (from 0: j) is no worse than the
+        steps as they are with the batch ending at step j."""
+        return self.weighted(steps, j + 1) <= self.weighted(self.steps, j) + 1e-9
+
+
+def _joins(plan: Plan, lat: Lattice, a: Action, no_worse: bool) -> bool:
+    """Whether `a` joins the batch `lat` (and does, when it can): not when that makes the plan's
+    degraded seconds rise (`no_worse` false). A protocol's suspension or resumption runs with
+    mode changes only: the model allows a new node's input attached while a protocol is being
+    suspended, but on the wire that node would hear the replies to requests the old path
+    carries (docs/soundness.md#batches)."""
+    if not no_worse:
+        return False
+    modes = all(s.kind in ("degrade", "upgrade") for s in lat.steps + [a])
+    if not modes and (_suspends(plan, a) or any(_suspends(plan, s) for s in lat.steps)):
+        return False
+    return lat.add(a)
+
+
+def _moved(plan: Plan, steps: list[Action], states: list[Configuration], lat: Lattice, j: int, cost: _Cost) -> bool:
+    """Move a later step to position `j`, into the batch `lat`, when one can (see `batch_plan`);
+    `steps` and `states` then hold the new order."""
+    if steps[j].kind not in MOVABLE:
+        return False
+    passed = {steps[j].component}
+    for k in range(j + 1, min(len(steps), j + 1 + LOOKAHEAD)):
+        a = steps[k]
+        if a.kind not in MOVABLE:
+            return False
+        if a.component not in passed:
+            order = [a] + steps[j:k]
+            run = _run(plan, states[j], order, states[k + 1])
+            if run is not None and _joins(plan, lat, a, cost.no_worse(steps[:j] + order + steps[k + 1:], j)):
+                steps[j:k + 1] = order
+                states[j + 1:k + 1] = run
+                return True
+        passed.add(a.component)
+    return False
+
+
+def _run(plan: Plan, start: Configuration, order: list[Action], end: Configuration) -> Optional[list[Configuration]]:
+    """The states after each but the last of `order` from `start`, when each step's preconditions
+    hold, each state is allowed (`_states`) and the last is `end`; else None."""
+    out, state = [], start
+    for a in order:
+        if preconditions(plan.system, state, a):
+            return None
+        state = effect(plan.system, state, a)
+        out.append(state)
+    if _states(plan, out[:-1]) or not _same(out[-1], end):
+        return None
+    return out[:-1]
 
 
 def batch_refusal(plan: Plan, first: int, last: int) -> str:

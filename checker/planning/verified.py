@@ -5,13 +5,14 @@ step by step by the Python engine as it is made, and as a whole in Alloy (`alloy
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import replace as dc_replace
 from typing import Any, Callable, Optional
 
 from checker.planning.alloy_search import plan_with_alloy
 from checker.planning.alloy_verify import PlanVerdicts, alloy_batches, alloy_evidence
 from checker.planning.batches import batch_plan, parallel_note
 from checker.planning.chain import Fallback
-from checker.planning.plan import Plan, Problem
+from checker.planning.plan import Plan, Problem, verify
 from reconf_dsl.words import plural
 
 
@@ -50,8 +51,10 @@ def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
         p = make()
     if alloy_planner:
         p = alloy_planned(p, max_steps)
+    p = _batched(p)
     evidence: dict[str, Any] = {"python": {"engine": "python", "states": len(p.states), "valid": True}}
-    _batched(p, evidence["python"])
+    if p.batches:
+        evidence["python"]["batches"] = len(p.batches)
     rest = p
     if p.recovery is not None and p.recovery.restore and p.recovery.rest is not None:
         # a recovery's first steps restore validity: judged by the proved property
@@ -68,15 +71,23 @@ def plan_verified(make: Callable[..., Plan], *, use_alloy: bool, chain: bool,
     return Verified(p, evidence)
 
 
-def _batched(p: Plan, python: dict[str, Any]) -> None:
-    """Group `p`'s steps into batches the Python engine proves (checker.planning.batches); not
-    the paper strategy's, which stays Algorithm 1 as the baseline, nor a recovery's restoring
-    steps."""
+def _batched(p: Plan) -> Plan:
+    """`p` with its steps grouped into batches the Python engine proves (checker.planning.batches),
+    re-linking steps moved to run together where the plan stays valid: then verified again in its
+    new order, as any plan. Not the paper strategy's, which stays Algorithm 1 as the baseline;
+    a recovery's steps are grouped as they are, after those that restore validity."""
     if p.strategy == "paper" or not p.steps:
-        return
-    p.batches = batch_plan(p, p.recovery.restore + 1 if p.recovery is not None else 1)
-    if p.batches:
-        python["batches"] = len(p.batches)
+        return p
+    recovering = p.recovery is not None
+    steps, batches = batch_plan(p, p.recovery.restore + 1 if recovering else 1, move=not recovering)
+    if steps != p.steps:
+        again = verify(p.system, p.states[0], steps, p.goal, p.strategy, p.renames)
+        moved = sum(a is not b for a, b in zip(steps, p.steps))
+        p = dc_replace(p, steps=steps, states=again.states, disruption=again.disruption,
+                       notes=p.notes + [f"{moved} re-linking steps moved to run with the batch before them; "
+                                        "the plan verified again in its new order"])
+    p.batches = batches
+    return p
 
 
 def _alloy_batches(p: Plan) -> dict[str, Any]:
