@@ -2,7 +2,8 @@
 (docs/control-interface.md#the-six-actions): before a step, an upgraded functionality's
 assumptions met and every reader of a connector that loses a publisher receiving, since the
 step began, from one that stays; after it, an attached port matched with the other side of its connector and, for a
-publishing output, its data received."""
+publishing output, its data received; after a degrade, nothing left in flight where the node
+says what it has."""
 from __future__ import annotations
 
 from typing import Callable
@@ -95,7 +96,10 @@ def _heard_since(st: Status, port: str, nodes: set[str], since: float) -> list[s
 
 def wire_after(ctx: Context, step: Step, will: State) -> None:
     """An attached port is matched with the other side of its connector as the plan has it; an
-    attached output that publishes is heard by every subscriber."""
+    attached output that publishes is heard by every subscriber; a degraded functionality that
+    reports what it has in flight has none left (`drained`)."""
+    if step.action == "degrade":
+        return drained(ctx, step)
     if step.action != "attach":
         return
     comp, port, conn = step.component, step.port, step.connector
@@ -120,3 +124,19 @@ def wire_after(ctx: Context, step: Step, will: State) -> None:
                 continue            # nothing flows until asked for; matched above
             if not wait_status(ctx, c, lambda st: me.format(p) in st, wait):
                 raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+
+def drained(ctx: Context, step: Step) -> None:
+    """After a degrade: a functionality whose status reports `in_flight.<f>` (an FTM protocol:
+    the requests inside its layer) shows itself degraded with none in flight. A suspension is
+    complete only then: a plan that re-links the layer before would cut a request off inside it
+    (docs/control-interface.md#the-six-actions)."""
+    comp, f = step.component, step.functionality
+    key = f"in_flight.{f}"
+    if key not in (ctx.rt.status(ctx.names.fqn(comp)) or {}):
+        return
+    if not wait_status(ctx, comp, lambda st: st.get(f"mode.{f}") == "degraded" and st.get(key) == "0",
+                       ctx.args.wire_timeout):
+        st = ctx.rt.status(ctx.names.fqn(comp)) or {}
+        raise StepFailed(f"{comp}.{f} still has {st.get(key, 'some')} requests in flight "
+                         f"{ctx.args.wire_timeout} s after it was degraded")

@@ -388,6 +388,18 @@ class Component:
         of itself, such as a detector's current silence limit."""
         self.reports[f"app.{key}"] = value
 
+    def in_flight(self, functionality: str, count: Callable[[], int]) -> None:
+        """Publish `count()` under `in_flight.<functionality>` in the node's status: how many
+        requests the functionality has passed on and not yet had answered. A plan's `degrade`
+        of it completes only once its status shows it degraded with none in flight
+        (docs/control-interface.md#the-six-actions); call `changed` when the count falls to 0."""
+        self.reports[f"in_flight.{functionality}"] = lambda: str(count())
+
+    def changed(self) -> None:
+        """Publish the node's status soon: something `report` or `in_flight` shows has changed."""
+        if self.node is not None:
+            self.node.status_changed()
+
     def create_functionality(self, name: str, inputs: Sequence[Input] = (), outputs: Sequence[Output] = (),
                              criticality: int = 1) -> Functionality:
         """A functionality associated with `inputs` and `outputs` (ports of this component), of

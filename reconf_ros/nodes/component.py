@@ -489,6 +489,10 @@ class ComponentNode(LifecycleNode):
         if self._dirty:
             self.publish_status()
 
+    def status_changed(self) -> None:
+        """The component says its status has changed (`Component.changed`): published soon."""
+        self._changed()
+
     def _changed(self) -> None:
         if not self._dirty:
             self._dirty = True

@@ -30,10 +30,17 @@ class _Ports:
     def __init__(self, name: str) -> None:
         logger = SimpleNamespace(warning=print, error=print)
         node = SimpleNamespace(get_logger=lambda: logger)
-        self.comp = SimpleNamespace(name=name, node=node, create_timer=lambda hz, fn: None)
+        self.in_flight: dict[str, Callable[[], int]] = {}
+        self.changes = 0
+        self.comp = SimpleNamespace(name=name, node=node, create_timer=lambda hz, fn: None,
+                                    in_flight=self.in_flight.__setitem__, changed=self.changed)
+        self.fn = SimpleNamespace(name="handle")
         self.ports = {n: _Port() for n in ("from_client", "from_after")}
         self.sent: list[tuple[str, dict[str, Any]]] = []
         self.normal = True
+
+    def changed(self) -> None:
+        self.changes += 1
 
     def has(self, name: str) -> bool:
         return name in self.ports
@@ -101,3 +108,22 @@ def test_a_backup_that_took_over_serves_no_request_before_the_state_it_follows()
     assert ports.inward() == ["~b-2", "~b-4"]
     ports.give("from_after", {"rid": "~b-4", "reply": {}})
     assert ports.inward() == ["~b-2", "~b-4", "b-5"]
+
+
+def test_a_suspended_protocol_says_when_its_layer_is_empty() -> None:
+    """A suspension is complete only when the layer holds no request (docs/control-interface.md,
+    `in_flight`): the protocol reports how many are inside, and says so at once when the last
+    comes out while it is suspended, so that a plan re-links the layer only then."""
+    pro, ports = protocol("server__r0_dup_protocol")
+    count = ports.in_flight["handle"]
+    ports.give("from_client", {"rid": "p-1", "body": {"op": "add", "x": 1}})
+    assert ports.inward() == ["p-1"] and count() == 1
+    ports.normal = False                                  # suspended: degraded
+    ports.give("from_client", {"rid": "p-2", "body": {"op": "add", "x": 2}})
+    assert ports.inward() == ["p-1"] and count() == 1     # queued, not passed on
+    assert ports.changes == 0
+    ports.give("from_after", {"rid": "p-1", "reply": {"result": 1}})
+    assert count() == 0 and ports.changes == 1            # empty: said at once
+    ports.normal = True
+    ports.give("from_after", {"rid": "p-0", "reply": {"result": 0}})
+    assert ports.changes == 1                             # normal again: nothing to say

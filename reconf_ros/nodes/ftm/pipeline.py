@@ -150,6 +150,9 @@ class Protocol:
         ports.input("from_client").on_message(self.on_request)
         ports.input("from_after").on_message(self.on_result)
         comp.create_timer(4, self.pump)        # a give-up check; requests and results pump it
+        # a suspension is complete when the layer holds no request: re-linking it before would
+        # cut a request off in the middle (a TR run, say, between its save and its restore)
+        comp.in_flight(ports.fn.name, lambda: len(self.inflight))
         self.notices = 0                # takeover notices still to send the proxy (on_switch)
         self.next_notice: Optional[float] = None    # when the next goes; None: not matched yet
         self.match_by = 0.0
@@ -201,7 +204,8 @@ class Protocol:
         if "rejected" in doc:           # refused inside (a bad signature): nothing to store or answer;
             if self.inflight.pop(rid, None) is not None:    # taken again if the proxy re-sends it
                 self.dropped.add(rid)
-            return self.pump()
+            self.pump()
+            return self.drained()
         result = result_of(doc, ("reply", "state"))
         if "reply" in doc and not rid.startswith("~"):      # "~": a backup's own run, not a request
             _remember(self.replies, rid, result)
@@ -212,6 +216,12 @@ class Protocol:
         if rid in self.mine and "reply" in doc:
             self.p.send("reply", {"rid": rid, **result})
         self.pump()
+        self.drained()
+
+    def drained(self) -> None:
+        """Say so at once when a suspended layer has emptied (`Component.in_flight`)."""
+        if not self.inflight and not self.p.normal:
+            self.p.comp.changed()
 
     def track_checkpoint(self, rid: str, run: Optional[dict[str, Any]]) -> None:
         """A backup's checkpoint (`run`, the state after request `rid`) becomes the one to apply,
@@ -264,6 +274,7 @@ class Protocol:
                 self.dropped.add(rid)
                 del self.inflight[rid]
                 self.p.input("from_after").give_up()     # its result is no longer waited for
+                self.drained()
         if not self.p.normal:
             return
         if self.checkpoint is not None:
