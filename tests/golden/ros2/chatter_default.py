@@ -1238,6 +1238,7 @@ class Context:
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
     exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
+    gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -1481,6 +1482,17 @@ def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
     return out
 
 
+def largest_gaps(ctx: Context, comps: Iterable[str]) -> dict[str, float]:
+    """Each heard-from monitored input's largest wait for data since its node started
+    (`in.<port>.max_gap_s` of its status, docs/control-interface.md): "component.port" -> s."""
+    out = {}
+    for c in comps:
+        for key, value in (ctx.rt.status(ctx.names.fqn(c)) or {}).items():
+            if key.startswith("in.") and key.endswith(".max_gap_s"):
+                out[f"{c}.{key[3:-len('.max_gap_s')]}"] = float(value)
+    return out
+
+
 def check_touched(ctx: Context, expected: State, when: str) -> None:
     """Every component the plan has touched reads back as `expected` has it."""
     # a node that answered its services may not be in this node's graph yet, nor heard on
@@ -1581,7 +1593,10 @@ def _heard_since(st: Status, port: str, nodes: set[str], since: float) -> list[s
 
 def wire_after(ctx: Context, step: Step, will: State) -> None:
     """An attached port is matched with the other side of its connector as the plan has it; an
-    attached output that publishes is heard by every subscriber."""
+    attached output that publishes is heard by every subscriber; a degraded functionality that
+    reports what it has in flight has none left (`drained`)."""
+    if step.action == "degrade":
+        return drained(ctx, step)
     if step.action != "attach":
         return
     comp, port, conn = step.component, step.port, step.connector
@@ -1606,6 +1621,22 @@ def wire_after(ctx: Context, step: Step, will: State) -> None:
                 continue            # nothing flows until asked for; matched above
             if not wait_status(ctx, c, lambda st: me.format(p) in st, wait):
                 raise StepFailed(f"{c}.{p} has received nothing from {comp} on {k} within {wait} s")
+
+
+def drained(ctx: Context, step: Step) -> None:
+    """After a degrade: a functionality whose status reports `in_flight.<f>` (an FTM protocol:
+    the requests inside its layer) shows itself degraded with none in flight. A suspension is
+    complete only then: a plan that re-links the layer before would cut a request off inside it
+    (docs/control-interface.md#the-six-actions)."""
+    comp, f = step.component, step.functionality
+    key = f"in_flight.{f}"
+    if key not in (ctx.rt.status(ctx.names.fqn(comp)) or {}):
+        return
+    if not wait_status(ctx, comp, lambda st: st.get(f"mode.{f}") == "degraded" and st.get(key) == "0",
+                       ctx.args.wire_timeout):
+        st = ctx.rt.status(ctx.names.fqn(comp)) or {}
+        raise StepFailed(f"{comp}.{f} still has {st.get(key, 'some')} requests in flight "
+                         f"{ctx.args.wire_timeout} s after it was degraded")
 
 
 # --- reconf_ros/executor/processes.py ---
@@ -2128,6 +2159,7 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "timings": [t.to_doc() for t in ctx.timings],
         # each monitor that saw a normal mode's assumption violated: how often, first after which step
         "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
+        "gaps": gaps(ctx),
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
         "plan_document": ctx.doc}
@@ -2139,6 +2171,17 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
     os.replace(tmp, path)
     print(f"report: {path}", file=ctx.err if outcome != "done" else ctx.out)
     return path
+
+
+def gaps(ctx: Context) -> dict[str, dict[str, Any]]:
+    """Each monitored input's largest wait for data as its node's last status says, and whether
+    the run saw it (larger than before the first step, or on a node the run started): "comp.port"
+    -> {"seconds", "during_run"}. Its node's status comes once a second: a gap of the last
+    second before the report may not be in it yet."""
+    if ctx.rt is None:
+        return {}
+    now = largest_gaps(ctx, ctx.baseline)
+    return {k: {"seconds": round(s, 3), "during_run": s > ctx.gaps.get(k, 0.0)} for k, s in sorted(now.items())}
 
 
 def stale(ctx: Context, first: int, observed: State, diffs: list[str], hood: set[str]) -> int:
@@ -2324,6 +2367,7 @@ class Executor:
         # wire than in the model (a suspended protocol keeps its clients waiting); a node a step
         # creates joins them as it comes up (handlers.baseline)
         ctx.baseline = violations(ctx, ctx.states[first - 1].components)
+        ctx.gaps = largest_gaps(ctx, ctx.states[first - 1].components)
         ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
