@@ -78,8 +78,8 @@ def _batched(p: Plan) -> Plan:
     a recovery's steps are grouped as they are, after those that restore validity."""
     if p.strategy == "paper" or not p.steps:
         return p
-    recovering = p.recovery is not None
-    steps, batches = batch_plan(p, p.recovery.restore + 1 if recovering else 1, move=not recovering)
+    restore = p.recovery.restore if p.recovery is not None else None
+    steps, batches = batch_plan(p, 1 if restore is None else restore + 1, move=restore is None)
     if steps != p.steps:
         again = verify(p.system, p.states[0], steps, p.goal, p.strategy, p.renames)
         moved = sum(a is not b for a, b in zip(steps, p.steps))
