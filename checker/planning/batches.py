@@ -167,13 +167,20 @@ class _Cost:
         return self.weighted(steps, j + 1) <= self.weighted(self.steps, j) + 1e-9
 
 
+def _serving(plan: Plan) -> bool:
+    """Whether the plan keeps a service serving its clients throughout (an FTM transition)."""
+    return bool(plan.serving or plan.handover)
+
+
 def _joins(plan: Plan, lat: Lattice, a: Action, no_worse: bool) -> bool:
     """Whether `a` joins the batch `lat` (and does, when it can): not when that makes the plan's
-    degraded seconds rise (`no_worse` false). A protocol's suspension or resumption runs with
+    degraded seconds rise (`no_worse` false), nor a second create where a service is kept
+    serving (process starts at once take the CPU the service needs: its replies came late).
+    A protocol's suspension or resumption runs with
     mode changes only: the model allows a new node's input attached while a protocol is being
     suspended, but on the wire that node would hear the replies to requests the old path
     carries (docs/soundness.md#batches)."""
-    if not no_worse:
+    if not no_worse or a.kind == "create" and _serving(plan) and any(s.kind == "create" for s in lat.steps):
         return False
     modes = all(s.kind in ("degrade", "upgrade") for s in lat.steps + [a])
     if not modes and (_suspends(plan, a) or any(_suspends(plan, s) for s in lat.steps)):

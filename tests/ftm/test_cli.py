@@ -52,8 +52,9 @@ def test_plan_transition_json() -> None:
     # rest is the suspension, and the resume is last
     first = kinds.index("degrade")
     assert kinds[:first] == ["create"] * 4 and "create" not in kinds[first:] and kinds[-1] == "upgrade"
-    # the four creates run together, as one batch
-    assert doc["plan"]["batches"][0] == [1, 4]
+    # the creates run one at a time (the service is serving: process starts at once would take its
+    # CPU), the suspension's steps in batches
+    assert all(a > 4 for a, _ in doc["plan"]["batches"]) and doc["plan"]["batches"]
     # and the JSON says for how long the client's side (the follower) is expected to wait: not
     # while the nodes start
     seconds = doc["plan"]["seconds"]
