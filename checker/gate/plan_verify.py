@@ -96,16 +96,15 @@ def _more(refused: list[Refusal]) -> tuple[str, ...]:
 
 def verify_plan(system: System, plan: PlanInput, engine: Engine = Engine.BOTH) -> PlanJudgement:
     """Judge `plan` on `system` with the engines `engine` names."""
-    out = PlanJudgement(plan)
+    out, as_plan = PlanJudgement(plan), _as_plan(system, plan)
     if engine.python:
         clock = time.perf_counter()
-        found = first_broken(system, plan) or _unsafe_batch(system, plan)
+        found = first_broken(system, plan) or _unsafe_batch(as_plan, plan)
         out.engines["python"] = {"engine": "python", "valid": found is None, "states": len(plan.states),
                                  "reason": found.message if found else "", "seconds": round(time.perf_counter() - clock, 3)}
         if found is not None:
             out.diagnostics.append(found)
     if engine.alloy:
-        as_plan = _as_plan(system, plan)
         out.engines["alloy"] = alloy = alloy_evidence(as_plan, given=True)
         if plan.batches and alloy.get("valid"):
             alloy["batches"] = judged = alloy_batches(as_plan, plan.batches)
@@ -115,9 +114,9 @@ def verify_plan(system: System, plan: PlanInput, engine: Engine = Engine.BOTH) -
     return out
 
 
-def _unsafe_batch(system: System, plan: PlanInput) -> Optional[Diagnostic]:
-    """The first batch of the document that is unsafe in some order (checker.planning.batches), or None."""
-    as_plan = _as_plan(system, plan)
+def _unsafe_batch(as_plan: Plan, plan: PlanInput) -> Optional[Diagnostic]:
+    """The first batch of the document (`as_plan`: its plan) that is unsafe in some order
+    (checker.planning.batches), or None."""
     for (first, last), span in zip(plan.batches, plan.batch_spans):
         why = batch_refusal(as_plan, first, last)
         if why:

@@ -12,7 +12,7 @@ subset names (the steps commute). Alloy judges the same states and moves
 has at most BATCH_MAX steps, and a plan past BATCH_BUDGET states × components is not batched."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator, Optional, Sequence
 
 from checker.planning.durations import degraded_seconds
@@ -130,8 +130,8 @@ def batch_plan(plan: Plan, first: int = 1, move: bool = True) -> tuple[list[Acti
         lat.add(steps[i])
         j = i + 1
         while j < len(steps) and len(lat.steps) < BATCH_MAX:
-            cost = _Cost(plan, steps, out, i)
-            if not (_joins(plan, lat, steps[j], cost.no_worse(steps, j))
+            cost = _Cost(plan, steps, out, i, j)
+            if not (_joins(plan, lat, steps[j], cost.no_worse(steps))
                     or move and _moved(plan, steps, states, lat, j, cost)):
                 break
             j += 1
@@ -156,15 +156,20 @@ class _Cost:
     steps: list[Action]
     out: list[tuple[int, int]]
     i: int
+    j: int
+    now: float = field(init=False)      # the steps as they are, the batch ending at step j
+
+    def __post_init__(self) -> None:
+        self.now = self.weighted(self.steps, self.j)
 
     def weighted(self, steps: Sequence[Action], j: int) -> float:
         batches = self.out + ([(self.i + 1, j)] if j - self.i > 1 else [])
         return degraded_seconds(self.plan.system, self.plan.states[0], steps, self.plan.durations(), batches).weighted
 
-    def no_worse(self, steps: Sequence[Action], j: int) -> bool:
+    def no_worse(self, steps: Sequence[Action]) -> bool:
         """Whether `steps` with the batch grown to step j + 1 (from 0: j) is no worse than the
         steps as they are with the batch ending at step j."""
-        return self.weighted(steps, j + 1) <= self.weighted(self.steps, j) + 1e-9
+        return self.weighted(steps, self.j + 1) <= self.now + 1e-9
 
 
 def _serving(plan: Plan) -> bool:
@@ -201,7 +206,7 @@ def _moved(plan: Plan, steps: list[Action], states: list[Configuration], lat: La
         if a.component not in passed:
             order = [a] + steps[j:k]
             run = _run(plan, states[j], order, states[k + 1])
-            if run is not None and _joins(plan, lat, a, cost.no_worse(steps[:j] + order + steps[k + 1:], j)):
+            if run is not None and _joins(plan, lat, a, cost.no_worse(steps[:j] + order + steps[k + 1:])):
                 steps[j:k + 1] = order
                 states[j + 1:k + 1] = run
                 return True

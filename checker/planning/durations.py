@@ -31,7 +31,7 @@ from checker.semantic_model.actions import KINDS, Action, catalogue
 from checker.semantic_model.config import Configuration, FuncId
 from reconf_dsl.ir import System
 
-__all__ = ["Durations", "Degradation", "durations", "degraded_seconds", "schedule"]
+__all__ = ["Durations", "Degradation", "durations", "degraded_seconds", "most_first", "schedule"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,12 @@ def durations(system: System) -> Durations:
     return Durations({k.name: k.seconds for k in KINDS}, comps, sources)
 
 
+def most_first(seconds: Mapping[str, float], shown: int = 3, digits: int = 2) -> str:
+    """The `shown` names with the most seconds, most first (then by name), each with its seconds."""
+    ranked = sorted(seconds.items(), key=lambda kv: (-kv[1], kv[0]))
+    return ", ".join(f"{k} {s:.{digits}f} s" for k, s in ranked[:shown]) + (", …" if len(ranked) > shown else "")
+
+
 @dataclass(frozen=True)
 class Degradation:
     """A plan's expected time on the wire: `total` s of steps, and per functionality that
@@ -89,8 +95,7 @@ class Degradation:
 
     def longest(self, shown: int = 3) -> str:
         """The `shown` functionalities degraded longest, most first, with their seconds."""
-        ranked = sorted(self.seconds.items(), key=lambda kv: (-kv[1], kv[0]))
-        return ", ".join(f"{c}.{f} {s:.2f} s" for (c, f), s in ranked[:shown]) + (", …" if len(ranked) > shown else "")
+        return most_first({f"{c}.{f}": s for (c, f), s in self.seconds.items()}, shown)
 
     def to_dict(self) -> dict[str, Any]:
         return {"plan": round(self.total, 3), "weighted": round(self.weighted, 3),

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from html import escape
 from typing import Any
 
+from checker.planning.durations import most_first
 from reconf_ros.executor.plan_states import PlanStates
 
 __all__ = ["Bar", "Timeline", "timeline", "to_text", "to_svg"]
@@ -51,8 +52,7 @@ class Timeline:
 
     def gaps_note(self, shown: int = 3) -> str:
         """The largest input gaps the monitors saw during the run, most first ("" if none)."""
-        ranked = sorted(self.gaps.items(), key=lambda kv: (-kv[1], kv[0]))
-        return ", ".join(f"{k} {v:.3f} s" for k, v in ranked[:shown]) + (", …" if len(ranked) > shown else "")
+        return most_first(self.gaps, shown, digits=3)
 
     def planned_note(self) -> str:
         """What the plan expected the run to take, for the title ("" for a plan without seconds)."""
