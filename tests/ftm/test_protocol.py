@@ -29,7 +29,11 @@ class _Ports:
 
     def __init__(self, name: str) -> None:
         logger = SimpleNamespace(warning=print, error=print)
-        node = SimpleNamespace(get_logger=lambda: logger)
+        self.readers = 1                                  # what `to_before` is matched with
+        self.timers: list[Callable[[], None]] = []
+        node = SimpleNamespace(get_logger=lambda: logger, matched=lambda port: self.readers,
+                               create_timer=lambda period, fn: self.timers.append(fn) or fn,
+                               destroy_timer=self.timers.remove)
         self.in_flight: dict[str, Callable[[], int]] = {}
         self.changes = 0
         self.comp = SimpleNamespace(name=name, node=node, create_timer=lambda hz, fn: None,
@@ -127,3 +131,20 @@ def test_a_suspended_protocol_says_when_its_layer_is_empty() -> None:
     ports.normal = True
     ports.give("from_after", {"rid": "p-0", "reply": {"result": 0}})
     assert ports.changes == 1                             # normal again: nothing to say
+
+
+def test_a_resumed_protocol_sends_nothing_inwards_before_its_layer_reads_it() -> None:
+    """A transition can resume a new protocol before it links the protocol's inward port: what
+    it would send then is lost. The requests wait in its queue, and go in once the layer's
+    first node is matched (a 20 ms poll meanwhile), in the proxy's order."""
+    pro, ports = protocol("server__r0_sec_protocol")
+    ports.readers = 0
+    for n in (1, 2):
+        ports.give("from_client", {"rid": f"p-{n}", "body": {"op": "add", "x": n}})
+    assert ports.inward() == [] and ports.in_flight["handle"]() == 0
+    assert len(ports.timers) == 1                         # polling for the link, once
+    ports.timers[0]()
+    assert ports.inward() == []
+    ports.readers = 1
+    ports.timers[0]()
+    assert ports.inward() == ["p-1", "p-2"] and ports.timers == []

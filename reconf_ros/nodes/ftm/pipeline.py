@@ -157,6 +157,7 @@ class Protocol:
         self.next_notice: Optional[float] = None    # when the next goes; None: not matched yet
         self.match_by = 0.0
         self.announcer: Any = None
+        self.link_poll: Any = None      # pumps every 20 ms while requests wait for the layer's link
         if ports.has("from_recovery"):
             ports.input("from_recovery").on_message(self.on_switch)
 
@@ -275,7 +276,7 @@ class Protocol:
                 del self.inflight[rid]
                 self.p.input("from_after").give_up()     # its result is no longer waited for
                 self.drained()
-        if not self.p.normal:
+        if not self.p.normal or not self.linked():
             return
         if self.checkpoint is not None:
             if not any(r.startswith("~") for r in self.inflight) and len(self.inflight) < self.window:
@@ -286,6 +287,22 @@ class Protocol:
             return                      # no request goes in before the latest state is applied
         while len(self.inflight) < self.window and self.queue and self.caught_up(self.queue[0]):
             self.next()
+
+    def linked(self) -> bool:
+        """Whether the layer's first node reads what this protocol sends inwards. A transition can
+        resume a new protocol before it links its inward port (the model does not forbid it: a
+        protocol queues); a request sent then would be lost, held in flight for GIVE_UP_AFTER,
+        and the proxy's re-send refused as taken already, so they wait in the queue instead, and
+        go in within 20 ms of the link."""
+        node = self.p.comp.node
+        if node.matched("to_before") > 0:
+            if self.link_poll is not None:
+                node.destroy_timer(self.link_poll)
+                self.link_poll = None
+            return True
+        if self.link_poll is None and (self.queue or self.checkpoint is not None):
+            self.link_poll = node.create_timer(0.02, self.pump)
+        return False
 
     def caught_up(self, req: dict[str, Any]) -> bool:
         """Whether a backup that took over holds the state `req` follows: the proxy's floor says
