@@ -9,6 +9,7 @@ from click.testing import CliRunner
 
 from checker.cli.main import main
 from tests.examples_table import BY_NAME, EXAMPLES
+from tests.support.ftm import assert_prepared_first_cleaned_up_last
 
 CHATTER = BY_NAME["chatter"].file
 
@@ -173,7 +174,4 @@ def test_migrate_between_ftms_plans_on_the_expansions() -> None:
     suspended = [s["component"] for s in steps if s["action"] == "degrade" and s["component"].endswith("_protocol")]
     assert suspended == ["server__r0_dup_protocol", "server__r1_dup_protocol"]   # the protocols are suspended
     assert not any(c.endswith("_proceed") for c in touched)           # the application replicas are kept
-    kinds = [s["action"] for s in steps]
-    # the new nodes are created before the first suspension, attached to nothing; the resume is last
-    first = kinds.index("degrade")
-    assert set(kinds[:first]) == {"create"} and "create" not in kinds[first:] and kinds[-1] == "upgrade"
+    assert_prepared_first_cleaned_up_last(steps)

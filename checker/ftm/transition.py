@@ -127,20 +127,25 @@ def affected_protocols(old: ir.System, new: ir.System, old_info: ExpansionInfo,
     return out
 
 
-def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, str]) -> bool:
-    """Whether `a` disturbs a running node of `hood`: removes one, detaches a port, or attaches a
-    publisher (attaching a new node's input only prepares it)."""
-    if isinstance(a, (Remove, Detach)):
-        name = a.component
-    elif isinstance(a, Attach):
-        comp = system.component(a.component)
-        port = comp.port(a.port) if comp is not None else None
-        if port is None or port.kind != "output":
-            return False
-        name = a.component
-    else:
+def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, str], state: Configuration,
+             old: frozenset[str], kept: frozenset[str]) -> bool:
+    """Whether `a`, taken in `state`, disturbs a running node of `hood`: detaches a port from a
+    connector a node of `kept` (the plan's end) is attached to, or attaches a publisher that a
+    node of `old` (the plan's start) reads; a service's client is not disturbed by the server's
+    side and does not disturb it. Attaching a new node's input only prepares it, a publisher
+    only new nodes read links the new layer, a detach from removed nodes only takes an old layer
+    apart once it is cut off, and a remove takes a node attached to nothing."""
+    name = a.component if isinstance(a, (Attach, Detach)) else ""
+    if name not in hood and renames.get(name, name) not in hood:
         return False
-    return name in hood or renames.get(name, name) in hood
+    comp, conn = system.component(a.component), system.connector(a.connector)
+    port = comp.port(a.port) if comp is not None else None
+    if port is None or (conn is not None and conn.kind == "service" and port.kind == "input"):
+        return False
+    others = {c for k, c, _ in state.roles if k == a.connector and c != a.component}
+    if isinstance(a, Attach):
+        return port.kind == "output" and bool(others & old)
+    return a.component in kept or bool(others & kept)
 
 
 def _func(system: ir.System, comp: str) -> FuncId:
@@ -162,7 +167,9 @@ def suspension_problems(plan: Plan, hoods: dict[str, set[str]]) -> list[str]:
         for i, a in enumerate(plan.steps):
             own = isinstance(a, (Attach, Detach)) and a.component == p and \
                 (comp.port(a.port) or _NOPORT).kind == "input"
-            if (own or _touches(plan.system, a, hood - {p}, plan.renames)) and fid not in plan.states[i].degraded:
+            disturbs = _touches(plan.system, a, hood - {p}, plan.renames, plan.states[i], plan.states[0].components,
+                                plan.states[-1].components)
+            if (own or disturbs) and fid not in plan.states[i].degraded:
                 out.append(f"{p} is not suspended at step {i + 1} ({a.describe()})")
                 break
         if fid in plan.states[-1].degraded:
@@ -281,12 +288,13 @@ def _prepared(system: ir.System, start: Configuration, steps: list[Action], fina
     """The verified plan of `steps`, its new nodes created before the suspension
     (checker.planning.prepare), where that keeps every protocol suspended while its
     neighbourhood changes; `steps` as they are for the paper's strategy, or where it does not.
-    Only the creates move: a node just created is attached to nothing. Its inputs, attached
-    before the suspension too, let a new Proceed hear the application's replies to requests
-    the old path carried, and the application answered wrong from then on in 1 of 3 PBR(TR) ->
-    PBR runs at 50 requests/s (docs/ftm.md#a-transition-under-load); the removes stay inside."""
+    The creates move, and the steps that link the new nodes only among themselves (`isolated`):
+    an input of a new node attached where an old node publishes let a new Proceed take the old
+    path's requests to the application, which answered wrong from then on in 1 of 3 PBR(TR) ->
+    PBR runs at 50 requests/s (docs/ftm.md#a-transition-under-load). At the end, the steps that
+    take an old layer apart once it is cut off from what stays (`_cut_off`)."""
     if strategy != "paper":
-        ordered = prepare_first(system, start, steps, final, durations(system), inputs=False, removes=False)
+        ordered = prepare_first(system, start, steps, final, durations(system), isolated=True)
         if ordered is not steps:
             whole = verify(system, start, ordered, final, strategy, renames)
             if not suspension_problems(whole, hoods):

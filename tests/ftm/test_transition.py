@@ -12,7 +12,7 @@ from checker.ftm.transition import (
     suspension_problems,
 )
 from checker.planning.plan import verify
-from checker.semantic_model.actions import Create, Degrade, Remove, Upgrade
+from checker.semantic_model.actions import Attach, Create, Degrade, Detach, Remove, Upgrade
 from reconf_dsl.loader import load, load_text
 from tests.support.ftm import EXAMPLES, client_server
 
@@ -61,6 +61,33 @@ def test_transition_is_verified_suspends_and_loses_nothing(a: str, b: str) -> No
     if t.old_infos[0].composition.duplex and t.new_infos[0].composition.duplex:
         survivors |= {"server__r0_cd", "server__r1_cd", "server__recovery", "server__r1_app"}
     assert not (touched(t) & survivors)
+
+
+@pytest.mark.parametrize("a, b", PAIRS)
+def test_outside_the_suspension_only_new_nodes_are_linked_and_only_cut_off_ones_unlinked(a: str, b: str) -> None:
+    """Before the first degrade a step links a new node to new nodes only (or as a service's
+    client): an old node's requests cannot reach a new layer early, where a new Proceed would
+    run them on the application. After the last upgrade of a node that stays, a step on a removed
+    node only takes it apart from removed nodes (docs/soundness.md#prepare-first-clean-up-last)."""
+    p = transition(a, b).plan
+    start, end = p.states[0].components, p.states[-1].components
+    created = {s.component for s in p.steps if isinstance(s, Create)}
+    first = next(i for i, s in enumerate(p.steps) if isinstance(s, Degrade))
+    resumed = max(i for i, s in enumerate(p.steps) if isinstance(s, Upgrade) and s.component not in created)
+
+    def others(i: int, conn: str, comp: str) -> set[str]:
+        return {c for k, c, _ in p.states[i].roles if k == conn and c != comp}
+
+    def client(s: Attach | Detach) -> bool:
+        conn, comp = p.system.connector(s.connector), p.system.component(s.component)
+        return conn is not None and comp is not None and conn.kind == "service" and comp.port(s.port).kind == "input"
+
+    for i, s in enumerate(p.steps[:first]):
+        assert s.component in created, s
+        assert not isinstance(s, Attach) or client(s) or not others(i, s.connector, s.component) & start, s
+    for i, s in enumerate(p.steps[resumed + 1:], resumed + 1):
+        if s.component not in end:     # (a protocol may move its own outputs after its resume)
+            assert not isinstance(s, Detach) or client(s) or not others(i, s.connector, s.component) & end, s
 
 
 def test_pbr_to_lfr_changes_only_the_nodes_that_differ() -> None:

@@ -1,8 +1,9 @@
-"""Architectures for the FTM tests: the client/server of paper 000 with any FTM, and the FTM examples."""
+"""Architectures for the FTM tests: the client/server of paper 000 with any FTM, and the FTM examples;
+the shape a transition's plan has (docs/soundness.md#prepare-first-clean-up-last)."""
 from __future__ import annotations
 
 import os
-from typing import Optional
+from typing import Any, Optional
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 EXAMPLES = os.path.join(ROOT, "examples", "ftm")
@@ -30,3 +31,17 @@ def client_server(ftm: Optional[str], faults: str = "crash", application: str = 
               "service /compute: Reply @ 10 Hz { server.reply -> client.reply }", ""]
     return "\n".join(lines)
 
+
+def assert_prepared_first_cleaned_up_last(steps: list[dict[str, Any]]) -> None:
+    """The new nodes are created and linked among themselves before anyone degrades; then the
+    suspension and the resume; last, the old nodes, cut off from what stays, are taken apart."""
+    kinds = [s["action"] for s in steps]
+    created = {s["component"] for s in steps if s["action"] == "create"}
+    removed = {s["component"] for s in steps if s["action"] == "remove"}
+    first = kinds.index("degrade")
+    assert kinds[0] == "create" and "create" not in kinds[first:]
+    assert all(s["component"] in created for s in steps[:first])
+    assert any(s["action"] == "attach" for s in steps[:first])
+    resumed = max(i for i, s in enumerate(steps) if s["action"] == "upgrade" and s["component"] not in created)
+    assert all(s["component"] in removed for s in steps[resumed + 1:])
+    assert not removed or steps[-1]["action"] == "remove"
