@@ -72,6 +72,8 @@ def test_import_blocks_are_in_one_order() -> None:
 SHARED_NAMES = {
     "semantics.py": "the plan executor's standard-library copy of checker.semantic_model.semantics: the same semantics, "
                     "held equal by tests/test_executor.py",
+    "launcher.py": "the two ends of one fork server: its process (reconf_ros/tools) and the client a manager, an "
+                   "agent or a plan script talks to it with (reconf_ros/executor, embedded in plan scripts)",
 }
 
 

@@ -16,6 +16,7 @@ from checker.ftm.expand import ExpansionInfo, FtmRuleBroken, expand
 from checker.ftm.library import LAYER_ORDER
 from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
 from checker.planning.durations import durations
+from checker.planning.improve import cost
 from checker.planning.lossless import reaches, request_problems, targets_of
 from checker.planning.plan import settle, verify
 from checker.planning.prepare import prepare_first
@@ -28,6 +29,7 @@ from checker.semantic_model.actions import (
     Snapshot,
     Upgrade,
     catalogue,
+    effect,
     failing_assumptions,
     preconditions,
 )
@@ -135,8 +137,8 @@ def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, st
     side and does not disturb it. Attaching a new node's input only prepares it, a publisher
     only new nodes read links the new layer, a detach from removed nodes only takes an old layer
     apart once it is cut off, and a remove takes a node attached to nothing."""
-    name = a.component if isinstance(a, (Attach, Detach)) else ""
-    if name not in hood and renames.get(name, name) not in hood:
+    if not isinstance(a, (Attach, Detach)) or (a.component not in hood and
+                                               renames.get(a.component, a.component) not in hood):
         return False
     comp, conn = system.component(a.component), system.connector(a.connector)
     port = comp.port(a.port) if comp is not None else None
@@ -276,11 +278,91 @@ def _plan(old: ir.System, new: ir.System, old_infos: list[ExpansionInfo], new_in
     passing = set(middle.goal.residual_notes())
     whole.notes = [f"suspended while their neighbourhood changes: {', '.join(sorted(hoods))}"] + whole.notes \
         + [n for n in middle.notes if n not in passing and n not in whole.notes and not n.startswith("verification:")]
+    whole = _served_when_resumed(whole, old_infos, new_infos, hoods)
     problems = suspension_problems(whole, hoods)
     if problems:
         raise NoSafePlan(problems)
     _watch(whole, old_infos, new_infos)
     return _refuse_lost_requests(Transition(whole, old, new, old_infos, new_infos, sorted(hoods), presuspended=True))
+
+
+def _served_when_resumed(plan: Plan, old_infos: list[ExpansionInfo], new_infos: list[ExpansionInfo],
+                         hoods: dict[str, set[str]]) -> Plan:
+    """`plan` with each served proxy's upgrade, and its clients', moved to where the proxy's
+    requests reach the application again (`served`), where every precondition still holds and
+    every protocol stays suspended while its neighbourhood changes; `plan` where they are there
+    already, or cannot be. The model lets a client be normal once its proxy is, and the proxy
+    once the reply path is linked, while a request path still being linked holds its requests:
+    toward SEC(PBR(TR)) the client was upgraded 15 steps before the new SEC protocol's inward
+    port was linked, and its monitor saw replies late in 10 of 10 runs at 50 requests/s."""
+    system, start = plan.system, plan.states[0]
+    pairs = serving(old_infos, new_infos)
+    targets = targets_of(protocols(old_infos, new_infos))
+    steps = list(plan.steps)
+    for conn, proxy in pairs:
+        ctx = _Served(system, proxy, {c for c, _ in pairs}, targets.get(proxy, set()))
+        side = {proxy} | {c for k, c, _ in start.roles if k == conn and c != proxy}
+        ups = [i for i, a in enumerate(steps) if isinstance(a, Upgrade) and a.component in side]
+        if not ups:
+            continue
+        states = [start]
+        for a in steps:
+            states.append(effect(system, states[-1], a))
+        ready = next((j for j in range(ups[0], len(steps)) if ctx.served(states[j + 1])), None)
+        if ready is None or ready == ups[0]:
+            continue
+        moved = [steps[i] for i in ups if i < ready]
+        rest = [a for i, a in enumerate(steps) if not (i in ups and i < ready)]
+        at = ready + 1 - len(moved)
+        cand = rest[:at] + moved + rest[at:]
+        if cost(system, start, cand, plan.goal) is not None:
+            steps = cand
+    if steps == list(plan.steps):
+        return plan
+    again = verify(system, start, steps, plan.goal, plan.strategy, plan.renames)
+    if suspension_problems(again, hoods):
+        return plan
+    again.notes = plan.notes + [n for n in again.notes if n not in plan.notes]
+    return again
+
+
+@dataclass
+class _Served:
+    """Whether a proxy's requests are served in a state: through the readers of what it publishes
+    (not on its clients' connectors `clients`), past resumed protocols only (a suspended one
+    queues), they reach a node that calls a service (a Proceed, calling the application), whose
+    results reach the proxy back."""
+
+    system: ir.System
+    proxy: str
+    clients: set[str]
+    protocols: set[str]
+
+    def served(self, state: Configuration) -> bool:
+        st = Snapshot(catalogue(self.system), state)
+        down = {c for c, _ in state.degraded}
+        callers = [c for c in self._reach(st, self.proxy, down) if self._calls(state, c)]
+        return any(self.proxy in self._reach(st, c, set()) for c in callers)
+
+    def _reach(self, st: Snapshot, origin: str, down: set[str]) -> set[str]:
+        seen, frontier = {origin}, [origin]
+        while frontier:
+            comp = frontier.pop()
+            if comp != origin and comp in self.protocols and comp in down:
+                continue                # suspended: it holds what it is sent
+            for conn in {k for k, _ in st.attached_outputs(comp)} - self.clients:
+                for reader in st.readers([conn]) - seen:
+                    seen.add(reader)
+                    frontier.append(reader)
+        return seen
+
+    def _calls(self, state: Configuration, comp: str) -> bool:
+        for k, c, port in state.roles:
+            conn, owner = self.system.connector(k), self.system.component(c)
+            if c == comp and conn is not None and owner is not None and conn.kind == "service" \
+                    and k not in self.clients and (owner.port(port) or _NOPORT).kind == "input":
+                return True
+        return False
 
 
 def _prepared(system: ir.System, start: Configuration, steps: list[Action], final: Goal, strategy: str,

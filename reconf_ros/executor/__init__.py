@@ -18,6 +18,7 @@ Each module is one concern, readable in one sitting:
 - `replay`: the dry run;
 - `observe`: reading the live system as a configuration;
 - `conditions`: what a step waits for on the wire;
+- `launcher`: the client side of the launcher, a fork server for new nodes;
 - `processes`: starting and stopping a component's process, here or by its host's agent;
 - `handlers`: the six actions, one handler each (`HANDLERS`);
 - `run_report`: the run report, and what a failure says;
@@ -30,4 +31,4 @@ it reads the system through the same `Runtime`; plan scripts do not embed it.
 from __future__ import annotations
 
 EMBEDDED = ("steps", "plan_states", "semantics", "status", "remote", "runtime", "naming", "context", "replay", "observe",
-            "conditions", "processes", "handlers", "run_report", "run", "script")
+            "conditions", "launcher", "processes", "handlers", "run_report", "run", "script")

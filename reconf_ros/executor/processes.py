@@ -1,7 +1,7 @@
 """The processes a plan starts and stops: a component's command line (its `run`, or a
 model-driven `reconf-node` of the architecture the plan reaches), with its node's name and
-namespace; started in a session of its own with its own log, forked by a manager's launcher
-where it can be (docs/executor.md#launcher); or, with a hosts file (`--hosts`), on the host the
+namespace; started in a session of its own with its own log, forked by a launcher where it can
+be (a manager's, or the plan script's own: docs/executor.md#launcher); or, with a hosts file (`--hosts`), on the host the
 component's architecture names, by that host's agent (`remote`, docs/hosts.md)."""
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ import time
 from typing import Any, Iterable, Optional
 
 from .context import Context
+from .launcher import PROGRAM, Launcher, launchable
 from .remote import LOCAL, Agent, HostError, HostRefused, RemoteProcess
 from .runtime import StepFailed
 from .status import CREATED_ENV
@@ -187,6 +188,27 @@ def _end_remote(ctx: Context, fqn: str, comp: str, pid: int) -> Optional[str]:
 
 def _on(host: str) -> str:
     return f" on host {host}" if host else ""
+
+
+def own_launcher(ctx: Context, first: int, last: int) -> None:
+    """Start a launcher of this run's own (a plan script's, not a manager's) when steps `first`..
+    `last` create a node this environment's `reconf-node` runs, and `--no-launcher` is not
+    given: its imports (about 0.5 s) overlap the wait for discovery, and each create forks from
+    it instead of starting a Python from nothing. The run closes it (its children stay)."""
+    if ctx.launcher is not None or getattr(ctx.args, "no_launcher", True):
+        return
+    here = os.path.join(os.path.dirname(sys.executable), PROGRAM)
+    for step in ctx.steps[first - 1:last]:
+        if step.action != "create" or on_agent(ctx, step.component):
+            continue
+        run = ctx.runs.get(step.component)       # as `command` reads it (before ROS: no namespace yet)
+        program = shlex.split(run)[0] if run and "node" not in ctx.model.comps.get(step.component, {}) else PROGRAM
+        if os.path.basename(program) == PROGRAM and os.path.exists(here) and launchable([here]):
+            try:
+                ctx.launcher = Launcher()
+            except OSError as e:
+                ctx.say(f"no launcher ({e}): new nodes start the ordinary way")
+            return
 
 
 def warm(ctx: Context, first: int, last: int) -> None:

@@ -26,7 +26,7 @@ from .observe import (
     wait_statuses,
 )
 from .plan_states import State
-from .processes import end_orphans, warm
+from .processes import end_orphans, own_launcher, warm
 from .remote import HostError
 from .run_report import failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
@@ -82,6 +82,7 @@ class Executor:
         t0 = time.monotonic()
         if self.own_runtime:
             ctx.interrupts.install()
+            own_launcher(ctx, first, ctx.args.to_step)    # before rclpy: its imports overlap discovery
             ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
         try:
             return self._apply(first, t0)
@@ -92,6 +93,8 @@ class Executor:
         finally:
             if ctx.hosts is not None:
                 ctx.hosts.close()
+            if self.own_runtime and ctx.launcher is not None:
+                ctx.launcher.close()            # its children, the nodes started, stay
             if self.own_runtime:
                 ctx.rt.close()
 

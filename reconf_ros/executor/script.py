@@ -77,6 +77,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                          "stops the run there)")
     ap.add_argument("--one-at-a-time", action="store_true",
                     help="perform every step alone, the steps of the plan's batches too (docs/executor.md#batches)")
+    ap.add_argument("--no-launcher", action="store_true",
+                    help="start each new node as a Python of its own, not forked from a launcher this script "
+                         "starts (docs/executor.md#launcher)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")

@@ -31,8 +31,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, Optional
 
+from ..executor.launcher import Launcher, launchable
 from ..executor.remote import AGENT_PORT, MAX_WAIT, Hosts, RemoteProcess, proof
-from .launcher import Launcher, launchable
 
 __all__ = ["Agent", "main"]
 

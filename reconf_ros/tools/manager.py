@@ -22,12 +22,12 @@ import time
 from typing import Any, Callable, Optional
 
 from ..executor.context import Interrupts
+from ..executor.launcher import Launcher
 from ..executor.run import Executor
 from ..executor.runtime import Runtime
 from ..executor.script import manager_socket, parse
 from ..executor.status import tool_node
 from ..executor.steps import EXIT_FAILED, EXIT_USAGE
-from .launcher import Launcher
 
 __all__ = ["main", "serve"]
 

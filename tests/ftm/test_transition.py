@@ -5,12 +5,16 @@ import pytest
 
 from checker.ftm.transition import (
     Transition,
+    _Served,
     affected_protocols,
     client_side_ok,
     plan_ftm_migrate,
     plan_transition,
+    protocols,
+    serving,
     suspension_problems,
 )
+from checker.planning.lossless import targets_of
 from checker.planning.plan import verify
 from checker.semantic_model.actions import Attach, Create, Degrade, Detach, Remove, Upgrade
 from reconf_dsl.loader import load, load_text
@@ -88,6 +92,20 @@ def test_outside_the_suspension_only_new_nodes_are_linked_and_only_cut_off_ones_
     for i, s in enumerate(p.steps[resumed + 1:], resumed + 1):
         if s.component not in end:     # (a protocol may move its own outputs after its resume)
             assert not isinstance(s, Detach) or client(s) or not others(i, s.connector, s.component) & end, s
+
+
+@pytest.mark.parametrize("a, b", PAIRS)
+def test_a_client_is_resumed_where_its_requests_are_served(a: str, b: str) -> None:
+    """Once a served proxy's client is upgraded, in every state after, the proxy's requests reach
+    the application past resumed protocols only, and the results come back: the wire serves a
+    client the plan calls normal (toward SEC(PBR(TR)) it once did not, for 15 steps)."""
+    t = transition(a, b)
+    p = t.plan
+    for conn, proxy in serving(t.old_infos, t.new_infos):
+        served = _Served(p.system, proxy, {conn}, targets_of(protocols(t.old_infos, t.new_infos)).get(proxy, set()))
+        clients = {c for k, c, _ in p.states[0].roles if k == conn and c != proxy}
+        up = max(i for i, s in enumerate(p.steps) if isinstance(s, Upgrade) and s.component in clients)
+        assert all(served.served(st) for st in p.states[up + 1:]), (a, b, p.steps[up])
 
 
 def test_pbr_to_lfr_changes_only_the_nodes_that_differ() -> None:

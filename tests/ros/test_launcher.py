@@ -12,8 +12,8 @@ import pytest
 
 pytest.importorskip("rclpy")
 
+from reconf_ros.executor.launcher import Launcher, launchable  # noqa: E402
 from reconf_ros.nodes.api import Component  # noqa: E402
-from reconf_ros.tools.launcher import Launcher, launchable  # noqa: E402
 
 from .conftest import ROOT, example  # noqa: E402
 

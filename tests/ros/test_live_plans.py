@@ -6,6 +6,7 @@ executor, no monitor seeing a normal mode's assumption violated, and no message 
 new publishers."""
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import pytest
@@ -42,7 +43,16 @@ def planned(live: LiveSystem, arch: str, *plan: str) -> dict[str, Any]:
 
 @pytest.mark.parametrize("strategy", ["default", "paper"])
 def test_replace_talker(live: LiveSystem, strategy: str) -> None:
-    statuses = planned(live, "chatter.arch", "replace", "talker", "--strategy", strategy)
+    """The default strategy's script forks talker_v2 from a launcher of its own, which ends with
+    the script (docs/executor.md#launcher); the paper's is run with `--no-launcher`."""
+    live.deploy(example("chatter.arch"))
+    live.wait_ready()
+    script = live.plan_script(["replace", "talker", "--strategy", strategy, "-f", example("chatter.arch")])
+    own = strategy == "default"
+    res = live.run_plan(script, *([] if own else ["--no-launcher"]))
+    statuses = applied(live, res)
+    assert ("(forked by the launcher)" in res.stdout) == own, res.stdout
+    assert os.kill(live.pid_of("talker_v2"), 0) is None     # running after the script and its launcher ended
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
     assert statuses["/talker_v2"]["values"]["mode.talk"] == "normal"

@@ -1639,6 +1639,151 @@ def drained(ctx: Context, step: Step) -> None:
                          f"{ctx.args.wire_timeout} s after it was degraded")
 
 
+# --- reconf_ros/executor/launcher.py ---
+
+__all__ = ["Launcher", "Launched", "launchable", "PROGRAM"]
+
+PROGRAM = "reconf-node"
+
+
+def launchable(argv: list[str]) -> bool:
+    """Whether the launcher can start `argv`: this environment's own `reconf-node`."""
+    return bool(argv) and os.path.basename(argv[0]) == PROGRAM and \
+        os.path.dirname(os.path.abspath(argv[0])) == os.path.dirname(os.path.abspath(sys.executable))
+
+
+class Launched:
+    """A node the launcher forked: what an executor needs of a `subprocess.Popen`."""
+
+    def __init__(self, launcher: "Launcher", pid: int) -> None:
+        self.launcher, self.pid = launcher, pid
+        self.returncode: Optional[int] = None
+
+    def poll(self) -> Optional[int]:
+        if self.returncode is None:
+            self.returncode = self.launcher.status(self.pid)
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:
+            try:
+                os.kill(self.pid, sig)
+            except ProcessLookupError:
+                pass
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+    def wait(self, timeout: Optional[float] = None) -> int:
+        end = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if end is not None and time.monotonic() >= end:
+                raise subprocess.TimeoutExpired(f"pid {self.pid}", timeout or 0.0)
+            time.sleep(0.02)
+        assert self.returncode is not None
+        return self.returncode
+
+
+class Launcher:
+    """Starts the launcher process and talks to it. If it is gone, `available` turns false and
+    callers start processes the ordinary way."""
+
+    def __init__(self, timeout: float = 30.0) -> None:
+        mine, theirs = socket.socketpair()
+        self.proc = subprocess.Popen([sys.executable, "-m", "reconf_ros.tools.launcher", "--fd", str(theirs.fileno())],
+                                     pass_fds=[theirs.fileno()], stdin=subprocess.DEVNULL,
+                                     preexec_fn=_die_with_parent)
+        theirs.close()
+        mine.settimeout(timeout)
+        self.sock = mine
+        self.stream = mine.makefile("rwb")
+        self.available = True
+        self.statuses: dict[int, int] = {}
+        self.unread = 0             # answers to warm requests, read before the next answer
+
+    def can_start(self, argv: list[str]) -> bool:
+        return self.available and launchable(argv)
+
+    def send(self, req: dict[str, Any]) -> None:
+        if not self.available:
+            raise OSError("the launcher has stopped")
+        try:
+            self.stream.write(json.dumps(req).encode() + b"\n")
+            self.stream.flush()
+        except OSError:
+            self.available = False
+            raise
+
+    def request(self, req: dict[str, Any]) -> dict[str, Any]:
+        self.send(req)
+        try:
+            while self.unread:
+                self.stream.readline()
+                self.unread -= 1
+            line = self.stream.readline()
+        except BaseException:       # an answer left unread would be taken for the next one's
+            self.available = False
+            raise
+        if not line:
+            self.available = False
+            raise OSError(f"the launcher exited (status {self.proc.poll()})")
+        answer: dict[str, Any] = json.loads(line)
+        if "error" in answer:
+            raise OSError(f"the launcher: {answer['error']}")
+        return answer
+
+    def warm(self, argv: list[str], cwd: str = "") -> None:
+        """Ask the launcher to parse what `argv` reads; the answer is not waited for."""
+        self.send({"warm": argv, "cwd": cwd or os.getcwd()})
+        self.unread += 1
+
+    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None) -> Launched:
+        """Fork `argv` with `env` added to the launcher's environment."""
+        answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd(),
+                               "env": env or {}})
+        return Launched(self, int(answer["pid"]))
+
+    def status(self, pid: int) -> Optional[int]:
+        """The exit status of a child that exited, else None (also when the launcher is gone and
+        the PID still runs)."""
+        if pid in self.statuses:
+            return self.statuses[pid]
+        try:
+            status = self.request({"poll": pid})["status"]
+        except OSError:
+            try:
+                os.kill(pid, 0)
+                return None
+            except ProcessLookupError:
+                status = -1         # gone, status unknown: its parent was the launcher
+        if status is not None:
+            self.statuses[pid] = int(status)
+        return None if status is None else int(status)
+
+    def close(self) -> None:
+        try:
+            self.stream.close()
+            self.sock.close()
+        finally:
+            try:
+                self.proc.wait(timeout=3)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def _die_with_parent() -> None:
+    """The launcher ends with the manager (its children do not: they are the system's nodes)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
 # --- reconf_ros/executor/processes.py ---
 
 def command(ctx: Context, comp: str, remote: bool = False) -> list[str]:
@@ -1804,6 +1949,27 @@ def _end_remote(ctx: Context, fqn: str, comp: str, pid: int) -> Optional[str]:
 
 def _on(host: str) -> str:
     return f" on host {host}" if host else ""
+
+
+def own_launcher(ctx: Context, first: int, last: int) -> None:
+    """Start a launcher of this run's own (a plan script's, not a manager's) when steps `first`..
+    `last` create a node this environment's `reconf-node` runs, and `--no-launcher` is not
+    given: its imports (about 0.5 s) overlap the wait for discovery, and each create forks from
+    it instead of starting a Python from nothing. The run closes it (its children stay)."""
+    if ctx.launcher is not None or getattr(ctx.args, "no_launcher", True):
+        return
+    here = os.path.join(os.path.dirname(sys.executable), PROGRAM)
+    for step in ctx.steps[first - 1:last]:
+        if step.action != "create" or on_agent(ctx, step.component):
+            continue
+        run = ctx.runs.get(step.component)       # as `command` reads it (before ROS: no namespace yet)
+        program = shlex.split(run)[0] if run and "node" not in ctx.model.comps.get(step.component, {}) else PROGRAM
+        if os.path.basename(program) == PROGRAM and os.path.exists(here) and launchable([here]):
+            try:
+                ctx.launcher = Launcher()
+            except OSError as e:
+                ctx.say(f"no launcher ({e}): new nodes start the ordinary way")
+            return
 
 
 def warm(ctx: Context, first: int, last: int) -> None:
@@ -2337,6 +2503,7 @@ class Executor:
         t0 = time.monotonic()
         if self.own_runtime:
             ctx.interrupts.install()
+            own_launcher(ctx, first, ctx.args.to_step)    # before rclpy: its imports overlap discovery
             ctx.rt = Runtime(ctx.doc["system"], ctx.args.namespace, ctx.args.timeout)
         try:
             return self._apply(first, t0)
@@ -2347,6 +2514,8 @@ class Executor:
         finally:
             if ctx.hosts is not None:
                 ctx.hosts.close()
+            if self.own_runtime and ctx.launcher is not None:
+                ctx.launcher.close()            # its children, the nodes started, stay
             if self.own_runtime:
                 ctx.rt.close()
 
@@ -2611,6 +2780,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
                          "stops the run there)")
     ap.add_argument("--one-at-a-time", action="store_true",
                     help="perform every step alone, the steps of the plan's batches too (docs/executor.md#batches)")
+    ap.add_argument("--no-launcher", action="store_true",
+                    help="start each new node as a Python of its own, not forked from a launcher this script "
+                         "starts (docs/executor.md#launcher)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")
