@@ -17,7 +17,7 @@ from checker.ftm.library import LAYER_ORDER
 from checker.planning import Goal, NoSafePlan, Plan, Problem, plan_migrate, solve
 from checker.planning.durations import durations
 from checker.planning.improve import cost
-from checker.planning.lossless import reaches, request_problems, targets_of
+from checker.planning.lossless import reached, reaches, request_problems, targets_of
 from checker.planning.plan import settle, verify
 from checker.planning.prepare import prepare_first
 from checker.semantic_model.actions import (
@@ -340,21 +340,9 @@ class _Served:
 
     def served(self, state: Configuration) -> bool:
         st = Snapshot(catalogue(self.system), state)
-        down = {c for c, _ in state.degraded}
-        callers = [c for c in self._reach(st, self.proxy, down) if self._calls(state, c)]
-        return any(self.proxy in self._reach(st, c, set()) for c in callers)
-
-    def _reach(self, st: Snapshot, origin: str, down: set[str]) -> set[str]:
-        seen, frontier = {origin}, [origin]
-        while frontier:
-            comp = frontier.pop()
-            if comp != origin and comp in self.protocols and comp in down:
-                continue                # suspended: it holds what it is sent
-            for conn in {k for k, _ in st.attached_outputs(comp)} - self.clients:
-                for reader in st.readers([conn]) - seen:
-                    seen.add(reader)
-                    frontier.append(reader)
-        return seen
+        held = self.protocols & {c for c, _ in state.degraded}     # suspended: they hold what they are sent
+        callers = [c for c in reached(st, self.proxy, self.clients, held) if self._calls(state, c)]
+        return any(self.proxy in reached(st, c, self.clients) for c in callers)
 
     def _calls(self, state: Configuration, comp: str) -> bool:
         for k, c, port in state.roles:

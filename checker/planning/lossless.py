@@ -9,23 +9,30 @@ from checker.planning.plan import Plan
 from checker.semantic_model.actions import Snapshot, catalogue
 from checker.semantic_model.config import Configuration
 
-__all__ = ["reaches", "targets_of", "request_problems"]
+__all__ = ["reached", "reaches", "targets_of", "request_problems"]
+
+
+def reached(st: Snapshot, origin: str, clients: set[str], holding: Iterable[str] = ()) -> set[str]:
+    """The present components that what `origin` publishes (on any connector but the clients'
+    connectors `clients`) reaches, through the readers of each connector and what those publish;
+    a component of `holding` takes it and passes nothing on (a suspended protocol queues it)."""
+    held = set(holding)
+    seen, frontier = {origin}, [origin]
+    while frontier:
+        comp = frontier.pop()
+        if comp != origin and comp in held:
+            continue
+        for conn in {k for k, _ in st.attached_outputs(comp)} - clients:
+            for reader in st.readers([conn]) - seen:   # present components only
+                seen.add(reader)
+                frontier.append(reader)
+    return seen - {origin}
 
 
 def reaches(st: Snapshot, proxy: str, clients: set[str], targets: set[str]) -> bool:
     """Whether the requests `proxy` publishes (on any connector but the clients' connectors
-    `clients`) reach a present protocol of `targets`, through the readers of each connector
-    and what those publish (a suspended protocol queues them)."""
-    seen, frontier = {proxy}, [proxy]
-    while frontier:
-        comp = frontier.pop()
-        for conn in {k for k, _ in st.attached_outputs(comp)} - clients:
-            for reader in st.readers([conn]) - seen:   # present components only
-                if reader in targets:
-                    return True
-                seen.add(reader)
-                frontier.append(reader)
-    return False
+    `clients`) reach a present protocol of `targets` (a suspended protocol queues them)."""
+    return bool(reached(st, proxy, clients) & targets)
 
 
 def targets_of(pairs: Iterable[tuple[str, str]]) -> dict[str, set[str]]:
