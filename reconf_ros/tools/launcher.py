@@ -133,39 +133,45 @@ def serve(fd: int) -> int:
             exited[pid] = os.waitstatus_to_exitcode(status)
 
     with conn, conn.makefile("rwb") as stream:
-        for line in stream:
-            reap()
-            try:
-                req = json.loads(line)
-                answer: dict[str, Any]
-                if "warm" in req:
-                    _warm([str(a) for a in req["warm"]], str(req.get("cwd") or os.getcwd()))
-                    answer = {"ok": True}
-                elif "start" in req:
-                    argv, cwd = [str(a) for a in req["start"]], str(req.get("cwd") or os.getcwd())
-                    _warm(argv, cwd)
-                    stream.flush()
-                    sys.stdout.flush()
-                    sys.stderr.flush()
-                    pid = os.fork()
-                    exited.pop(pid, None)            # a PID used before: not that child's status
-                    if pid == 0:
-                        _child(argv, str(req["log"]), cwd, {str(k): str(v) for k, v in req.get("env", {}).items()},
-                               conn)
-                    answer = {"pid": pid}
-                elif "poll" in req:
-                    pid = int(req["poll"])
-                    answer = {"status": exited.get(pid)}
-                else:
-                    answer = {"error": f"unknown request {sorted(req)}"}
-            except Exception as e:      # a bad request or an unreadable file: say so, keep serving
-                answer = {"error": repr(e)}
-            stream.write(json.dumps(answer).encode() + b"\n")
-            stream.flush()
+        try:
+            _answer_each(conn, stream, reap, exited)
+        except (ConnectionResetError, BrokenPipeError):
+            pass        # the client closed with answers unread (a run refused before its first step)
     return 0
 
 
-# --- the client (in the manager) ---
+def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, int]) -> None:
+    """Answer each request line of `stream` (on `conn`) until it ends; `reap` fills `exited`."""
+    for line in stream:
+        reap()
+        try:
+            req = json.loads(line)
+            answer: dict[str, Any]
+            if "warm" in req:
+                _warm([str(a) for a in req["warm"]], str(req.get("cwd") or os.getcwd()))
+                answer = {"ok": True}
+            elif "start" in req:
+                argv, cwd = [str(a) for a in req["start"]], str(req.get("cwd") or os.getcwd())
+                _warm(argv, cwd)
+                stream.flush()
+                sys.stdout.flush()
+                sys.stderr.flush()
+                pid = os.fork()
+                exited.pop(pid, None)            # a PID used before: not that child's status
+                if pid == 0:
+                    _child(argv, str(req["log"]), cwd, {str(k): str(v) for k, v in req.get("env", {}).items()},
+                           conn)
+                answer = {"pid": pid}
+            elif "poll" in req:
+                pid = int(req["poll"])
+                answer = {"status": exited.get(pid)}
+            else:
+                answer = {"error": f"unknown request {sorted(req)}"}
+        except Exception as e:      # a bad request or an unreadable file: say so, keep serving
+            answer = {"error": repr(e)}
+        stream.write(json.dumps(answer).encode() + b"\n")
+        stream.flush()
+
 
 def main(argv: Optional[list[str]] = None) -> int:
     import argparse

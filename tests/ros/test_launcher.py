@@ -4,6 +4,7 @@ architecture again when the file changes. `--describe` needs no ROS graph, so no
 from __future__ import annotations
 
 import os
+import select
 import sys
 from pathlib import Path
 from typing import Iterator
@@ -61,3 +62,14 @@ def test_an_architecture_is_parsed_again_when_it_changes(launcher: Launcher, tmp
     second = launcher.start([EXE, "--arch", str(arch), "extra", "--describe"], str(tmp_path / "2.log"))
     assert second.wait(timeout=30) == 0, (tmp_path / "2.log").read_text()
     assert "component extra" in (tmp_path / "2.log").read_text()
+
+
+def test_a_client_gone_with_answers_unread_ends_it_quietly(capfd: pytest.CaptureFixture[str]) -> None:
+    """A plan script refused before its first step closes its launcher with the answer to a
+    warm request unread: the launcher ends with status 0 and no traceback."""
+    la = Launcher()
+    la.warm([EXE, "--arch", example("chatter.arch"), "talker"])
+    assert select.select([la.sock], [], [], 30)[0]      # the answer has arrived, unread
+    la.close()
+    assert la.proc.returncode == 0
+    assert "Traceback" not in capfd.readouterr().err

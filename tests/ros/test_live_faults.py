@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -46,7 +47,7 @@ def test_node_killed_after_attach(live: LiveSystem) -> None:
     for line in proc.stdout:
         out.append(line)
         if "started talker_v2: pid" in line:
-            pid = int(line.split("pid ")[1].split(",")[0])
+            pid = int(re.search(r"pid (\d+)", line).group(1))  # type: ignore[union-attr]
             live.pids.add(pid)
         if line.strip().startswith("done") and any("attach talker_v2.out" in x for x in out[-3:]):
             assert pid is not None
