@@ -39,7 +39,9 @@ system-deps:
 # (their monitors hold replies to 1.5 periods, which a saturated machine misses); the host lab's
 # (tests/ros/test_live_hosts.py), then one half of the fault campaign and one README walkthrough
 # (BESIDE_LAB, so the two streams take about as long), run beside the first of them, since the
-# lab's DDS traffic stays in network namespaces of their own, and so does mypy.
+# lab's DDS traffic stays in network namespaces of their own, and so does mypy. The two streams
+# take their ROS domains from ranges apart (RECONF_LIVE_DOMAINS): BESIDE_LAB runs on the loopback
+# too, and a domain both used at once would let one test's nodes be taken for another's.
 # Their output is printed once each is done (build/test-*.log); each run prints its slowest tests.
 HOSTS_TESTS := tests/ros/test_live_hosts.py
 FTM_LIVE := tests/ros/test_live_ftm.py
@@ -53,8 +55,8 @@ test: $(STAMP) system-deps
 	$(BIN)/python -m pytest -n 2 -m "not ros" --durations=10
 	@mkdir -p build
 	@$(BIN)/python -m mypy > build/test-mypy.log 2>&1 & mypy=$$!; \
-	$(BIN)/python -m pytest -m ros --durations=10 $(HOSTS_TESTS) $(foreach t,$(BESIDE_LAB),"$(t)") > build/test-hosts.log 2>&1 & hosts=$$!; \
-	$(BIN)/python -m pytest -m ros --durations=10 $(addprefix --ignore=,$(HOSTS_TESTS) $(FTM_LIVE)) $(foreach t,$(BESIDE_LAB),--deselect="$(t)"); live=$$?; \
+	RECONF_LIVE_DOMAINS=51-100 $(BIN)/python -m pytest -m ros --durations=10 $(HOSTS_TESTS) $(foreach t,$(BESIDE_LAB),"$(t)") > build/test-hosts.log 2>&1 & hosts=$$!; \
+	RECONF_LIVE_DOMAINS=1-50 $(BIN)/python -m pytest -m ros --durations=10 $(addprefix --ignore=,$(HOSTS_TESTS) $(FTM_LIVE)) $(foreach t,$(BESIDE_LAB),--deselect="$(t)"); live=$$?; \
 	wait $$hosts; hosts_rc=$$?; \
 	$(BIN)/python -m pytest -m ros --durations=10 $(FTM_LIVE); ftm=$$?; \
 	wait $$mypy; mypy_rc=$$?; \

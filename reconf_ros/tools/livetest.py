@@ -76,8 +76,12 @@ def alive(pid: int) -> bool:
 
 
 def domain_id() -> int:
-    """A domain for one live system: distinct within a session, spread across sessions."""
-    return 1 + (os.getpid() * 7 + next(_COUNTER)) % 100
+    """A domain for one live system: distinct within a session, spread across sessions, and
+    within RECONF_LIVE_DOMAINS (`LO-HI`, by default 1-100) where sessions that run at once are
+    given ranges apart (the Makefile's loopback set and the set beside the host lab)."""
+    lo, _, hi = os.environ.get("RECONF_LIVE_DOMAINS", "1-100").partition("-")
+    first, last = int(lo), int(hi or lo)
+    return first + (os.getpid() * 7 + next(_COUNTER)) % (last - first + 1)
 
 
 class LiveSystem:

@@ -50,7 +50,7 @@ def test_node_killed_after_attach(live: LiveSystem) -> None:
             pid = int(re.search(r"pid (\d+)", line).group(1))  # type: ignore[union-attr]
             live.pids.add(pid)
         if line.strip().startswith("done") and any("attach talker_v2.out" in x for x in out[-3:]):
-            assert pid is not None
+            assert pid is not None, "".join(out)
             os.kill(pid, signal.SIGKILL)
     err = proc.stderr.read() if proc.stderr else ""
     assert proc.wait(timeout=60) == 1, "".join(out) + err
