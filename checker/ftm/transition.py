@@ -19,7 +19,7 @@ from checker.planning.durations import durations
 from checker.planning.improve import cost
 from checker.planning.lossless import reached, reaches, request_problems, targets_of
 from checker.planning.plan import settle, verify
-from checker.planning.prepare import prepare_first
+from checker.planning.prepare import prepare_first, service_client
 from checker.semantic_model.actions import (
     Action,
     Attach,
@@ -140,9 +140,9 @@ def _touches(system: ir.System, a: Action, hood: set[str], renames: dict[str, st
     if not isinstance(a, (Attach, Detach)) or (a.component not in hood and
                                                renames.get(a.component, a.component) not in hood):
         return False
-    comp, conn = system.component(a.component), system.connector(a.connector)
+    comp = system.component(a.component)
     port = comp.port(a.port) if comp is not None else None
-    if port is None or (conn is not None and conn.kind == "service" and port.kind == "input"):
+    if port is None or service_client(system, a.connector, a.component, a.port):
         return False
     others = {c for k, c, _ in state.roles if k == a.connector and c != a.component}
     if isinstance(a, Attach):
@@ -345,12 +345,8 @@ class _Served:
         return any(self.proxy in reached(st, c, self.clients) for c in callers)
 
     def _calls(self, state: Configuration, comp: str) -> bool:
-        for k, c, port in state.roles:
-            conn, owner = self.system.connector(k), self.system.component(c)
-            if c == comp and conn is not None and owner is not None and conn.kind == "service" \
-                    and k not in self.clients and (owner.port(port) or _NOPORT).kind == "input":
-                return True
-        return False
+        return any(c == comp and k not in self.clients and service_client(self.system, k, c, port)
+                   for k, c, port in state.roles)
 
 
 def _prepared(system: ir.System, start: Configuration, steps: list[Action], final: Goal, strategy: str,

@@ -31,7 +31,7 @@ from checker.semantic_model.actions import Action, Attach, Create, Degrade, Deta
 from checker.semantic_model.config import Configuration
 from reconf_dsl.ir import System
 
-__all__ = ["prepare_first"]
+__all__ = ["prepare_first", "service_client"]
 
 TRIALS = 200
 """How many orders the single moves may check, at most (each check replays the plan)."""
@@ -106,11 +106,17 @@ def _cut_off(system: System, start: Configuration, steps: Sequence[Action]) -> l
 def _apart(system: System, roles: set[tuple[str, str, str]], new: set[str], a: Union[Attach, Detach]) -> bool:
     """Whether `a` joins (parts) its component to (from) components of `new` only, attached as
     in `roles`, or makes (unmakes) it a client of a service."""
-    conn, comp = system.connector(a.connector), system.component(a.component)
-    port = comp.port(a.port) if comp is not None else None
-    if conn is not None and conn.kind == "service" and port is not None and port.kind == "input":
+    if service_client(system, a.connector, a.component, a.port):
         return True
     return all(c in new for k, c, _ in roles if k == a.connector)
+
+
+def service_client(system: System, connector: str, component: str, port: str) -> bool:
+    """Whether `component.port` is a client's side of service `connector` (it is answered only
+    what it asks)."""
+    conn, comp = system.connector(connector), system.component(component)
+    p = comp.port(port) if comp is not None else None
+    return conn is not None and conn.kind == "service" and p is not None and p.kind == "input"
 
 
 def _move(system: System, start: Configuration, steps: list[Action], goal: Goal, picked: list[int],
