@@ -238,6 +238,9 @@ class Monitor:
         """The monitor's part of the component's status (docs/control-interface.md#status-on-diagnostics)."""
         out = {"violations": str(self.violations),
                "violation_s": f"{self.violation_seconds + sum(now - t for t in self.violating.values()):.3f}"}
+        if self.history:
+            t, f, why = self.history[-1]
+            out["last_violation"] = f"{t:.3f} {f}: {why}"
         for f, v in self.verdicts.items():
             out[f"wire.{f}"] = v
         for name, st in self.inputs.items():

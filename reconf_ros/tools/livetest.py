@@ -32,9 +32,10 @@ from typing import Any, Callable, Optional, Sequence
 from ..nodes.dds import loopback_env
 from .netlab import NetLab
 
-__all__ = ["LiveSystem", "alive", "domain_id", "ros_available"]
+__all__ = ["LiveSystem", "TAG", "alive", "domain_id", "environs", "ros_available"]
 
 _COUNTER = itertools.count()
+TAG = "RECONF_LIVE_SYSTEM"      # the environment variable that marks a live system's processes
 
 
 def ros_available() -> bool:
@@ -75,13 +76,35 @@ def alive(pid: int) -> bool:
         return False
 
 
+def environs(name: str) -> dict[int, str]:
+    """Each running process's value of environment variable `name`, by PID (those whose
+    environment this user may read)."""
+    key, found = name.encode() + b"=", {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as fh:
+                pairs = fh.read().split(b"\0")
+        except OSError:
+            continue
+        value = next((p[len(key):] for p in pairs if p.startswith(key)), None)
+        if value is not None:
+            found[int(entry)] = value.decode(errors="replace")
+    return found
+
+
 def domain_id() -> int:
-    """A domain for one live system: distinct within a session, spread across sessions, and
-    within RECONF_LIVE_DOMAINS (`LO-HI`, by default 1-100) where sessions that run at once are
-    given ranges apart (the Makefile's loopback set and the set beside the host lab)."""
+    """A domain for one live system: one no running process has (a node another session, or an
+    earlier system, left would be taken for this one's), distinct within a session, spread across
+    sessions, and within RECONF_LIVE_DOMAINS (`LO-HI`, by default 1-100) where sessions that run
+    at once are given ranges apart (the Makefile's loopback set and the set beside the host lab)."""
     lo, _, hi = os.environ.get("RECONF_LIVE_DOMAINS", "1-100").partition("-")
     first, last = int(lo), int(hi or lo)
-    return first + (os.getpid() * 7 + next(_COUNTER)) % (last - first + 1)
+    size, start = last - first + 1, os.getpid() * 7 + next(_COUNTER)
+    used = set(environs("ROS_DOMAIN_ID").values())
+    return next((first + (start + k) % size for k in range(size) if str(first + (start + k) % size) not in used),
+                first + start % size)
 
 
 class LiveSystem:
@@ -91,7 +114,8 @@ class LiveSystem:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.domain = domain if domain is not None else domain_id()
         bindir = os.path.dirname(sys.executable)
-        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), **loopback_env(),
+        self.tag = f"{os.getpid()}.{next(_COUNTER)}"      # every process it starts, and theirs, inherits it
+        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain), **loopback_env(), **{TAG: self.tag},
                         PATH=bindir + os.pathsep + os.environ.get("PATH", ""), PYTHONUNBUFFERED="1")
         self.env.pop("ROS_LOCALHOST_ONLY", None)
         self.procs: list[subprocess.Popen[Any]] = []
@@ -346,7 +370,9 @@ class LiveSystem:
     def violations(self, statuses: Optional[dict[str, Any]] = None) -> dict[str, str]:
         """Components whose monitor saw a normal mode's assumption violated, with its report."""
         st = self.statuses() if statuses is None else statuses
-        return {n: s["message"] for n, s in st.items() if s["values"].get("violations", "0") != "0"}
+        return {n: s["message"] + (f" (last violation at {s['values']['last_violation']})"
+                                   if "last_violation" in s["values"] else "")
+                for n, s in st.items() if s["values"].get("violations", "0") != "0"}
 
     def agents(self) -> Path:
         """Start the per-host agent on every host of the lab (reconf_ros.tools.agent); the hosts
@@ -408,6 +434,23 @@ class LiveSystem:
                 proc.wait(timeout=5)
         if self.lab is not None:
             self.lab.down()         # and every process still running on its hosts
+        self._end_strays()
+
+    def _end_strays(self) -> None:
+        """End every process still running with this system's mark in its environment, by PID: a
+        node started by a process the test did not know the PID of (a launcher's child whose
+        create line a failed test never read) must not outlive the test into another's domain.
+        Says so on stderr: each is a process a test lost track of."""
+        strays = {pid for pid, tag in environs(TAG).items() if tag == self.tag and pid != os.getpid()}
+        for pid in sorted(strays):
+            try:
+                with open(f"/proc/{pid}/cmdline", "rb") as fh:
+                    what = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
+                os.kill(pid, signal.SIGKILL)
+            except (OSError, ProcessLookupError):
+                continue
+            print(f"livetest: ended process {pid} ({what[:160]}), left running in domain {self.domain}",
+                  file=sys.stderr)
 
     def __enter__(self) -> "LiveSystem":
         return self

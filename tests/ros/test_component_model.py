@@ -124,11 +124,13 @@ def test_a_timer_ahead_of_a_message_on_time_is_withdrawn() -> None:
     m.check(1.14, normal, attached)                           # ... but a message came at 1.14
     m.on_message("in", 1.14, b"a", 2, "talker")
     assert m.violations == 0 and not m.violating and m.history == []
+    assert "last_violation" not in m.status(1.14)
     m.check(1.5, normal, attached, grace=0.05)                # a real silence: provisional ...
     m.check(1.6, normal, attached)                            # ... confirmed by the arrival at 1.6
     m.on_message("in", 1.6, b"a", 3, "talker")
     m.check(1.6, normal, attached)
     assert m.violations == 1 and not m.violating and m.violation_seconds == pytest.approx(0.1)
+    assert m.status(1.6)["last_violation"].startswith("1.500 listen: not met")
 
 
 def test_a_publisher_named_after_its_first_message() -> None:

@@ -26,7 +26,7 @@ def test_node_killed_after_create(live: LiveSystem) -> None:
     assert first.returncode == 0 and "stopped after step 1 as asked" in first.stdout, first.stderr
     os.kill(live.pid_of("talker_v2", "first.json"), signal.SIGKILL)
     res = live.run_plan(script, "--from-step", "2", report="second.json")
-    assert res.returncode == 1
+    assert res.returncode == 1, res.stdout + res.stderr
     assert "steps done" not in res.stdout
     assert "talker_v2 is not running, the plan expects it present" in res.stderr
     report = live.report("second.json")
@@ -81,7 +81,7 @@ def test_stale_plan_is_refused(live: LiveSystem) -> None:
         timeout=60)
     assert ros.returncode == 0, ros.stderr
     res = live.run_plan(script)
-    assert res.returncode == 1
+    assert res.returncode == 1, res.stdout + res.stderr
     assert "refusing to apply" in res.stderr
     assert "listener.listen is degraded, the plan expects normal" in res.stderr
     assert "It matches the state after step 1; resume with --from-step 2" in res.stderr
@@ -91,10 +91,11 @@ def test_stale_plan_is_refused(live: LiveSystem) -> None:
 
 def test_rerun_of_a_finished_plan_is_refused(live: LiveSystem) -> None:
     script = deploy_chatter(live)
-    assert live.run_plan(script, report="first.json").returncode == 0
+    first = live.run_plan(script, report="first.json")
+    assert first.returncode == 0, first.stdout + first.stderr
     time.sleep(0.5)
     res = live.run_plan(script, report="again.json")
-    assert res.returncode == 1
+    assert res.returncode == 1, res.stdout + res.stderr
     assert "the plan's last: it was applied already" in res.stderr
     assert "started talker_v2" not in res.stdout
 
@@ -102,9 +103,11 @@ def test_rerun_of_a_finished_plan_is_refused(live: LiveSystem) -> None:
 def test_recover_after_a_failure(live: LiveSystem) -> None:
     """A node killed mid-plan; `reconf recover` plans from what was observed to the target."""
     script = deploy_chatter(live)
-    assert live.run_plan(script, "--to-step", "2", report="first.json").returncode == 0
+    first = live.run_plan(script, "--to-step", "2", report="first.json")
+    assert first.returncode == 0, first.stdout + first.stderr
     os.kill(live.pid_of("talker_v2", "first.json"), signal.SIGKILL)
-    assert live.run_plan(script, "--from-step", "3", report="failed.json").returncode == 1
+    failed = live.run_plan(script, "--from-step", "3", report="failed.json")
+    assert failed.returncode == 1, failed.stdout + failed.stderr
     out = live.dir / "recover.py"
     res = subprocess.run([os.path.join(os.path.dirname(sys.executable), "reconf"), "recover",
                           str(live.dir / "failed.json"), "--no-alloy", "-o", str(out)],
