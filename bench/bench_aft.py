@@ -73,6 +73,7 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
         if plan is not None:
             res = live.run_plan(plan, timeout=300)
             wall = time.time() - t0
+            (work / "plan.out").write_text(f"{t0:.3f} started\n" + res.stdout + res.stderr)   # where its time went
             named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
             if live.report().get("outcome") not in ("done", "violated"):
                 return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}

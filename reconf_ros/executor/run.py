@@ -72,6 +72,7 @@ class Executor:
                  interrupts: Optional[Interrupts] = None) -> None:
         self.ctx = Context(doc, args, out, err, rt=runtime, launcher=launcher)
         self.own_runtime = runtime is None
+        self.settled_at = 0.0           # when discovery had settled before the first step (monotonic)
         if interrupts is not None:
             self.ctx.interrupts = interrupts
 
@@ -119,7 +120,9 @@ class Executor:
         ctx.touched = {s.component for s in ctx.steps[first - 1:last]} & hood
         check_at = time.monotonic()
         ctx.say(f"the live system matches the plan's state before step {first} "
-                f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s)")
+                f"({plural(len(hood), 'component')} checked in {check_at - t0:.2f} s: waiting for discovery "
+                f"{self.settled_at - t0:.2f} s, the graph's last change {ctx.rt.graph_since - ctx.rt.started_at:.2f} s "
+                f"after it began, reading {check_at - self.settled_at:.2f} s)")
         i = first
         while i <= last:
             end = batch_end(ctx, i, last)
@@ -150,6 +153,7 @@ class Executor:
         start = ctx.states[first - 1]
         ctx.rt.deadline = time.monotonic() + ctx.args.step_timeout
         settle(ctx, start.components & hood, ctx.args.discovery_timeout)
+        self.settled_at = time.monotonic()
         seen = observe(ctx, hood)
         busy = sorted(c for c, o in seen.items() if o.lifecycle == "unresponsive")
         if busy:    # a node of a saturated host can take longer than one call's timeout to answer
@@ -252,6 +256,7 @@ class Executor:
         (every monitor heard from at the start, and every node the plan created)."""
         ctx, last = self.ctx, self.ctx.args.to_step
         ctx.step = -1                   # the final check
+        final_at = time.monotonic()
         end = ctx.states[last]
         normal = [(c, f["name"]) for c in sorted(ctx.touched & end.components)
                   for f in ctx.model.comps[c]["functionalities"] if (c, f["name"]) not in end.degraded]
@@ -265,10 +270,11 @@ class Executor:
         seen_bad = counted(ctx, last)
         upto = "" if last == len(ctx.steps) else f"; stopped after step {last} as asked (--to-step)"
         done = last - first + 1
+        now, steps = time.monotonic(), busy(ctx.timings)
         ctx.say(("no step" if done <= 0 else f"all {done} steps" if done != 1 else "the 1 step")
-                + f" done in {time.monotonic() - t0:.2f} s "
-                f"(checking the live system {check_at - t0:.2f} s, steps "
-                f"{busy(ctx.timings):.2f} s){upto}")
+                + f" done in {now - t0:.2f} s (checking the live system {check_at - t0:.2f} s, steps "
+                f"{steps:.2f} s, between steps {max(0.0, final_at - check_at - steps):.2f} s, "
+                f"the final check {now - final_at:.2f} s){upto}")
         if unmet or seen_bad:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")

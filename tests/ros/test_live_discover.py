@@ -66,8 +66,8 @@ def test_drift_on_the_system_as_deployed_is_none(system: tuple[LiveSystem, list[
     assert {"/talker", "/listener", "/operator"} <= set(doc["nodes"])     # the operator read, not extra
     assert not any(n.rsplit("/", 1)[1].startswith("_") for n in doc["nodes"])   # reconf's own: hidden
     # the rule: one announcement period of the profile (0.25 s) and the margin, and the graph quiet
-    from reconf_ros.executor.runtime import DISCOVERY_MARGIN, GRAPH_QUIET, announcement_period
-    least = max(announcement_period(live.env) + DISCOVERY_MARGIN, GRAPH_QUIET)
+    from reconf_ros.executor.runtime import DISCOVERY_MARGIN, ENDPOINTS_QUIET, announcement_period
+    least = max(announcement_period(live.env) + DISCOVERY_MARGIN, ENDPOINTS_QUIET)
     assert doc["seconds"]["settle"] >= least and "s waiting for discovery" in res.stderr, res.stderr
 
 

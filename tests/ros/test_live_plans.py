@@ -7,6 +7,7 @@ new publishers."""
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 import pytest
@@ -52,6 +53,15 @@ def test_replace_talker(live: LiveSystem, strategy: str) -> None:
     res = live.run_plan(script, *([] if own else ["--no-launcher"]))
     statuses = applied(live, res)
     assert ("(forked by the launcher)" in res.stdout) == own, res.stdout
+    # where the time went: the check's wait for discovery (at least one announcement period and a
+    # margin, and the nodes quiet for a while) and its reading; the run's check, steps, the time
+    # between them and the final check, adding up to its whole
+    check = re.search(r"checked in ([\d.]+) s: waiting for discovery ([\d.]+) s, the graph's last change "
+                      r"([\d.]+) s after it began, reading ([\d.]+) s\)", res.stdout)
+    assert check is not None and float(check[2]) >= 0.75 and float(check[2]) - float(check[3]) >= 0.5, res.stdout
+    run = re.search(r"done in ([\d.]+) s \(checking the live system ([\d.]+) s, steps ([\d.]+) s, between steps "
+                    r"([\d.]+) s, the final check ([\d.]+) s\)", res.stdout)
+    assert run is not None and abs(sum(float(x) for x in run.groups()[1:]) - float(run[1])) <= 0.02, res.stdout
     assert os.kill(live.pid_of("talker_v2"), 0) is None     # running after the script and its launcher ended
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]
