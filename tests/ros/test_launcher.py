@@ -52,6 +52,30 @@ def test_a_forked_node_has_its_log_directory_environment_and_status(launcher: La
     assert "nosuch" in (tmp_path / "bad.log").read_text()
 
 
+def loaded() -> Component:
+    """A factory for the test: says which interfaces' type support its process had loaded."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from std_msgs.msg import Float64
+    from std_srvs.srv import Trigger
+    print({t.__name__: t.__class__._TYPE_SUPPORT is not None for t in (DiagnosticArray, Float64, Trigger)})
+    return Component("loaded")
+
+
+def test_a_forked_node_finds_the_type_support_of_every_node_s_and_its_architecture_s_messages_loaded(
+        launcher: Launcher, tmp_path: Path) -> None:
+    from reconf_ros.tools.launcher import NODE_INTERFACES
+    from reconf_ros.tools.runner import load_cached
+    chain = example("chain5.arch")
+    assert "diagnostic_msgs/msg/DiagnosticArray" in NODE_INTERFACES
+    assert {m.ros_type for m in load_cached(chain).messages} == {"std_msgs/msg/Float64"}
+    log = tmp_path / "loaded.log"
+    p = launcher.start([EXE, "tests.ros.test_launcher:loaded", "--deployed", chain, "--describe"], str(log),
+                       cwd=str(ROOT), env={"PYTHONPATH": str(ROOT)})
+    assert p.wait(timeout=30) == 0, log.read_text()
+    # every node's interfaces and the architecture's messages: loaded before the fork; not others
+    assert "{'DiagnosticArray': True, 'Float64': True, 'Trigger': False}" in log.read_text()
+
+
 def test_an_architecture_is_parsed_again_when_it_changes(launcher: Launcher, tmp_path: Path) -> None:
     arch = tmp_path / "sys.arch"
     arch.write_text(Path(example("chatter.arch")).read_text())
