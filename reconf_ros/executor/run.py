@@ -95,7 +95,7 @@ class Executor:
             if ctx.hosts is not None:
                 ctx.hosts.close()
             if self.own_runtime and ctx.launcher is not None:
-                ctx.launcher.close()            # its children, the nodes started, stay
+                ctx.launcher.close(wait=False)  # its children, the nodes started, stay
             if self.own_runtime:
                 ctx.rt.close()
 
