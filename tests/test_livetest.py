@@ -35,14 +35,17 @@ def test_a_process_no_test_knew_the_pid_of_ends_with_its_system(tmp_path: Path,
              " stderr=subprocess.DEVNULL).pid)")
     pid = int(subprocess.run([sys.executable, "-c", spawn], env=live.env, capture_output=True, text=True,
                              timeout=30).stdout)
+    known = live.start(["sleep", "60"], "known.log")       # ended by its PID: not a stray
     try:
-        assert environs(TAG)[pid] == live.tag
+        assert environs(TAG)[pid] == live.tag == environs(TAG)[known.pid]
         live.stop()
         end = time.monotonic() + 5
         while alive(pid) and time.monotonic() < end:
             time.sleep(0.05)
         assert not alive(pid)
-        assert f"livetest: ended process {pid} (sleep 60), left running in domain {live.domain}" in capfd.readouterr().err
+        err = capfd.readouterr().err
+        assert f"livetest: ended process {pid} (sleep 60), left running in domain {live.domain}" in err
+        assert known.poll() is not None and f"process {known.pid} " not in err
     finally:
         if alive(pid):
             os.kill(pid, signal.SIGKILL)

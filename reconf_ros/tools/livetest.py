@@ -441,8 +441,15 @@ class LiveSystem:
         node started by a process the test did not know the PID of (a launcher's child whose
         create line a failed test never read) must not outlive the test into another's domain.
         Says so on stderr: each is a process a test lost track of."""
-        strays = {pid for pid, tag in environs(TAG).items() if tag == self.tag and pid != os.getpid()}
+        signalled = self.pids      # with their process groups: killed already, perhaps not yet gone
+        strays = {pid for pid, tag in environs(TAG).items()
+                  if tag == self.tag and pid != os.getpid() and pid not in signalled}
         for pid in sorted(strays):
+            try:
+                if os.getpgid(pid) in signalled:
+                    continue
+            except ProcessLookupError:
+                continue
             try:
                 with open(f"/proc/{pid}/cmdline", "rb") as fh:
                     what = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
