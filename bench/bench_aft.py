@@ -9,7 +9,8 @@ application wrong. Prints per row the median / p95 / max of: reply
 latency, requests lost, duplicated and answered wrongly, and for faults the longest time the
 client went without a reply (from the fault) and the affected request's latency. A transition
 row (`PBR -> LFR`) carries out the verified plan of `reconf plan transition` while the client
-sends; its latencies are those of the replies during the plan, and it gives the plan's wall time.
+sends; its latencies are those of the replies during the plan, and it gives the plan's wall time
+and the client's seconds degraded (by the executor's step times) next to the plan's estimate.
 
     python -m bench.bench_aft [--runs 10] [--hz 50] [--only PBR]
 """
@@ -25,12 +26,14 @@ import time
 from pathlib import Path
 from typing import Any, Optional
 
+from checker.reports.timeline import timeline
 from reconf_ros.demo.ftm import judge_log, read_log, wait_replies
 from reconf_ros.nodes.ftm.detect import JITTER_WINDOW
 from reconf_ros.tools.livetest import LiveSystem
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "ftm" / "client_server_pbr_tr.arch"
+CLIENT_USE = ("client", "use")     # the functionality a transition degrades that the user sees
 
 # name, FTM (None: the bare server), fault
 ROWS: list[tuple[str, Optional[str], str]] = [
@@ -75,6 +78,7 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             wall = time.time() - t0
             (work / "plan.out").write_text(f"{t0:.3f} started\n" + res.stdout + res.stderr)   # where its time went
             named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
+            degraded = client_degraded(live.report())
             if live.report().get("outcome") not in ("done", "violated"):
                 return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}
             drained = time.time() + 60      # the queue the suspension built, drained: the client caught up
@@ -102,7 +106,16 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
     return {"ok": True, "lost": len(lost), "behind": len(verdict["lost"]) - len(lost),
             "dup": len(verdict["duplicated"]), "wrong": len(verdict["wrong"]),
             "lat": lat, "silence": silence, "worst": max(lat, default=0.0), "n": len(lat), "wall": wall,
-            "named": named if plan is not None else [], "limit": limit}
+            "named": named if plan is not None else [], "limit": limit,
+            "degraded": degraded if plan is not None else None}
+
+
+def client_degraded(report: dict[str, Any]) -> tuple[float, float]:
+    """The client's seconds degraded in a run, as `reconf timeline` draws them from the executor's
+    step times, and as the plan estimated them (docs/soundness.md#seconds-on-the-wire)."""
+    planned = (report.get("plan_document", {}).get("plan", {}).get("seconds") or {}).get("functionalities", [])
+    estimate = next((f["seconds"] for f in planned if (f["component"], f["functionality"]) == CLIENT_USE), 0.0)
+    return (timeline(report).degraded_seconds(".".join(CLIENT_USE)) if report.get("timings") else 0.0), estimate
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -155,6 +168,10 @@ def main() -> None:
                 if not r["ok"]:
                     print(f"  (failed: {r['why']})", flush=True)
             if fault.startswith("to "):
+                spans = [r["degraded"] for r in ok if r["degraded"]]
+                print(f"  ({'.'.join(CLIENT_USE)} degraded, by the executor's step times: "
+                      f"{three([m for m, _ in spans], '{:.2f}')} s; the plan's estimate: "
+                      f"{three([e for _, e in spans], '{:.2f}')} s)", flush=True)
                 named = sorted({n for r in ok for n in r["named"]})
                 print(f"  (the executor named a monitor that saw a violation in {sum(bool(r['named']) for r in ok)} "
                       f"of {len(ok)} runs: {', '.join(named) or 'none'})", flush=True)
