@@ -18,10 +18,7 @@ from .status import STATUS_FRESH, STATUS_PREFIX, Status, parse_status, tool_node
 # period and a margin, counted from the start of discovery, and once it has been quiet.
 FAST_DDS_ANNOUNCEMENT = 3.0     # s, Fast DDS's own leaseAnnouncement
 DISCOVERY_MARGIN = 0.5
-# s the set of nodes must stay unchanged: measured under the loopback profile, a plan script saw
-# its last new node 0.10-0.44 s after its discovery began, on an idle machine and beside twenty
-# FTM nodes serving 50 requests/s (docs/executor.md#discovery)
-GRAPH_QUIET = 0.5
+GRAPH_QUIET = 0.5       # s the set of nodes must stay unchanged (why 0.5: docs/executor.md#discovery)
 ENDPOINTS_QUIET = 1.0   # s every topic's endpoint counts must stay unchanged too (reading them all)
 ENDPOINTS_POLL = 0.1  # s between two counts of every topic's endpoints while discovery settles
 RETRY_AFTER = 0.3     # s between two copies of an unanswered read-only call

@@ -31,7 +31,7 @@ import socket
 import subprocess
 import sys
 import time
-from typing import Any, Optional
+from typing import Any, Iterable, Optional
 
 from ..executor.launcher import PROGRAM
 
@@ -52,7 +52,7 @@ NODE_INTERFACES = (
     "rcl_interfaces/srv/SetParametersAtomically", "type_description_interfaces/srv/GetTypeDescription")
 
 
-def load_types(names: Any) -> None:
+def load_types(names: Iterable[str]) -> None:
     """Load the type support of each interface `names` gives (`pkg/msg/Name`, `pkg/srv/Name`); one
     that cannot be loaded is left for the node, which says why."""
     import importlib
@@ -60,7 +60,7 @@ def load_types(names: Any) -> None:
     from rclpy.type_support import check_for_type_support
     for name in names:
         try:
-            package, kind, short = str(name).split("/")
+            package, kind, short = name.split("/")
             check_for_type_support(getattr(importlib.import_module(f"{package}.{kind}"), short))
         except Exception:
             continue
