@@ -78,8 +78,9 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             wall = time.time() - t0
             (work / "plan.out").write_text(f"{t0:.3f} started\n" + res.stdout + res.stderr)   # where its time went
             named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
-            degraded = client_degraded(live.report())
-            if live.report().get("outcome") not in ("done", "violated"):
+            report = live.report()
+            degraded = client_degraded(report)
+            if report.get("outcome") not in ("done", "violated"):
                 return {"ok": False, "why": (res.stdout + res.stderr)[-600:]}
             drained = time.time() + 60      # the queue the suspension built, drained: the client caught up
             while time.time() < drained and judge_log(read_log(str(log)), until=time.time() - 1.5)["lost"]:

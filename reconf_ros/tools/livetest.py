@@ -102,9 +102,9 @@ def domain_id() -> int:
     lo, _, hi = os.environ.get("RECONF_LIVE_DOMAINS", "1-100").partition("-")
     first, last = int(lo), int(hi or lo)
     size, start = last - first + 1, os.getpid() * 7 + next(_COUNTER)
+    candidates = [first + (start + k) % size for k in range(size)]
     used = set(environs("ROS_DOMAIN_ID").values())
-    return next((first + (start + k) % size for k in range(size) if str(first + (start + k) % size) not in used),
-                first + start % size)
+    return next((d for d in candidates if str(d) not in used), candidates[0])
 
 
 class LiveSystem:
@@ -448,13 +448,10 @@ class LiveSystem:
             try:
                 if os.getpgid(pid) in signalled:
                     continue
-            except ProcessLookupError:
-                continue
-            try:
                 with open(f"/proc/{pid}/cmdline", "rb") as fh:
                     what = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
                 os.kill(pid, signal.SIGKILL)
-            except (OSError, ProcessLookupError):
+            except OSError:         # gone meanwhile (ProcessLookupError is one)
                 continue
             print(f"livetest: ended process {pid} ({what[:160]}), left running in domain {self.domain}",
                   file=sys.stderr)
