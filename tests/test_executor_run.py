@@ -16,9 +16,9 @@ from checker.planning import plan_replace
 from checker.reports.plan_document import plan_document
 from reconf_dsl.loader import load
 from reconf_ros.executor.conditions import wire_before
-from reconf_ros.executor.context import Context, Interrupts
+from reconf_ros.executor.context import Context, Interrupts, StepTiming
 from reconf_ros.executor.observe import observe
-from reconf_ros.executor.run import Executor, counted
+from reconf_ros.executor.run import Executor, counted, in_run
 from reconf_ros.executor.runtime import NoControlInterface, StepFailed
 from reconf_ros.executor.script import arguments, parse
 from tests.examples_table import ROOT
@@ -91,6 +91,20 @@ def test_every_monitor_counts_from_its_own_start() -> None:
     statuses["/listener"]["violations"] = "3"
     assert counted(ctx, 5) == {"listener": 1, "talker_v2": 1}
     assert ctx.violated == {"talker_v2": 3, "listener": 5}
+
+
+def test_a_monitor_s_last_violation_is_placed_among_the_steps() -> None:
+    """The warning of a run that saw a violation says when the monitor's last one began, as the
+    steps' times place it, and why (what its status said)."""
+    why = "count: not met: in: last message 0.183 s ago (limit 0.150 s for String @ 10 Hz)"
+    statuses = {"/listener": {"violations": "1", "last_violation": f"1000.500 {why}"}}
+    ctx = context(statuses)
+    ctx.baseline = {"listener": 0}
+    ctx.timings = [StepTiming(1, 1000.0, 0.8, True), StepTiming(2, 1000.9, 0.1, True)]
+    counted(ctx, 1)
+    assert in_run(ctx, ctx.last_violation["listener"]) == f"0.50 s into step 1: {why}"
+    assert in_run(ctx, f"1001.250 {why}") == f"0.25 s after step 2: {why}"
+    assert in_run(ctx, f"999.000 {why}") == f"before step 1: {why}"
 
 
 def test_a_plan_of_no_step_parses() -> None:

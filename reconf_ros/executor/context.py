@@ -115,6 +115,7 @@ class Context:
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     violations: dict[str, int] = field(default_factory=dict)  # such a monitor -> how many it saw, at the last count
+    last_violation: dict[str, str] = field(default_factory=dict)  # such a monitor -> its status's `last_violation`
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)

@@ -151,6 +151,17 @@ def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
     return out
 
 
+def last_violations(ctx: Context, comps: Iterable[str]) -> dict[str, str]:
+    """Each heard-from component's monitor's last violation, as its status says it (when it began on
+    the wall clock, the functionality, why), if it saw any."""
+    out = {}
+    for c in comps:
+        last = (ctx.rt.status(ctx.names.fqn(c)) or {}).get("last_violation")
+        if last:
+            out[c] = last
+    return out
+
+
 def largest_gaps(ctx: Context, comps: Iterable[str]) -> dict[str, float]:
     """Each heard-from monitored input's largest wait for data since its node started
     (`in.<port>.max_gap_s` of its status, docs/control-interface.md): "component.port" -> s."""

@@ -16,6 +16,7 @@ from .observe import (
     as_state,
     check_touched,
     largest_gaps,
+    last_violations,
     neighbourhood,
     observe,
     read_all,
@@ -279,8 +280,10 @@ class Executor:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
             for c, n in sorted(seen_bad.items()):
+                last = ctx.last_violation.get(c)
                 ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
-                         f"during the run (first seen after step {ctx.violated[c]})")
+                         f"during the run (first seen after step {ctx.violated[c]})"
+                         + (f"; the last began {in_run(ctx, last)}" if last else ""))
             write_report(ctx, "violated", first, observed=final)
             return EXIT_FAILED
         heard = len(ctx.baseline)
@@ -300,4 +303,22 @@ def counted(ctx: Context, i: int) -> dict[str, int]:
     for c in moved:
         ctx.violated.setdefault(c, i)
     ctx.violations.update(moved)
+    ctx.last_violation.update(last_violations(ctx, moved))
     return moved
+
+
+def in_run(ctx: Context, last: str) -> str:
+    """A monitor's `last_violation` ("<wall clock> <functionality>: why") with its time placed
+    among the steps' (the nodes and this executor read one clock, or clocks kept in step)."""
+    at, _, what = last.partition(" ")
+    try:
+        t = float(at)
+    except ValueError:
+        return last
+    past = [s for s in ctx.timings if s.at <= t]
+    if not past:
+        return f"before step {ctx.timings[0].step if ctx.timings else 1}: {what}"
+    s = past[-1]
+    if t <= s.at + s.seconds:
+        return f"{t - s.at:.2f} s into step {s.step}: {what}"
+    return f"{t - s.at - s.seconds:.2f} s after step {s.step}: {what}"

@@ -32,8 +32,10 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
-        # each monitor that saw a normal mode's assumption violated: how often, first after which step
-        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
+        # each monitor that saw a normal mode's assumption violated: how often, first after which
+        # step, and its last violation as its status said it (when it began, on the wall clock; why)
+        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i,
+                         "last": ctx.last_violation.get(c)} for c, i in sorted(ctx.violated.items())},
         "gaps": gaps(ctx),
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},

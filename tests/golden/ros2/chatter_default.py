@@ -1236,6 +1236,7 @@ class Context:
     baseline: dict[str, int] = field(default_factory=dict)    # each counted monitor's violations at its start
     violated: dict[str, int] = field(default_factory=dict)    # a monitor whose count moved -> the step it was seen after
     violations: dict[str, int] = field(default_factory=dict)  # such a monitor -> how many it saw, at the last count
+    last_violation: dict[str, str] = field(default_factory=dict)  # such a monitor -> its status's `last_violation`
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
@@ -1481,6 +1482,17 @@ def violations(ctx: Context, comps: Iterable[str]) -> dict[str, int]:
         st = ctx.rt.status(ctx.names.fqn(c))
         if st is not None:
             out[c] = int(st.get("violations", "0"))
+    return out
+
+
+def last_violations(ctx: Context, comps: Iterable[str]) -> dict[str, str]:
+    """Each heard-from component's monitor's last violation, as its status says it (when it began on
+    the wall clock, the functionality, why), if it saw any."""
+    out = {}
+    for c in comps:
+        last = (ctx.rt.status(ctx.names.fqn(c)) or {}).get("last_violation")
+        if last:
+            out[c] = last
     return out
 
 
@@ -2330,8 +2342,10 @@ def write_report(ctx: Context, outcome: str, first: int, observed: Optional[Stat
         "unread": sorted(ctx.unread),     # components whose node did not answer: not in `observed`, not known
         "observed_valid": None if observed is None else not ctx.model.failures(observed),
         "timings": [t.to_doc() for t in ctx.timings],
-        # each monitor that saw a normal mode's assumption violated: how often, first after which step
-        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i} for c, i in sorted(ctx.violated.items())},
+        # each monitor that saw a normal mode's assumption violated: how often, first after which
+        # step, and its last violation as its status said it (when it began, on the wall clock; why)
+        "violated": {c: {"violations": ctx.violations.get(c, 0), "after_step": i,
+                         "last": ctx.last_violation.get(c)} for c, i in sorted(ctx.violated.items())},
         "gaps": gaps(ctx),
         "started": {c: info.to_doc() for c, info in ctx.started.items()},
         "placed": {c: n for c, n in ctx.names.placed.items() if "@" not in n} if ctx.rt is not None else {},
@@ -2707,8 +2721,10 @@ class Executor:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
             for c, n in sorted(seen_bad.items()):
+                last = ctx.last_violation.get(c)
                 ctx.warn(f"but the monitor of {c} saw {plural(n, 'violation')} of a normal mode's assumption "
-                         f"during the run (first seen after step {ctx.violated[c]})")
+                         f"during the run (first seen after step {ctx.violated[c]})"
+                         + (f"; the last began {in_run(ctx, last)}" if last else ""))
             write_report(ctx, "violated", first, observed=final)
             return EXIT_FAILED
         heard = len(ctx.baseline)
@@ -2728,7 +2744,25 @@ def counted(ctx: Context, i: int) -> dict[str, int]:
     for c in moved:
         ctx.violated.setdefault(c, i)
     ctx.violations.update(moved)
+    ctx.last_violation.update(last_violations(ctx, moved))
     return moved
+
+
+def in_run(ctx: Context, last: str) -> str:
+    """A monitor's `last_violation` ("<wall clock> <functionality>: why") with its time placed
+    among the steps' (the nodes and this executor read one clock, or clocks kept in step)."""
+    at, _, what = last.partition(" ")
+    try:
+        t = float(at)
+    except ValueError:
+        return last
+    past = [s for s in ctx.timings if s.at <= t]
+    if not past:
+        return f"before step {ctx.timings[0].step if ctx.timings else 1}: {what}"
+    s = past[-1]
+    if t <= s.at + s.seconds:
+        return f"{t - s.at:.2f} s into step {s.step}: {what}"
+    return f"{t - s.at - s.seconds:.2f} s after step {s.step}: {what}"
 
 
 # --- reconf_ros/executor/script.py ---
