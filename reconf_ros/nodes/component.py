@@ -8,6 +8,7 @@ before `set_parameters` answers. The node publishes its status on `/diagnostics`
 from __future__ import annotations
 
 import functools
+import gc
 import os
 import signal
 import time
@@ -673,6 +674,8 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             if deployed is not None:
                 node.trigger_configure()
                 node.trigger_activate()
+        gc.collect()
+        gc.freeze()     # what start-up made stays: a full collection walks only what came after it
         done_at: Optional[float] = None
         while not stop["now"]:
             executor.spin_once(timeout_sec=0.05)

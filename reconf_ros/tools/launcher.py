@@ -24,6 +24,7 @@ Protocol: one JSON object per line on the socket given by `--fd`; each request g
 """
 from __future__ import annotations
 
+import gc
 import json
 import os
 import signal
@@ -147,6 +148,8 @@ def serve(fd: int) -> int:
     from ..nodes import adapter, component, generic  # noqa: F401
     from . import runner  # noqa: F401
     load_types(NODE_INTERFACES)
+    gc.collect()
+    gc.freeze()     # what is imported is kept for good: no collection in a node walks it (docs/executor.md#launcher)
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}
 
@@ -184,6 +187,7 @@ def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, 
                 stream.flush()
                 sys.stdout.flush()
                 sys.stderr.flush()
+                gc.freeze()      # and what `_warm` parsed; frozen objects are not written to by a collection
                 pid = os.fork()
                 exited.pop(pid, None)            # a PID used before: not that child's status
                 if pid == 0:

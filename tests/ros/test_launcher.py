@@ -53,11 +53,15 @@ def test_a_forked_node_has_its_log_directory_environment_and_status(launcher: La
 
 
 def loaded() -> Component:
-    """A factory for the test: says which interfaces' type support its process had loaded."""
+    """A factory for the test: says which interfaces' type support its process had loaded, and
+    whether it found the launcher's objects frozen (out of reach of its collections)."""
+    import gc
+
     from diagnostic_msgs.msg import DiagnosticArray
     from std_msgs.msg import Float64
     from std_srvs.srv import Trigger
     print({t.__name__: t.__class__._TYPE_SUPPORT is not None for t in (DiagnosticArray, Float64, Trigger)})
+    print(f"frozen: {gc.get_freeze_count() > 0}")
     return Component("loaded")
 
 
@@ -78,6 +82,7 @@ def test_a_forked_node_finds_the_type_support_of_every_node_s_and_its_architectu
     assert p.wait(timeout=30) == 0, log.read_text()
     # every node's interfaces and the architecture's messages: loaded before the fork; not others
     assert "{'DiagnosticArray': True, 'Float64': True, 'Trigger': False}" in log.read_text()
+    assert "frozen: True" in log.read_text()
 
 
 def test_an_architecture_is_parsed_again_when_it_changes(launcher: Launcher, tmp_path: Path) -> None:
