@@ -19,6 +19,7 @@ from reconf_ros.executor.conditions import wire_before
 from reconf_ros.executor.context import Context, Interrupts, StepTiming
 from reconf_ros.executor.observe import observe
 from reconf_ros.executor.run import Executor, counted, in_run
+from reconf_ros.executor.run_report import degraded_line
 from reconf_ros.executor.runtime import NoControlInterface, StepFailed
 from reconf_ros.executor.script import arguments, parse
 from tests.examples_table import ROOT
@@ -105,6 +106,29 @@ def test_a_monitor_s_last_violation_is_placed_among_the_steps() -> None:
     assert in_run(ctx, ctx.last_violation["listener"]) == f"0.50 s into step 1: {why}"
     assert in_run(ctx, f"1001.250 {why}") == f"0.25 s after step 2: {why}"
     assert in_run(ctx, f"999.000 {why}") == f"before step 1: {why}"
+
+
+def test_a_whole_run_says_how_long_what_served_was_degraded_next_to_the_plan_s_estimate() -> None:
+    """The paper's replace degrades the listener from the end of step 1 to the end of step 7:
+    0.90 s by these step times, against the plan's 1.35 s; the default's degrades no one."""
+    system = load([os.path.join(ROOT, "examples", "chatter.arch")])
+    doc = plan_document("replace talker", system, plan_replace(system, "talker", "talker_v2", strategy="paper"),
+                        {}, model=True)
+    ctx = Context(doc, arguments(doc).parse_args([]), out=open(os.devnull, "w"), err=open(os.devnull, "w"))
+    assert [s.action for s in ctx.steps] == ["degrade", "detach", "remove", "create", "upgrade", "attach", "upgrade"]
+    ctx.args.to_step = 7
+    begins = [100.0, 100.06, 100.17, 100.3, 100.8, 100.86, 100.9]
+    ctx.timings = [StepTiming(i, at, 0.05, True) for i, at in enumerate(begins, 1)]
+    assert degraded_line(ctx, 1) == ("degraded on the wire, by the steps' times: listener.listen 0.90 s (plan "
+                                     "~1.35 s); 0.90 s in all (plan ~1.35 s)")
+    ctx.args.to_step = 6        # part of a plan: its estimate is the whole plan's
+    assert degraded_line(ctx, 1) == ""
+    assert degraded_line(context({}), 1) == ""                  # (to_step unset: a part, as above)
+    default = context({})
+    default.args.to_step = len(default.steps)
+    default.timings = [StepTiming(i, 100.0 + i, 0.5, True) for i in range(1, len(default.steps) + 1)]
+    assert degraded_line(default, 1) == ("degraded on the wire: no functionality that served before the run "
+                                         "(the plan expected none)")
 
 
 def test_a_plan_of_no_step_parses() -> None:

@@ -13,7 +13,7 @@ from html import escape
 from typing import Any
 
 from checker.planning.durations import most_first
-from reconf_ros.executor.plan_states import PlanStates
+from reconf_ros.executor.plan_states import PlanStates, degraded_spans
 
 __all__ = ["Bar", "Timeline", "timeline", "to_text", "to_svg"]
 
@@ -97,25 +97,11 @@ def timeline(report: dict[str, Any]) -> Timeline:
 
 def _degraded_spans(tl: Timeline, timings: list[dict[str, Any]], states: PlanStates,
                     steps: list[dict[str, Any]]) -> None:
-    """Each functionality's degraded spans: a step takes effect at its own end, in the order the
-    steps ended (the steps of a batch overlap, on distinct components: docs/executor.md#batches),
-    but a component's remove ends its spans at the remove's start (it serves no one while it goes,
-    as the plan's estimate counts); a step that failed changed nothing of the plan's."""
-    state = states[timings[0]["step"] - 1]
-    since = {f"{c}.{f}": 0.0 for c, f in state.degraded}
-    for t, b in sorted(zip(timings, tl.steps), key=lambda tb: tb[1].end):
-        if not t["ok"]:
-            continue
-        state = states.alone(state, t["step"])
-        now = {f"{c}.{f}" for c, f in state.degraded}
-        for name in now - set(since):
-            since[name] = b.end
-        end = b.start if steps[t["step"] - 1]["action"] == "remove" else b.end
-        for name in set(since) - now:
-            began = since.pop(name)
-            tl.degraded.setdefault(name, []).append(Bar(name, began, max(end, began)))
-    for name, at in since.items():
-        tl.degraded.setdefault(name, []).append(Bar(name, at, tl.end))
+    """Each functionality's degraded spans, as `degraded_spans` times them from the steps' bars."""
+    timed = [(t["step"], b.start, b.end, bool(t["ok"])) for t, b in zip(timings, tl.steps)]
+    removes = {t["step"] for t in timings if steps[t["step"] - 1]["action"] == "remove"}
+    for name, spans in degraded_spans(states, timed, removes, tl.end).items():
+        tl.degraded[name] = [Bar(name, a, b) for a, b in spans]
 
 
 def _row(bars: list[Bar], scale: float, width: int, mark: str) -> str:

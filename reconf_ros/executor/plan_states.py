@@ -1,7 +1,7 @@
 """Configurations (`State`) and the states of a plan (`PlanStates`), read from a plan document."""
 from __future__ import annotations
 
-from typing import Any, Iterable, Iterator, Optional
+from typing import Any, Collection, Iterable, Iterator, Optional, Sequence
 
 Degraded = tuple[str, str]           # (component, functionality)
 Role = tuple[str, str, str]          # (connector, component, port)
@@ -109,3 +109,37 @@ class PlanStates:
         for i in range(1, self.n):
             state = self.kept.get(i) or state.changed(self.changes[i - 1])
             yield state
+
+
+Timed = tuple[int, float, float, bool]      # a step as a run timed it: (step, began, ended, ok)
+
+
+def degraded_spans(states: PlanStates, timed: Sequence[Timed], removes: Collection[int],
+                   end: float) -> dict[str, list[tuple[float, float]]]:
+    """Each functionality's degraded spans in a run ("comp.func" -> (began, ended) pairs), from
+    the first timed step's start: a step takes effect at its own end, in the order the steps
+    ended (the steps of a batch overlap, on distinct components: docs/executor.md#batches), but
+    a component's remove (its step in `removes`) ends its spans at the remove's start (it serves
+    no one while it goes, as the plan's estimate counts); a step that failed changed nothing of
+    the plan's; a span still open ends at `end`. What `reconf timeline` draws and a run's last
+    lines sum (docs/soundness.md#seconds-on-the-wire)."""
+    if not timed:
+        return {}
+    first = min(timed)
+    state = states[first[0] - 1]
+    since = {f"{c}.{f}": first[1] for c, f in state.degraded}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for step, began, ended, ok in sorted(timed, key=lambda t: t[2]):
+        if not ok:
+            continue
+        state = states.alone(state, step)
+        now = {f"{c}.{f}" for c, f in state.degraded}
+        for name in now - set(since):
+            since[name] = ended
+        stop = began if step in removes else ended
+        for name in set(since) - now:
+            start = since.pop(name)
+            spans.setdefault(name, []).append((start, max(stop, start)))
+    for name, start in since.items():
+        spans.setdefault(name, []).append((start, max(end, start)))
+    return spans

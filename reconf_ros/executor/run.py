@@ -29,7 +29,7 @@ from .observe import (
 from .plan_states import State
 from .processes import end_orphans, own_launcher, warm
 from .remote import HostError
-from .run_report import failed, interrupted, stale, write_report
+from .run_report import degraded_line, failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
 from .steps import EXIT_FAILED, EXIT_OK, batch_end, plan_steps, plural
 
@@ -276,6 +276,9 @@ class Executor:
                 + f" done in {now - t0:.2f} s (checking the live system {check_at - t0:.2f} s, steps "
                 f"{steps:.2f} s, between steps {max(0.0, final_at - check_at - steps):.2f} s, "
                 f"the final check {now - final_at:.2f} s){upto}")
+        line = degraded_line(ctx, first)
+        if line:
+            ctx.say(line)
         if unmet or seen_bad:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")

@@ -10,7 +10,7 @@ from typing import Any, Optional
 
 from .context import Context, StepTiming
 from .observe import Observed, largest_gaps, read_all, unusual
-from .plan_states import State
+from .plan_states import State, degraded_spans
 from .processes import list_started
 from .runtime import StepFailed
 from .steps import EXIT_FAILED, EXIT_INTERRUPTED, Step
@@ -161,3 +161,25 @@ def _how_to_recover(ctx: Context, path: str) -> None:
              f"    reconf recover {path} --yes           (on to the plan's target)\n"
              f"    reconf recover {path} --back --yes    (back to the plan's start)\n"
              f"    (-o recover.py writes the plan as a script instead)")
+
+
+def degraded_line(ctx: Context, first: int) -> str:
+    """A whole plan's run: each functionality that served before it and was degraded, for how long
+    by the steps' times, next to the plan's estimate, the longest three first, and in all (""
+    for a run of part of a plan, or a plan without an estimate)."""
+    estimate = ctx.doc["plan"].get("seconds") or {}
+    if not estimate or first != 1 or ctx.args.to_step != len(ctx.steps):
+        return ""
+    planned = {f"{f['component']}.{f['functionality']}": float(f["seconds"]) for f in estimate.get("functionalities", [])}
+    timed = [(t.step, t.at, t.at + t.seconds, t.ok) for t in ctx.timings]
+    removes = {t.step for t in ctx.timings if ctx.steps[t.step - 1].action == "remove"}
+    served = ctx.states[0].components
+    spans = degraded_spans(ctx.states, timed, removes, max((t[2] for t in timed), default=0.0))
+    measured = {n: sum(b - a for a, b in s) for n, s in spans.items() if n.split(".", 1)[0] in served}
+    measured = {n: s for n, s in measured.items() if s > 0}
+    if not measured and not planned:
+        return "degraded on the wire: no functionality that served before the run (the plan expected none)"
+    names = sorted(set(measured) | set(planned), key=lambda n: (-measured.get(n, 0.0), n))
+    shown = ", ".join(f"{n} {measured.get(n, 0.0):.2f} s (plan ~{planned.get(n, 0.0):.2f} s)" for n in names[:3])
+    return (f"degraded on the wire, by the steps' times: {shown}{', …' if len(names) > 3 else ''}; "
+            f"{sum(measured.values()):.2f} s in all (plan ~{sum(planned.values()):.2f} s)")

@@ -62,6 +62,15 @@ def test_replace_talker(live: LiveSystem, strategy: str) -> None:
     run = re.search(r"done in ([\d.]+) s \(checking the live system ([\d.]+) s, steps ([\d.]+) s, between steps "
                     r"([\d.]+) s, the final check ([\d.]+) s\)", res.stdout)
     assert run is not None and abs(sum(float(x) for x in run.groups()[1:]) - float(run[1])) <= 0.02, res.stdout
+    # what served and was degraded, by the steps' times, next to the plan's estimate: the paper's
+    # order degrades the listener around the talker's replacement, the default's no one
+    degraded = re.search(r"degraded on the wire, by the steps' times: listener.listen ([\d.]+) s \(plan ~([\d.]+) s\)",
+                         res.stdout)
+    if own:
+        assert "degraded on the wire: no functionality that served before the run (the plan expected none)" \
+            in res.stdout, res.stdout
+    else:
+        assert degraded is not None and 0 < float(degraded[1]) < float(run[3]) and float(degraded[2]) > 0, res.stdout
     assert os.kill(live.pid_of("talker_v2"), 0) is None     # running after the script and its launcher ended
     received, lost, head = source(statuses, "listener", "in", "talker_v2")
     assert received > 0 and lost == 0 and head == 0, statuses["/listener"]["values"]

@@ -42,7 +42,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any, Callable, Iterable, Iterator, Optional, Protocol, TypedDict
+from typing import Any, Callable, Collection, Iterable, Iterator, Optional, Protocol, Sequence, TypedDict
 
 
 # --- reconf_ros/executor/steps.py ---
@@ -301,6 +301,40 @@ class PlanStates:
         for i in range(1, self.n):
             state = self.kept.get(i) or state.changed(self.changes[i - 1])
             yield state
+
+
+Timed = tuple[int, float, float, bool]      # a step as a run timed it: (step, began, ended, ok)
+
+
+def degraded_spans(states: PlanStates, timed: Sequence[Timed], removes: Collection[int],
+                   end: float) -> dict[str, list[tuple[float, float]]]:
+    """Each functionality's degraded spans in a run ("comp.func" -> (began, ended) pairs), from
+    the first timed step's start: a step takes effect at its own end, in the order the steps
+    ended (the steps of a batch overlap, on distinct components: docs/executor.md#batches), but
+    a component's remove (its step in `removes`) ends its spans at the remove's start (it serves
+    no one while it goes, as the plan's estimate counts); a step that failed changed nothing of
+    the plan's; a span still open ends at `end`. What `reconf timeline` draws and a run's last
+    lines sum (docs/soundness.md#seconds-on-the-wire)."""
+    if not timed:
+        return {}
+    first = min(timed)
+    state = states[first[0] - 1]
+    since = {f"{c}.{f}": first[1] for c, f in state.degraded}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for step, began, ended, ok in sorted(timed, key=lambda t: t[2]):
+        if not ok:
+            continue
+        state = states.alone(state, step)
+        now = {f"{c}.{f}" for c, f in state.degraded}
+        for name in now - set(since):
+            since[name] = ended
+        stop = began if step in removes else ended
+        for name in set(since) - now:
+            start = since.pop(name)
+            spans.setdefault(name, []).append((start, max(stop, start)))
+    for name, start in since.items():
+        spans.setdefault(name, []).append((start, max(end, start)))
+    return spans
 
 
 # --- reconf_ros/executor/semantics.py ---
@@ -2473,6 +2507,28 @@ def _how_to_recover(ctx: Context, path: str) -> None:
              f"    (-o recover.py writes the plan as a script instead)")
 
 
+def degraded_line(ctx: Context, first: int) -> str:
+    """A whole plan's run: each functionality that served before it and was degraded, for how long
+    by the steps' times, next to the plan's estimate, the longest three first, and in all (""
+    for a run of part of a plan, or a plan without an estimate)."""
+    estimate = ctx.doc["plan"].get("seconds") or {}
+    if not estimate or first != 1 or ctx.args.to_step != len(ctx.steps):
+        return ""
+    planned = {f"{f['component']}.{f['functionality']}": float(f["seconds"]) for f in estimate.get("functionalities", [])}
+    timed = [(t.step, t.at, t.at + t.seconds, t.ok) for t in ctx.timings]
+    removes = {t.step for t in ctx.timings if ctx.steps[t.step - 1].action == "remove"}
+    served = ctx.states[0].components
+    spans = degraded_spans(ctx.states, timed, removes, max((t[2] for t in timed), default=0.0))
+    measured = {n: sum(b - a for a, b in s) for n, s in spans.items() if n.split(".", 1)[0] in served}
+    measured = {n: s for n, s in measured.items() if s > 0}
+    if not measured and not planned:
+        return "degraded on the wire: no functionality that served before the run (the plan expected none)"
+    names = sorted(set(measured) | set(planned), key=lambda n: (-measured.get(n, 0.0), n))
+    shown = ", ".join(f"{n} {measured.get(n, 0.0):.2f} s (plan ~{planned.get(n, 0.0):.2f} s)" for n in names[:3])
+    return (f"degraded on the wire, by the steps' times: {shown}{', …' if len(names) > 3 else ''}; "
+            f"{sum(measured.values()):.2f} s in all (plan ~{sum(planned.values()):.2f} s)")
+
+
 # --- reconf_ros/executor/run.py ---
 
 def busy(timings: list[StepTiming]) -> float:
@@ -2717,6 +2773,9 @@ class Executor:
                 + f" done in {now - t0:.2f} s (checking the live system {check_at - t0:.2f} s, steps "
                 f"{steps:.2f} s, between steps {max(0.0, final_at - check_at - steps):.2f} s, "
                 f"the final check {now - final_at:.2f} s){upto}")
+        line = degraded_line(ctx, first)
+        if line:
+            ctx.say(line)
         if unmet or seen_bad:
             if unmet:
                 ctx.warn(f"but on the wire, the assumptions of {', '.join(unmet)} are not met")
