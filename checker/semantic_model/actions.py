@@ -689,7 +689,7 @@ KINDS: tuple[Kind, ...] = (
     ActionKind[Remove](cls=Remove, precondition=_remove, effect=_after_remove, change_field="removed",
                        params=("component",), seconds=0.09),
     ActionKind[Create](cls=Create, precondition=_create, effect=_after_create, change_field="created",
-                       params=("component",), seconds=1.0),
+                       params=("component",), seconds=0.5),
     ActionKind[Detach](cls=Detach, precondition=_detach, effect=_after_detach, change_field="detached",
                        params=("connector", "port"), seconds=0.11),
     ActionKind[Attach](cls=Attach, precondition=_attach, effect=_after_attach, change_field="attached",

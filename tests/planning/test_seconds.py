@@ -9,7 +9,7 @@ import pytest
 
 from checker.ftm.transition import plan_transition
 from checker.planning import plan_replace
-from checker.planning.durations import degraded_seconds, durations
+from checker.planning.durations import Durations, degraded_seconds, durations
 from checker.planning.improve import cost
 from checker.planning.plan import verify
 from checker.planning.prepare import _move, prepare_first
@@ -82,13 +82,17 @@ def test_the_default_strategy_creates_before_degrading_on_a_single_topic() -> No
 
 
 def test_an_ftm_transition_prepares_its_new_nodes_before_suspending() -> None:
-    """PBR → LFR: the four new Before/After nodes are created before the first degrade, and the
-    client's side waits for less than the creates alone would take."""
+    """PBR → LFR: the four new Before/After nodes are created before the first degrade, so what
+    the client's side waits does not depend on how long a create takes."""
     plan = plan_transition(load([os.path.join(EXAMPLES, "ftm", "deterministic_pbr.arch")]), "server", "LFR").plan
     first = next(i for i, a in enumerate(plan.steps) if isinstance(a, Degrade))
     creates = [i for i, a in enumerate(plan.steps) if isinstance(a, Create)]
     assert len(creates) == 4 and max(creates) < first
-    assert plan.seconds().seconds[("follower", "follow")] < 4 * durations(plan.system).kinds["create"]
+    times = durations(plan.system)
+    slow = Durations({**times.kinds, "create": 100 * times.kinds["create"]})
+    waits = [degraded_seconds(plan.system, plan.states[0], plan.steps, t, plan.batches).seconds[("follower", "follow")]
+             for t in (times, slow)]
+    assert waits[0] == pytest.approx(waits[1])
 
 
 def test_prepare_first_keeps_a_plan_it_cannot_improve() -> None:

@@ -3083,9 +3083,9 @@ DOC = json.loads(r"""{
   "notes": [],
   "renames": {},
   "seconds": {
-   "durations": {"components": [], "kinds": {"attach": 0.07, "create": 1.0, "degrade": 0.05, "detach": 0.11, "remove": 0.09, "upgrade": 0.04}, "sources": ["measured defaults"]},
+   "durations": {"components": [], "kinds": {"attach": 0.07, "create": 0.5, "degrade": 0.05, "detach": 0.11, "remove": 0.09, "upgrade": 0.04}, "sources": ["measured defaults"]},
    "functionalities": [],
-   "plan": 1.31,
+   "plan": 0.81,
    "weighted": 0
   },
   "start": {
