@@ -197,3 +197,24 @@ def test_a_failure_outside_a_step_is_reported_as_a_failure(tmp_path: Any) -> Non
     assert run._failed_outside(StepFailed("the step took longer than --step-timeout")) == 1
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["outcome"] == "failed" and report["reason"].startswith("during the final check: the step took"), report
+
+
+class AskedRuntime(AnsweringRuntime):
+    """Notes which nodes were asked their lifecycle state."""
+
+    asked: set[str] = set()
+
+    def lifecycles(self, fqns: Any) -> dict[str, Any]:
+        fqns = list(fqns)
+        self.asked = self.asked | set(fqns)
+        return super().lifecycles(fqns)
+
+
+def test_a_node_the_run_saw_finalized_is_absent_and_not_asked_again() -> None:
+    """A node alone in its process ends the process half a second after it is finalized, and stays
+    in the graph a while, not answering: a reading after its remove must not ask it."""
+    ctx = context({"/listener": {}, "/talker": {}})
+    ctx.rt = AskedRuntime({"/listener": {}, "/talker": {}}, lacking="")
+    ctx.ended.add("talker")
+    seen = observe(ctx, ["listener", "talker"])
+    assert seen["talker"].lifecycle == "absent" and ctx.rt.asked == {"/listener"}

@@ -119,7 +119,9 @@ class Context:
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
-    exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
+    # removed components this run saw end: finalized at their remove, or their process exited;
+    # absent from then on, and not asked again (a finalized node cannot come back)
+    ended: set[str] = field(default_factory=set)
     gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
 
     def __post_init__(self) -> None:

@@ -90,7 +90,7 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     proc, argv, log, how = launch(ctx, comp)
     host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
     ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
-    ctx.exited.discard(comp)
+    ctx.ended.discard(comp)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
@@ -158,6 +158,9 @@ def remove(ctx: Context, step: Step) -> None:
         lc = "finalized"
     if lc != "finalized":
         raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
+    # its process may exit at any moment, and its node linger in the graph not answering: a
+    # reading after this step must not ask it (it would wait for the call's timeout)
+    ctx.ended.add(comp)
     seen = wait_removed(ctx, comp, int(str(pid)) if str(pid or "").isdigit() else None,
                         max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
     if seen:

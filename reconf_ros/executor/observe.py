@@ -42,9 +42,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     comps, names = sorted(comps), ctx.names
     graph = set(ctx.rt.nodes())
     names.locate(comps, graph)
-    # a node whose process has exited may stay in the graph a while (on another host, seconds):
-    # it is absent, and asking it would wait for the timeout
-    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.exited}
+    # a node this run saw finalized, or whose process exited, may stay in the graph a while (on
+    # another host, seconds): it is absent, and asking it would wait for the timeout
+    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.ended}
     states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
     wanted: dict[str, list[str]] = {}
     for c in comps:
@@ -81,11 +81,11 @@ def _silent(ctx: Context, comp: str, why: str = "") -> Observed:
 
 
 def _exited(ctx: Context, comp: str) -> bool:
-    """Whether the process this run started for `comp` has exited, or, for one another run
-    started, this run saw it exit at its remove (a node gone stays in the graph a while, not
-    answering: it is absent, not unknown)."""
+    """Whether the process this run started for `comp` has exited, or this run saw the component
+    end at its remove (a node gone stays in the graph a while, not answering: it is absent, not
+    unknown)."""
     info = ctx.started.get(comp)
-    return comp in ctx.exited or (info is not None and info.proc.poll() is not None)
+    return comp in ctx.ended or (info is not None and info.proc.poll() is not None)
 
 
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:

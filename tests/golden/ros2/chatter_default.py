@@ -1274,7 +1274,9 @@ class Context:
     unread: set[str] = field(default_factory=set)     # components whose node did not answer the last reading
     read_at: Optional[float] = None  # when the last reading of the nodes began, on the wall clock
     failed_host: str = ""            # the host whose agent failed the last step (docs/hosts.md)
-    exited: set[str] = field(default_factory=set)     # removed components whose process was seen to exit
+    # removed components this run saw end: finalized at their remove, or their process exited;
+    # absent from then on, and not asked again (a finalized node cannot come back)
+    ended: set[str] = field(default_factory=set)
     gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
 
     def __post_init__(self) -> None:
@@ -1410,9 +1412,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     comps, names = sorted(comps), ctx.names
     graph = set(ctx.rt.nodes())
     names.locate(comps, graph)
-    # a node whose process has exited may stay in the graph a while (on another host, seconds):
-    # it is absent, and asking it would wait for the timeout
-    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.exited}
+    # a node this run saw finalized, or whose process exited, may stay in the graph a while (on
+    # another host, seconds): it is absent, and asking it would wait for the timeout
+    seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.ended}
     states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
     wanted: dict[str, list[str]] = {}
     for c in comps:
@@ -1449,11 +1451,11 @@ def _silent(ctx: Context, comp: str, why: str = "") -> Observed:
 
 
 def _exited(ctx: Context, comp: str) -> bool:
-    """Whether the process this run started for `comp` has exited, or, for one another run
-    started, this run saw it exit at its remove (a node gone stays in the graph a while, not
-    answering: it is absent, not unknown)."""
+    """Whether the process this run started for `comp` has exited, or this run saw the component
+    end at its remove (a node gone stays in the graph a while, not answering: it is absent, not
+    unknown)."""
     info = ctx.started.get(comp)
-    return comp in ctx.exited or (info is not None and info.proc.poll() is not None)
+    return comp in ctx.ended or (info is not None and info.proc.poll() is not None)
 
 
 def as_state(ctx: Context, seen: dict[str, Observed]) -> State:
@@ -1973,7 +1975,7 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
     info = ctx.started.get(comp)
     if info is not None:
         info.ended = wait_exit(info.proc, seconds)
-        ctx.exited.add(comp)
+        ctx.ended.add(comp)
         return f"its process (pid {info.pid}{_on(info.host)}) exited with status {info.ended}" if info.host else ""
     agent = host_agent(ctx, comp)
     if agent is None or pid is None:
@@ -1982,7 +1984,7 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
         status = wait_exit(RemoteProcess(agent, pid, ""), seconds)
     except HostRefused as e:    # not a process the agent started (one started by hand there)
         return f"its process (pid {pid}) is not host {agent.host}'s agent's, which says: {e}"
-    ctx.exited.add(comp)
+    ctx.ended.add(comp)
     return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
 
 
@@ -2235,7 +2237,7 @@ def _start(ctx: Context, comp: str, fqn: str) -> None:
     proc, argv, log, how = launch(ctx, comp)
     host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
     ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
-    ctx.exited.discard(comp)
+    ctx.ended.discard(comp)
     ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
@@ -2303,6 +2305,9 @@ def remove(ctx: Context, step: Step) -> None:
         lc = "finalized"
     if lc != "finalized":
         raise StepFailed(f"after shutdown, {comp} is in lifecycle state {lc!r}")
+    # its process may exit at any moment, and its node linger in the graph not answering: a
+    # reading after this step must not ask it (it would wait for the call's timeout)
+    ctx.ended.add(comp)
     seen = wait_removed(ctx, comp, int(str(pid)) if str(pid or "").isdigit() else None,
                         max(0.1, min(ctx.args.timeout, ctx.rt.deadline - time.monotonic())))
     if seen:
