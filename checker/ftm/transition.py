@@ -417,9 +417,10 @@ def _substitute_and_link(plan: Plan, old: ir.System, old_infos: list[ExpansionIn
     kept = Goal(final.components | frozenset(stay), (final.roles - late) | keep | switch, frozenset(funcs))
     olds = {c.name for c in old.components}
     replaced = [(plan.renames[n], n) for n in plan.renames if plan.renames[n] in olds and n in final.components]
-    added = [n for n in final.components if n not in olds and (n, n) not in replaced and n not in plan.renames]
+    # in name order, not a set's: the plan must not depend on the interpreter's string hashing
+    added = [n for n in sorted(final.components) if n not in olds and (n, n) not in replaced and n not in plan.renames]
     added += [n for n in plan.renames if plan.renames[n] not in olds and n in final.components]
-    removed = [n for n in olds if n not in final.components and n not in plan.renames.values()]
+    removed = [n for n in sorted(olds) if n not in final.components and n not in plan.renames.values()]
     middle = solve(Problem(system, mid, kept, replaced=replaced, removed=[n for n in removed if n not in stay],
                            added=added, renames=dict(plan.renames)), strategy)
     steps, end = middle.steps, middle.states[-1]
