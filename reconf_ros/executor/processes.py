@@ -159,7 +159,6 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
     info = ctx.started.get(comp)
     if info is not None:
         info.ended = wait_exit(info.proc, seconds)
-        ctx.ended.add(comp)
         return f"its process (pid {info.pid}{_on(info.host)}) exited with status {info.ended}" if info.host else ""
     agent = host_agent(ctx, comp)
     if agent is None or pid is None:
@@ -168,7 +167,6 @@ def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) ->
         status = wait_exit(RemoteProcess(agent, pid, ""), seconds)
     except HostRefused as e:    # not a process the agent started (one started by hand there)
         return f"its process (pid {pid}) is not host {agent.host}'s agent's, which says: {e}"
-    ctx.ended.add(comp)
     return f"its process (pid {pid} on host {agent.host}) exited with status {status}"
 
 
