@@ -35,11 +35,24 @@ class Started:
     proc: Any                        # its subprocess.Popen, the launcher's handle, or an agent's RemoteProcess
     ended: Optional[int] = None      # its exit status, once a remove has waited for it
     host: str = ""                   # the host whose agent started it ("": this machine; its pid and log are there)
+    held: Optional[float] = None     # s it was held before its step, if forked ahead (docs/executor.md#held)
+    how: str = ""                    # how it was started, for the step's line
 
     def to_doc(self) -> dict[str, Any]:
         doc: dict[str, Any] = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
         doc.update({"host": self.host} if self.host else {})
+        doc.update({"held_s": round(self.held, 3)} if self.held is not None else {})
         return doc if self.ended is None else {**doc, "ended": self.ended}
+
+
+@dataclass
+class Held:
+    """A node process forked ahead of its create and held before it makes its node
+    (docs/executor.md#held)."""
+    proc: Any                        # the launcher's handle
+    argv: list[str]
+    log: str
+    at: float                        # when it was forked (monotonic)
 
 
 @dataclass
@@ -123,6 +136,8 @@ class Context:
     # absent from then on, and not asked again (a finalized node cannot come back)
     ended: set[str] = field(default_factory=set)
     gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
+    held: dict[str, Held] = field(default_factory=dict)    # component -> its process, forked ahead and held
+    holding: Any = None              # the thread that forks them (`processes.hold`), while it runs
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])

@@ -9,16 +9,14 @@ when the node is not as the plan expects or refuses; it returns once the node ha
 that the change is made."""
 from __future__ import annotations
 
-import shlex
 import time
 from typing import Callable
 
 from .conditions import wire_after, wire_before
-from .context import Context, Started
+from .context import Context
 from .observe import wait_status
 from .plan_states import State
 from .processes import launch, on_agent, wait_removed
-from .remote import RemoteProcess
 from .runtime import NOT_A_RECONF_NODE, StepFailed
 from .steps import Step
 
@@ -87,18 +85,17 @@ def baseline(ctx: Context, comp: str) -> None:
 def _start(ctx: Context, comp: str, fqn: str) -> None:
     """Start the component's process as `fqn` (here, or on its host by its agent: `launch`),
     wait for its lifecycle services, configure and activate it."""
-    proc, argv, log, how = launch(ctx, comp)
-    host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
-    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
+    started = ctx.started[comp] = launch(ctx, comp)
+    proc, cmd, log = started.proc, started.command, started.log
     ctx.ended.discard(comp)
-    ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
+    ctx.say(f"      started {comp}: pid {proc.pid}{started.how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
     cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
     plain: dict[str, float] = {}
     while not cli.service_is_ready():
         if proc.poll() is not None:
-            raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
+            raise StepFailed(f"{cmd} exited with status {proc.returncode} before {comp} came up "
                              f"(see {log})")
         _not_a_lifecycle_node(ctx, comp, fqn, plain)
         ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))

@@ -10,6 +10,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from typing import Any, Optional
 
@@ -60,8 +61,8 @@ class Launched:
 
 
 class Launcher:
-    """Starts the launcher process and talks to it. If it is gone, `available` turns false and
-    callers start processes the ordinary way."""
+    """Starts the launcher process and talks to it (from any thread: one request at a time). If it
+    is gone, `available` turns false and callers start processes the ordinary way."""
 
     def __init__(self, timeout: float = 30.0) -> None:
         mine, theirs = socket.socketpair()
@@ -75,6 +76,7 @@ class Launcher:
         self.available = True
         self.statuses: dict[int, int] = {}
         self.unread = 0             # answers to warm requests, read before the next answer
+        self.lock = threading.RLock()
 
     def can_start(self, argv: list[str]) -> bool:
         return self.available and launchable(argv)
@@ -90,6 +92,10 @@ class Launcher:
             raise
 
     def request(self, req: dict[str, Any]) -> dict[str, Any]:
+        with self.lock:
+            return self._request(req)
+
+    def _request(self, req: dict[str, Any]) -> dict[str, Any]:
         self.send(req)
         try:
             while self.unread:
@@ -109,14 +115,26 @@ class Launcher:
 
     def warm(self, argv: list[str], cwd: str = "") -> None:
         """Ask the launcher to parse what `argv` reads; the answer is not waited for."""
-        self.send({"warm": argv, "cwd": cwd or os.getcwd()})
-        self.unread += 1
+        with self.lock:
+            self.send({"warm": argv, "cwd": cwd or os.getcwd()})
+            self.unread += 1
 
-    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None) -> Launched:
-        """Fork `argv` with `env` added to the launcher's environment."""
+    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None,
+              hold: bool = False) -> Launched:
+        """Fork `argv` with `env` added to the launcher's environment; with `hold`, the child
+        initialises ROS and waits for `release` before it makes its nodes (or exits at `cancel`,
+        or when the launcher ends, having made none: docs/executor.md#held)."""
         answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd(),
-                               "env": env or {}})
+                               "env": env or {}, "hold": hold})
         return Launched(self, int(answer["pid"]))
+
+    def release(self, pid: int) -> None:
+        """Let the held child `pid` make its nodes. Raises OSError if it is not held (it exited)."""
+        self.request({"release": pid})
+
+    def cancel(self, pid: int) -> None:
+        """End the held child `pid`: it exits having made no node."""
+        self.request({"cancel": pid})
 
     def status(self, pid: int) -> Optional[int]:
         """The exit status of a child that exited, else None (also when the launcher is gone and

@@ -18,11 +18,12 @@ import threading
 import time
 from typing import Any, Iterable, Optional
 
-from .context import Context
+from .context import Context, Held, Started
 from .launcher import PROGRAM, Launcher, launchable
 from .remote import LOCAL, Agent, HostError, HostRefused, RemoteProcess
 from .runtime import StepFailed
 from .status import CREATED_ENV
+from .steps import plural
 
 
 def command(ctx: Context, comp: str, remote: bool = False) -> list[str]:
@@ -119,12 +120,12 @@ def on_agent(ctx: Context, comp: str) -> bool:
     return ctx.hosts is not None and bool(host) and ctx.hosts.where.get(str(host)) != LOCAL
 
 
-def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
+def launch(ctx: Context, comp: str) -> Started:
     """Start `comp`'s process where it runs, with its creation mark in its environment: here
-    (`start`), or by its host's agent, which is sent the plan file when the node reads it and
-    adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
-    path on its host) and how it was started, for the step's line. Raises StepFailed, or a
-    `HostError` naming the host when its agent cannot be reached or refuses."""
+    (a held one released, or `start`), or by its host's agent, which is sent the plan file when
+    the node reads it and adds the plan's ROS domain (`Hosts.start`). Returns it (its `how`: how
+    it was started, for the step's line). Raises StepFailed, or a `HostError` naming the host
+    when its agent cannot be reached or refuses."""
     with _LAUNCHING:
         return _launch(ctx, comp)
 
@@ -134,20 +135,26 @@ def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
 _LAUNCHING = threading.Lock()
 
 
-def _launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
-    env = {CREATED_ENV: ctx.names.created_mark(comp)}
+def _launch(ctx: Context, comp: str) -> Started:
     agent = host_agent(ctx, comp)
+    env, fqn = {CREATED_ENV: ctx.names.created_mark(comp)}, ctx.names.fqn(comp)
     if agent is None or ctx.hosts is None:
         argv = command(ctx, comp)
+        held = _release(ctx, comp, argv)
+        if held is not None:
+            ahead = time.monotonic() - held.at
+            return Started(held.proc.pid, held.log, shlex.join(argv), fqn, held.proc, held=ahead,
+                           how=f" (forked by the launcher {ahead:.2f} s before, held until now)")
         os.makedirs(ctx.log_dir, exist_ok=True)
         log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
         proc, how = start(ctx, argv, log, env)
-        return proc, argv, log, how
+        return Started(proc.pid, log, shlex.join(argv), fqn, proc, how=how)
     argv = command(ctx, comp, remote=True)
     plan, text = remote_plan(ctx)
     files = {plan: text} if plan in argv else {}
     remote = ctx.hosts.start(agent, argv, f"{run_name(ctx)}/{ctx.names.node_name(comp)}.log", env, files)
-    return remote, argv, remote.log, f" on host {agent.host}{remote.how}"
+    return Started(remote.pid, remote.log, shlex.join(argv), fqn, remote, host=agent.host,
+                   how=f" on host {agent.host}{remote.how}")
 
 
 def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) -> str:
@@ -226,6 +233,75 @@ def warm(ctx: Context, first: int, last: int) -> None:
                 ctx.launcher.warm(argv)
             except OSError:
                 return                  # the launcher is gone: creates start the ordinary way
+
+
+def hold(ctx: Context, first: int, last: int) -> None:
+    """Fork ahead, held, the process of each create of steps `first`..`last` that the launcher
+    starts (not a new version's, whose node name its create chooses; not with `--no-hold`): in a
+    thread of its own, while the live system is checked. A held process initialises ROS and
+    keeps a hidden node of reconf's own, so that by its create its DDS participant has been
+    discovered, and it makes its node only when released (docs/executor.md#held)."""
+    if ctx.launcher is None or getattr(ctx.args, "no_hold", True):
+        return
+    todo: list[tuple[str, list[str]]] = []
+    for step in ctx.steps[first - 1:last]:
+        comp = step.component
+        if step.action != "create" or on_agent(ctx, comp) or ctx.names.is_version(comp) or comp in ctx.held:
+            continue
+        try:
+            argv = command(ctx, comp)
+        except StepFailed:
+            continue                    # the step itself will say so
+        if ctx.launcher.can_start(argv):
+            todo.append((comp, argv))
+    if todo:
+        os.makedirs(ctx.log_dir, exist_ok=True)
+        ctx.holding = threading.Thread(target=_fork_held, args=(ctx, todo), name="hold", daemon=True)
+        ctx.holding.start()
+
+
+def _fork_held(ctx: Context, todo: list[tuple[str, list[str]]]) -> None:
+    for comp, argv in todo:
+        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
+        try:
+            proc = ctx.launcher.start(argv, log, env={CREATED_ENV: ctx.names.created_mark(comp)}, hold=True)
+        except OSError:
+            return                      # the launcher is gone: creates start the ordinary way
+        ctx.held[comp] = Held(proc, argv, log, time.monotonic())
+
+
+def _release(ctx: Context, comp: str, argv: list[str]) -> Optional[Held]:
+    """The held process of `comp`, released, if there is one still held for this command."""
+    if ctx.holding is not None:
+        ctx.holding.join(max(0.0, ctx.rt.left()))
+    held = ctx.held.pop(comp, None)
+    if held is None:
+        return None
+    try:
+        if held.argv == argv and held.proc.poll() is None:
+            ctx.launcher.release(held.proc.pid)
+            return held
+        ctx.launcher.cancel(held.proc.pid)
+    except OSError:
+        pass                            # it exited while held, or the launcher is gone
+    return None
+
+
+def end_held(ctx: Context) -> None:
+    """Cancel the processes still held at the end of a run (their creates were not reached, or
+    adopted a node already there): each exits having made no node."""
+    if ctx.holding is not None:
+        ctx.holding.join(10.0)
+        ctx.holding = None
+    if ctx.held:
+        ended = plural(len(ctx.held), "node process", "node processes")
+        ctx.say(f"      {ended} forked ahead and never released: ended ({', '.join(sorted(ctx.held))})")
+    for held in ctx.held.values():
+        try:
+            ctx.launcher.cancel(held.proc.pid)
+        except OSError:
+            pass                        # gone with the launcher: it exits all the same
+    ctx.held.clear()
 
 
 def wait_exit(proc: Any, seconds: float) -> int:

@@ -27,7 +27,7 @@ from .observe import (
     wait_statuses,
 )
 from .plan_states import State
-from .processes import end_orphans, own_launcher, warm
+from .processes import end_held, end_orphans, hold, own_launcher, warm
 from .remote import HostError
 from .run_report import degraded_line, failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
@@ -93,6 +93,7 @@ class Executor:
         except (StepFailed, OSError) as e:   # outside a step: the start check, the final check
             return self._failed_outside(e)
         finally:
+            end_held(ctx)
             if ctx.hosts is not None:
                 ctx.hosts.close()
             if self.own_runtime and ctx.launcher is not None:
@@ -103,6 +104,7 @@ class Executor:
     def _apply(self, first: int, t0: float) -> int:
         ctx, last = self.ctx, self.ctx.args.to_step
         warm(ctx, first, last)
+        hold(ctx, first, last)
         hood = neighbourhood(ctx)
         refused = self._check_start(first, hood)
         if refused is not None:

@@ -10,7 +10,7 @@ import threading
 import time
 from typing import Any, Callable, Iterable, Optional
 
-from .status import STATUS_FRESH, STATUS_PREFIX, Status, parse_status, tool_node
+from .status import STATUS_FRESH, STATUS_PREFIX, TOOL_PREFIX, Status, parse_status, tool_node
 
 # A new participant learns of the running ones from their periodic announcements (Fast DDS
 # answers a newcomer's own announcements with nothing sooner): every 3 s by default, every
@@ -169,8 +169,9 @@ class Runtime:
         return graph + sorted(heard - set(graph))
 
     def graph(self) -> set[str]:
-        """The nodes now, noting when the set last changed (see `Executor.settle`)."""
-        nodes = set(self.nodes())
+        """The nodes now, noting when the set last changed (see `Executor.settle`): reconf's own
+        hidden nodes (a tool's, a held process's) are never a component and do not count."""
+        nodes = {n for n in self.nodes() if not n.rsplit("/", 1)[-1].startswith(TOOL_PREFIX)}
         if nodes != self.graph_seen:
             self.graph_seen, self.graph_since = nodes, time.monotonic()
         return nodes

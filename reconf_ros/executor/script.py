@@ -80,6 +80,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap.add_argument("--no-launcher", action="store_true",
                     help="start each new node as a Python of its own, not forked from a launcher this script "
                          "starts (docs/executor.md#launcher)")
+    ap.add_argument("--no-hold", action="store_true",
+                    help="fork each new node at its create step, not ahead, held while the live system is "
+                         "checked and the steps before run (docs/executor.md#held)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")

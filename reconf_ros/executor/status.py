@@ -8,6 +8,7 @@ from typing import Any, Iterable, Optional
 
 STATUS_PREFIX = "reconf:"          # a status's name: "reconf:<node fqn>"
 CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
+HOLD_FD_ENV = "RECONF_HOLD_FD"     # a held node process's end of its pipe to the launcher (docs/executor.md#held)
 STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import gc
 import os
+import select
 import signal
 import time
 from collections import deque
@@ -27,7 +28,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
 
 from ..executor.snapshot import MODEL_PARAM
-from ..executor.status import CREATED_ENV, STATUS_PREFIX
+from ..executor.status import CREATED_ENV, STATUS_PREFIX, tool_node
 from ..executor.steps import join_list
 from .api import Component, DeclarationError, Functionality, Output, components_to_arch
 from .monitor import GAP_FACTOR, Monitor
@@ -639,9 +640,33 @@ class ComponentNode(LifecycleNode):
         self._changed()
 
 
+def wait_release(fd: int, stop: Optional[dict[str, bool]] = None) -> bool:
+    """A held process's wait (docs/executor.md#held): True once the launcher releases it (a byte on
+    its pipe `fd`), False at the pipe's end (cancelled, or the launcher gone) or once `stop["now"]`."""
+    try:
+        while not (stop or {}).get("now"):
+            if select.select([fd], [], [], 0.1)[0]:
+                return bool(os.read(fd, 1))
+        return False
+    finally:
+        os.close(fd)
+
+
+def _held(fd: int, stop: dict[str, bool]) -> Optional[Any]:
+    """Hold this process, its ROS context initialised, until the launcher releases it: a hidden
+    node of reconf's own keeps its DDS participant up, so that discovery is done before the
+    component's nodes exist. That node (to destroy once they do), or None when not released."""
+    carrier = rclpy.create_node(tool_node("held"), enable_rosout=False, start_parameter_services=False,
+                                use_global_arguments=False)
+    if wait_release(fd, stop):
+        return carrier
+    carrier.destroy_node()
+    return None
+
+
 def run_components(components: Sequence[Component], *, args: Optional[list[str]] = None, namespace: str = "",
                    deployed: Optional[dict[str, dict[str, list[str]]]] = None, gap_factor: float = GAP_FACTOR,
-                   linger: float = 0.5, lean: bool = False,
+                   linger: float = 0.5, lean: bool = False, hold: Optional[int] = None,
                    make_node: Callable[..., "ComponentNode"] = ComponentNode) -> int:
     """Run `components` in this process until every one is finalized (or SIGINT/SIGTERM); the
     highest of the nodes' `exit_status` (0 unless something failed under a node).
@@ -655,7 +680,8 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
     (`lean` for all, or per component), spins them on one single-threaded executor, and replaces
     the SIGINT and SIGTERM handlers with ones that end the loop. Returns `linger` seconds after
     every node is finalized, or at a signal, having destroyed the nodes and shut rclpy down.
-    Whatever `rclpy.init` or a node's construction raises is not caught."""
+    With `hold` (a held process's pipe), makes them only once released (`_held`). Whatever
+    `rclpy.init` or a node's construction raises is not caught."""
     rclpy.init(args=args)
     stop = {"now": False}
 
@@ -665,6 +691,10 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
     signal.signal(signal.SIGINT, on_signal)
     executor = SingleThreadedExecutor()
     nodes: list[ComponentNode] = []
+    carrier = None if hold is None else _held(hold, stop)
+    if hold is not None and carrier is None:        # cancelled: it made no node
+        rclpy.shutdown()
+        return 0
     try:
         for c in components:
             node = make_node(c, namespace=namespace, gap_factor=gap_factor,
@@ -674,6 +704,8 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             if deployed is not None:
                 node.trigger_configure()
                 node.trigger_activate()
+        if carrier is not None:
+            carrier.destroy_node()
         gc.collect()
         gc.freeze()     # what start-up made stays: a full collection walks only what came after it
         done_at: Optional[float] = None

@@ -20,7 +20,14 @@ The client side (`Launcher`, what a manager, an agent or a plan script talks to 
 Protocol: one JSON object per line on the socket given by `--fd`; each request gets one answer.
     {"warm": ARGV, "cwd": DIR}          parse the architectures ARGV names -> {"ok": true}
     {"start": ARGV, "log": PATH, "cwd": DIR, "env": {...}}  -> {"pid": N} or {"error": TEXT}
+        with "hold": true, the child is held before it makes its nodes (below)
+    {"release": PID}                    a held child goes on and makes its nodes -> {"ok": true}
+    {"cancel": PID}                     a held child exits, having made none -> {"ok": true}
     {"poll": PID}                       -> {"status": null (running) or the exit status}
+
+A held child (docs/executor.md#held) initialises ROS and waits on a pipe whose other end the
+launcher keeps (`HOLD_FD_ENV` names it): a byte, and it makes its nodes; the end of the pipe (a
+cancel, or the launcher gone with its client), and it exits having made none.
 """
 from __future__ import annotations
 
@@ -35,6 +42,7 @@ import time
 from typing import Any, Iterable, Optional
 
 from ..executor.launcher import PROGRAM
+from ..executor.status import HOLD_FD_ENV
 
 __all__ = ["NODE_INTERFACES", "load_types", "serve", "main"]
 
@@ -93,11 +101,16 @@ def _warm(argv: list[str], cwd: str) -> None:
             pass
 
 
-def _child(argv: list[str], log: str, cwd: str, env: dict[str, str], conn: socket.socket) -> None:
-    """In the forked child: become a process of its own, then run `reconf-node`."""
+def _child(argv: list[str], log: str, cwd: str, env: dict[str, str], conn: socket.socket,
+           others: Iterable[int]) -> None:
+    """In the forked child: become a process of its own, then run `reconf-node`. `others`: the
+    launcher's ends of the other held children's pipes, closed here (each must end with the
+    launcher alone)."""
     code = 1
     try:
         os.close(conn.detach())     # the server's socket is not the node's (and a later close must not hit a reused fd)
+        for fd in others:
+            os.close(fd)
         os.setsid()
         signal.signal(signal.SIGCHLD, signal.SIG_DFL)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -152,6 +165,7 @@ def serve(fd: int) -> int:
     gc.freeze()     # what is imported is kept for good: no collection in a node walks it (docs/executor.md#launcher)
     conn = socket.socket(fileno=fd)
     exited: dict[int, int] = {}
+    held: dict[int, int] = {}       # a held child's PID -> the launcher's end of its pipe
 
     def reap() -> None:
         while True:
@@ -162,16 +176,59 @@ def serve(fd: int) -> int:
             if pid == 0:
                 return
             exited[pid] = os.waitstatus_to_exitcode(status)
+            if pid in held:             # it exited while held
+                os.close(held.pop(pid))
 
     with conn, conn.makefile("rwb") as stream:
         try:
-            _answer_each(conn, stream, reap, exited)
+            _answer_each(conn, stream, reap, exited, held)
         except (ConnectionResetError, BrokenPipeError):
             pass        # the client closed with answers unread (a run refused before its first step)
+        finally:
+            for w in held.values():     # a child still held exits (it made no node)
+                os.close(w)
     return 0
 
 
-def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, int]) -> None:
+def _fork(req: dict[str, Any], stream: Any, conn: socket.socket, held: dict[int, int]) -> int:
+    """Fork the child a start request asks for (held, with "hold"): its PID."""
+    argv, cwd = [str(a) for a in req["start"]], str(req.get("cwd") or os.getcwd())
+    env = {str(k): str(v) for k, v in req.get("env", {}).items()}
+    _warm(argv, cwd)
+    r, w = os.pipe() if req.get("hold") else (-1, -1)
+    if req.get("hold"):
+        env[HOLD_FD_ENV] = str(r)
+    stream.flush()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    gc.freeze()      # and what `_warm` parsed; frozen objects are not written to by a collection
+    pid = os.fork()
+    if pid == 0:
+        if w >= 0:
+            os.close(w)
+        _child(argv, str(req["log"]), cwd, env, conn, held.values())
+    if w >= 0:
+        os.close(r)
+        held[pid] = w
+    return pid
+
+
+def _unhold(held: dict[int, int], pid: int, go: bool) -> dict[str, Any]:
+    """Release (`go`) or cancel the held child `pid`."""
+    w = held.pop(pid, None)
+    if w is None:
+        return {"error": f"pid {pid} is not a held child"}
+    try:
+        if go:
+            os.write(w, b"1")
+    except OSError as e:        # it exited while held
+        return {"error": f"pid {pid}: {e}"}
+    finally:
+        os.close(w)
+    return {"ok": True}
+
+
+def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, int], held: dict[int, int]) -> None:
     """Answer each request line of `stream` (on `conn`) until it ends; `reap` fills `exited`."""
     for line in stream:
         reap()
@@ -182,18 +239,11 @@ def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, 
                 _warm([str(a) for a in req["warm"]], str(req.get("cwd") or os.getcwd()))
                 answer = {"ok": True}
             elif "start" in req:
-                argv, cwd = [str(a) for a in req["start"]], str(req.get("cwd") or os.getcwd())
-                _warm(argv, cwd)
-                stream.flush()
-                sys.stdout.flush()
-                sys.stderr.flush()
-                gc.freeze()      # and what `_warm` parsed; frozen objects are not written to by a collection
-                pid = os.fork()
+                pid = _fork(req, stream, conn, held)
                 exited.pop(pid, None)            # a PID used before: not that child's status
-                if pid == 0:
-                    _child(argv, str(req["log"]), cwd, {str(k): str(v) for k, v in req.get("env", {}).items()},
-                           conn)
                 answer = {"pid": pid}
+            elif "release" in req or "cancel" in req:
+                answer = _unhold(held, int(req.get("release", req.get("cancel"))), "release" in req)
             elif "poll" in req:
                 pid = int(req["poll"])
                 answer = {"status": exited.get(pid)}

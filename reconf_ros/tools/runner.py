@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import click
 
+from ..executor.status import HOLD_FD_ENV
 from ..nodes.api import Component, DeclarationError, components_to_arch
 
 if TYPE_CHECKING:
@@ -229,11 +230,14 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
                     plan[r.component].setdefault(r.port, []).append(conn.name)
     options: dict[str, Any] = {"args": [sys.argv[0]] + ros_args, "deployed": plan, "gap_factor": gap_factor,
                                "lean": lean}
+    from ..nodes.component import run_components, wait_release
+    hold = os.environ.pop(HOLD_FD_ENV, None)      # a held process (docs/executor.md#held)
     if any(c.wraps is not None for c in comps):         # an adapter's node starts its node's process first
         from ..nodes.adapter import run_nodes
+        if hold is not None and not wait_release(int(hold)):
+            sys.exit(0)
         sys.exit(run_nodes(comps, **options))
-    from ..nodes.component import run_components
-    sys.exit(run_components(comps, **options))
+    sys.exit(run_components(comps, hold=None if hold is None else int(hold), **options))
 
 
 if __name__ == "__main__":

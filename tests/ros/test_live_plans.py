@@ -45,14 +45,19 @@ def planned(live: LiveSystem, arch: str, *plan: str) -> dict[str, Any]:
 @pytest.mark.parametrize("strategy", ["default", "paper"])
 def test_replace_talker(live: LiveSystem, strategy: str) -> None:
     """The default strategy's script forks talker_v2 from a launcher of its own, which ends with
-    the script (docs/executor.md#launcher); the paper's is run with `--no-launcher`."""
+    the script (docs/executor.md#launcher), ahead and held until its step (docs/executor.md#held);
+    the paper's is run with `--no-launcher`."""
     live.deploy(example("chatter.arch"))
     live.wait_ready()
     script = live.plan_script(["replace", "talker", "--strategy", strategy, "-f", example("chatter.arch")])
     own = strategy == "default"
     res = live.run_plan(script, *([] if own else ["--no-launcher"]))
     statuses = applied(live, res)
-    assert ("(forked by the launcher)" in res.stdout) == own, res.stdout
+    held = re.search(r"started talker_v2: pid (\d+) \(forked by the launcher ([\d.]+) s before, held until now\)",
+                     res.stdout)
+    assert (held is not None) == own and ("forked by the launcher" in res.stdout) == own, res.stdout
+    if held is not None:       # the process held is the one the report names, and none was left held
+        assert int(held[1]) == live.pid_of("talker_v2") and "never released" not in res.stdout, res.stdout
     # where the time went: the check's wait for discovery (at least one announcement period and a
     # margin, and the nodes quiet for a while) and its reading; the run's check, steps, the time
     # between them and the final check, adding up to its whole

@@ -518,6 +518,7 @@ class Model:
 
 STATUS_PREFIX = "reconf:"          # a status's name: "reconf:<node fqn>"
 CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to the processes a plan starts
+HOLD_FD_ENV = "RECONF_HOLD_FD"     # a held node process's end of its pipe to the launcher (docs/executor.md#held)
 STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
 
@@ -922,8 +923,9 @@ class Runtime:
         return graph + sorted(heard - set(graph))
 
     def graph(self) -> set[str]:
-        """The nodes now, noting when the set last changed (see `Executor.settle`)."""
-        nodes = set(self.nodes())
+        """The nodes now, noting when the set last changed (see `Executor.settle`): reconf's own
+        hidden nodes (a tool's, a held process's) are never a component and do not count."""
+        nodes = {n for n in self.nodes() if not n.rsplit("/", 1)[-1].startswith(TOOL_PREFIX)}
         if nodes != self.graph_seen:
             self.graph_seen, self.graph_since = nodes, time.monotonic()
         return nodes
@@ -1190,11 +1192,24 @@ class Started:
     proc: Any                        # its subprocess.Popen, the launcher's handle, or an agent's RemoteProcess
     ended: Optional[int] = None      # its exit status, once a remove has waited for it
     host: str = ""                   # the host whose agent started it ("": this machine; its pid and log are there)
+    held: Optional[float] = None     # s it was held before its step, if forked ahead (docs/executor.md#held)
+    how: str = ""                    # how it was started, for the step's line
 
     def to_doc(self) -> dict[str, Any]:
         doc: dict[str, Any] = {"pid": self.pid, "log": self.log, "command": self.command, "node": self.node}
         doc.update({"host": self.host} if self.host else {})
+        doc.update({"held_s": round(self.held, 3)} if self.held is not None else {})
         return doc if self.ended is None else {**doc, "ended": self.ended}
+
+
+@dataclass
+class Held:
+    """A node process forked ahead of its create and held before it makes its node
+    (docs/executor.md#held)."""
+    proc: Any                        # the launcher's handle
+    argv: list[str]
+    log: str
+    at: float                        # when it was forked (monotonic)
 
 
 @dataclass
@@ -1278,6 +1293,8 @@ class Context:
     # absent from then on, and not asked again (a finalized node cannot come back)
     ended: set[str] = field(default_factory=set)
     gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
+    held: dict[str, Held] = field(default_factory=dict)    # component -> its process, forked ahead and held
+    holding: Any = None              # the thread that forks them (`processes.hold`), while it runs
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])
@@ -1738,8 +1755,8 @@ class Launched:
 
 
 class Launcher:
-    """Starts the launcher process and talks to it. If it is gone, `available` turns false and
-    callers start processes the ordinary way."""
+    """Starts the launcher process and talks to it (from any thread: one request at a time). If it
+    is gone, `available` turns false and callers start processes the ordinary way."""
 
     def __init__(self, timeout: float = 30.0) -> None:
         mine, theirs = socket.socketpair()
@@ -1753,6 +1770,7 @@ class Launcher:
         self.available = True
         self.statuses: dict[int, int] = {}
         self.unread = 0             # answers to warm requests, read before the next answer
+        self.lock = threading.RLock()
 
     def can_start(self, argv: list[str]) -> bool:
         return self.available and launchable(argv)
@@ -1768,6 +1786,10 @@ class Launcher:
             raise
 
     def request(self, req: dict[str, Any]) -> dict[str, Any]:
+        with self.lock:
+            return self._request(req)
+
+    def _request(self, req: dict[str, Any]) -> dict[str, Any]:
         self.send(req)
         try:
             while self.unread:
@@ -1787,14 +1809,26 @@ class Launcher:
 
     def warm(self, argv: list[str], cwd: str = "") -> None:
         """Ask the launcher to parse what `argv` reads; the answer is not waited for."""
-        self.send({"warm": argv, "cwd": cwd or os.getcwd()})
-        self.unread += 1
+        with self.lock:
+            self.send({"warm": argv, "cwd": cwd or os.getcwd()})
+            self.unread += 1
 
-    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None) -> Launched:
-        """Fork `argv` with `env` added to the launcher's environment."""
+    def start(self, argv: list[str], log: str, cwd: str = "", env: Optional[dict[str, str]] = None,
+              hold: bool = False) -> Launched:
+        """Fork `argv` with `env` added to the launcher's environment; with `hold`, the child
+        initialises ROS and waits for `release` before it makes its nodes (or exits at `cancel`,
+        or when the launcher ends, having made none: docs/executor.md#held)."""
         answer = self.request({"start": argv, "log": os.path.abspath(log), "cwd": cwd or os.getcwd(),
-                               "env": env or {}})
+                               "env": env or {}, "hold": hold})
         return Launched(self, int(answer["pid"]))
+
+    def release(self, pid: int) -> None:
+        """Let the held child `pid` make its nodes. Raises OSError if it is not held (it exited)."""
+        self.request({"release": pid})
+
+    def cancel(self, pid: int) -> None:
+        """End the held child `pid`: it exits having made no node."""
+        self.request({"cancel": pid})
 
     def status(self, pid: int) -> Optional[int]:
         """The exit status of a child that exited, else None (also when the launcher is gone and
@@ -1935,12 +1969,12 @@ def on_agent(ctx: Context, comp: str) -> bool:
     return ctx.hosts is not None and bool(host) and ctx.hosts.where.get(str(host)) != LOCAL
 
 
-def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
+def launch(ctx: Context, comp: str) -> Started:
     """Start `comp`'s process where it runs, with its creation mark in its environment: here
-    (`start`), or by its host's agent, which is sent the plan file when the node reads it and
-    adds the plan's ROS domain (`Hosts.start`). Returns the process, its command, its log (a
-    path on its host) and how it was started, for the step's line. Raises StepFailed, or a
-    `HostError` naming the host when its agent cannot be reached or refuses."""
+    (a held one released, or `start`), or by its host's agent, which is sent the plan file when
+    the node reads it and adds the plan's ROS domain (`Hosts.start`). Returns it (its `how`: how
+    it was started, for the step's line). Raises StepFailed, or a `HostError` naming the host
+    when its agent cannot be reached or refuses."""
     with _LAUNCHING:
         return _launch(ctx, comp)
 
@@ -1950,20 +1984,26 @@ def launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
 _LAUNCHING = threading.Lock()
 
 
-def _launch(ctx: Context, comp: str) -> tuple[Any, list[str], str, str]:
-    env = {CREATED_ENV: ctx.names.created_mark(comp)}
+def _launch(ctx: Context, comp: str) -> Started:
     agent = host_agent(ctx, comp)
+    env, fqn = {CREATED_ENV: ctx.names.created_mark(comp)}, ctx.names.fqn(comp)
     if agent is None or ctx.hosts is None:
         argv = command(ctx, comp)
+        held = _release(ctx, comp, argv)
+        if held is not None:
+            ahead = time.monotonic() - held.at
+            return Started(held.proc.pid, held.log, shlex.join(argv), fqn, held.proc, held=ahead,
+                           how=f" (forked by the launcher {ahead:.2f} s before, held until now)")
         os.makedirs(ctx.log_dir, exist_ok=True)
         log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
         proc, how = start(ctx, argv, log, env)
-        return proc, argv, log, how
+        return Started(proc.pid, log, shlex.join(argv), fqn, proc, how=how)
     argv = command(ctx, comp, remote=True)
     plan, text = remote_plan(ctx)
     files = {plan: text} if plan in argv else {}
     remote = ctx.hosts.start(agent, argv, f"{run_name(ctx)}/{ctx.names.node_name(comp)}.log", env, files)
-    return remote, argv, remote.log, f" on host {agent.host}{remote.how}"
+    return Started(remote.pid, remote.log, shlex.join(argv), fqn, remote, host=agent.host,
+                   how=f" on host {agent.host}{remote.how}")
 
 
 def wait_removed(ctx: Context, comp: str, pid: Optional[int], seconds: float) -> str:
@@ -2042,6 +2082,75 @@ def warm(ctx: Context, first: int, last: int) -> None:
                 ctx.launcher.warm(argv)
             except OSError:
                 return                  # the launcher is gone: creates start the ordinary way
+
+
+def hold(ctx: Context, first: int, last: int) -> None:
+    """Fork ahead, held, the process of each create of steps `first`..`last` that the launcher
+    starts (not a new version's, whose node name its create chooses; not with `--no-hold`): in a
+    thread of its own, while the live system is checked. A held process initialises ROS and
+    keeps a hidden node of reconf's own, so that by its create its DDS participant has been
+    discovered, and it makes its node only when released (docs/executor.md#held)."""
+    if ctx.launcher is None or getattr(ctx.args, "no_hold", True):
+        return
+    todo: list[tuple[str, list[str]]] = []
+    for step in ctx.steps[first - 1:last]:
+        comp = step.component
+        if step.action != "create" or on_agent(ctx, comp) or ctx.names.is_version(comp) or comp in ctx.held:
+            continue
+        try:
+            argv = command(ctx, comp)
+        except StepFailed:
+            continue                    # the step itself will say so
+        if ctx.launcher.can_start(argv):
+            todo.append((comp, argv))
+    if todo:
+        os.makedirs(ctx.log_dir, exist_ok=True)
+        ctx.holding = threading.Thread(target=_fork_held, args=(ctx, todo), name="hold", daemon=True)
+        ctx.holding.start()
+
+
+def _fork_held(ctx: Context, todo: list[tuple[str, list[str]]]) -> None:
+    for comp, argv in todo:
+        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
+        try:
+            proc = ctx.launcher.start(argv, log, env={CREATED_ENV: ctx.names.created_mark(comp)}, hold=True)
+        except OSError:
+            return                      # the launcher is gone: creates start the ordinary way
+        ctx.held[comp] = Held(proc, argv, log, time.monotonic())
+
+
+def _release(ctx: Context, comp: str, argv: list[str]) -> Optional[Held]:
+    """The held process of `comp`, released, if there is one still held for this command."""
+    if ctx.holding is not None:
+        ctx.holding.join(max(0.0, ctx.rt.left()))
+    held = ctx.held.pop(comp, None)
+    if held is None:
+        return None
+    try:
+        if held.argv == argv and held.proc.poll() is None:
+            ctx.launcher.release(held.proc.pid)
+            return held
+        ctx.launcher.cancel(held.proc.pid)
+    except OSError:
+        pass                            # it exited while held, or the launcher is gone
+    return None
+
+
+def end_held(ctx: Context) -> None:
+    """Cancel the processes still held at the end of a run (their creates were not reached, or
+    adopted a node already there): each exits having made no node."""
+    if ctx.holding is not None:
+        ctx.holding.join(10.0)
+        ctx.holding = None
+    if ctx.held:
+        ended = plural(len(ctx.held), "node process", "node processes")
+        ctx.say(f"      {ended} forked ahead and never released: ended ({', '.join(sorted(ctx.held))})")
+    for held in ctx.held.values():
+        try:
+            ctx.launcher.cancel(held.proc.pid)
+        except OSError:
+            pass                        # gone with the launcher: it exits all the same
+    ctx.held.clear()
 
 
 def wait_exit(proc: Any, seconds: float) -> int:
@@ -2232,18 +2341,17 @@ def baseline(ctx: Context, comp: str) -> None:
 def _start(ctx: Context, comp: str, fqn: str) -> None:
     """Start the component's process as `fqn` (here, or on its host by its agent: `launch`),
     wait for its lifecycle services, configure and activate it."""
-    proc, argv, log, how = launch(ctx, comp)
-    host = proc.agent.host if isinstance(proc, RemoteProcess) else ""
-    ctx.started[comp] = Started(proc.pid, log, shlex.join(argv), fqn, proc, host=host)
+    started = ctx.started[comp] = launch(ctx, comp)
+    proc, cmd, log = started.proc, started.command, started.log
     ctx.ended.discard(comp)
-    ctx.say(f"      started {comp}: pid {proc.pid}{how}, log {log}")
+    ctx.say(f"      started {comp}: pid {proc.pid}{started.how}, log {log}")
     ctx.rt.forget(fqn)
     t0 = time.monotonic()
     cli = ctx.rt.client(ctx.rt.GetState, f"{fqn}/get_state")
     plain: dict[str, float] = {}
     while not cli.service_is_ready():
         if proc.poll() is not None:
-            raise StepFailed(f"{shlex.join(argv)} exited with status {proc.returncode} before {comp} came up "
+            raise StepFailed(f"{cmd} exited with status {proc.returncode} before {comp} came up "
                              f"(see {log})")
         _not_a_lifecycle_node(ctx, comp, fqn, plain)
         ctx.rt.wait(cli.service_is_ready, min(0.2, ctx.rt.left()))
@@ -2593,6 +2701,7 @@ class Executor:
         except (StepFailed, OSError) as e:   # outside a step: the start check, the final check
             return self._failed_outside(e)
         finally:
+            end_held(ctx)
             if ctx.hosts is not None:
                 ctx.hosts.close()
             if self.own_runtime and ctx.launcher is not None:
@@ -2603,6 +2712,7 @@ class Executor:
     def _apply(self, first: int, t0: float) -> int:
         ctx, last = self.ctx, self.ctx.args.to_step
         warm(ctx, first, last)
+        hold(ctx, first, last)
         hood = neighbourhood(ctx)
         refused = self._check_start(first, hood)
         if refused is not None:
@@ -2892,6 +3002,9 @@ def arguments(doc: dict[str, Any]) -> argparse.ArgumentParser:
     ap.add_argument("--no-launcher", action="store_true",
                     help="start each new node as a Python of its own, not forked from a launcher this script "
                          "starts (docs/executor.md#launcher)")
+    ap.add_argument("--no-hold", action="store_true",
+                    help="fork each new node at its create step, not ahead, held while the live system is "
+                         "checked and the steps before run (docs/executor.md#held)")
     ap.add_argument("--namespace", default="", help="namespace of the components' nodes")
     ap.add_argument("--log-dir", default="", metavar="DIR",
                     help="where started processes write their output (default ./reconf-logs/SYSTEM-TIME-PID)")
