@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import shlex
 import signal
 import statistics
 import tempfile
@@ -48,7 +49,8 @@ ROWS: list[tuple[str, Optional[str], str]] = [
 # "to X": the verified plan of `reconf plan transition server X` carried out while the client sends
 
 
-def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float) -> dict[str, Any]:
+def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: float,
+            plan_args: tuple[str, ...] = ()) -> dict[str, Any]:
     with LiveSystem(work) as live:
         arch, plan = str(EXAMPLE), None
         try:
@@ -74,7 +76,7 @@ def measure(ftm: Optional[str], fault: str, hz: float, work: Path, seconds: floa
             limit = float(live.statuses().get("/server__r1_cd", {}).get("values", {}).get("app.silence_limit_s", "nan"))
         t0, wall = time.time(), 0.0
         if plan is not None:
-            res = live.run_plan(plan, timeout=300)
+            res = live.run_plan(plan, *plan_args, timeout=300)
             wall = time.time() - t0
             (work / "plan.out").write_text(f"{t0:.3f} started\n" + res.stdout + res.stderr)   # where its time went
             named = re.findall(r"but the monitor of (\S+) saw", res.stdout + res.stderr)
@@ -138,6 +140,8 @@ def main() -> None:
     ap.add_argument("--only", default="", help="rows whose name contains one of these (comma-separated; "
                     "=NAME: the row of that name only, e.g. =PBR)")
     ap.add_argument("--keep", default="", help="keep each run's logs and reports under this directory")
+    ap.add_argument("--plan-args", default="", metavar="ARGS",
+                    help="more options for a transition's plan script, e.g. \"--no-hold\" (docs/executor.md#held)")
     args = ap.parse_args()
     print(f"client at {args.hz:g} requests/s; median/p95/max over runs (latency: over every reply of every run)")
     print("| FTM | fault | runs | failed | lost | duplicated | wrong | reply latency ms | longest wait for a reply ms "
@@ -148,8 +152,8 @@ def main() -> None:
         for row, (name, ftm, fault) in enumerate(ROWS):
             if not any(name == o[1:] if o.startswith("=") else o in name for o in args.only.split(",")):
                 continue
-            runs = [measure(ftm, fault, args.hz, Path(tmp) / f"row{row}-run{i}", args.seconds)
-                    for i in range(args.runs)]
+            runs = [measure(ftm, fault, args.hz, Path(tmp) / f"row{row}-run{i}", args.seconds,
+                            tuple(shlex.split(args.plan_args))) for i in range(args.runs)]
             ok = [r for r in runs if r["ok"]]
             lat = [x for r in ok for x in r["lat"]]
             print(f"| {ftm or 'none'} | {fault} | {len(runs)} | {len(runs) - len(ok)} | "
