@@ -7,6 +7,7 @@ import argparse
 import datetime
 import os
 import signal
+import threading
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional, Protocol
 
@@ -138,6 +139,7 @@ class Context:
     gaps: dict[str, float] = field(default_factory=dict)   # "comp.port" -> its largest input gap before the first step
     held: dict[str, Held] = field(default_factory=dict)    # component -> its process, forked ahead and held
     holding: Any = None              # the thread that forks them (`processes.hold`), while it runs
+    hold_stop: threading.Event = field(default_factory=threading.Event)     # it stops forking
 
     def __post_init__(self) -> None:
         self.model = Model(self.doc["model"])

@@ -128,9 +128,11 @@ class Launcher:
                                "env": env or {}, "hold": hold})
         return Launched(self, int(answer["pid"]))
 
-    def release(self, pid: int) -> None:
-        """Let the held child `pid` make its nodes. Raises OSError if it is not held (it exited)."""
-        self.request({"release": pid})
+    def release(self, pid: int, names: Optional[dict[str, str]] = None) -> None:
+        """Let the held child `pid` make its node, under `names` if given (its component "as", its
+        node "node", as `reconf-node --as --node` name them). Raises OSError if it is not held
+        (it exited)."""
+        self.request({"release": pid, "names": names or {}})
 
     def cancel(self, pid: int) -> None:
         """End the held child `pid`: it exits having made no node."""

@@ -22,7 +22,7 @@ from .context import Context, Held, Started
 from .launcher import PROGRAM, Launcher, launchable
 from .remote import LOCAL, Agent, HostError, HostRefused, RemoteProcess
 from .runtime import StepFailed
-from .status import CREATED_ENV
+from .status import CREATED_ENV, tool_node
 from .steps import plural
 
 
@@ -140,13 +140,13 @@ def _launch(ctx: Context, comp: str) -> Started:
     env, fqn = {CREATED_ENV: ctx.names.created_mark(comp)}, ctx.names.fqn(comp)
     if agent is None or ctx.hosts is None:
         argv = command(ctx, comp)
-        held = _release(ctx, comp, argv)
+        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
+        held = _release(ctx, comp, argv, log)
         if held is not None:
             ahead = time.monotonic() - held.at
             return Started(held.proc.pid, held.log, shlex.join(argv), fqn, held.proc, held=ahead,
                            how=f" (forked by the launcher {ahead:.2f} s before, held until now)")
         os.makedirs(ctx.log_dir, exist_ok=True)
-        log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
         proc, how = start(ctx, argv, log, env)
         return Started(proc.pid, log, shlex.join(argv), fqn, proc, how=how)
     argv = command(ctx, comp, remote=True)
@@ -237,16 +237,16 @@ def warm(ctx: Context, first: int, last: int) -> None:
 
 def hold(ctx: Context, first: int, last: int) -> None:
     """Fork ahead, held, the process of each create of steps `first`..`last` that the launcher
-    starts (not a new version's, whose node name its create chooses; not with `--no-hold`): in a
-    thread of its own, while the live system is checked. A held process initialises ROS and
-    keeps a hidden node of reconf's own, so that by its create its DDS participant has been
-    discovered, and it makes its node only when released (docs/executor.md#held)."""
+    starts (not with `--no-hold`): in a thread of its own, while the live system is checked. A
+    held process initialises ROS and keeps a hidden node of reconf's own, so that by its create
+    its DDS participant has been discovered, and it makes its node only when released, under the
+    name its create chose (a new version's: docs/executor.md#held)."""
     if ctx.launcher is None or getattr(ctx.args, "no_hold", True):
         return
     todo: list[tuple[str, list[str]]] = []
     for step in ctx.steps[first - 1:last]:
         comp = step.component
-        if step.action != "create" or on_agent(ctx, comp) or ctx.names.is_version(comp) or comp in ctx.held:
+        if step.action != "create" or on_agent(ctx, comp) or comp in ctx.held:
             continue
         try:
             argv = command(ctx, comp)
@@ -260,7 +260,13 @@ def hold(ctx: Context, first: int, last: int) -> None:
         ctx.holding.start()
 
 
+HELD_UP_WITHIN = 2.0     # s the next held process waits at most for the last one to be up
+
+
 def _fork_held(ctx: Context, todo: list[tuple[str, list[str]]]) -> None:
+    """Fork each one in turn, the next once the last is up (its hidden node in the graph), or
+    released already (its step came first), or after HELD_UP_WITHIN s: one process starting ROS
+    at a time, as at the steps, not a burst that starves the running nodes."""
     for comp, argv in todo:
         log = os.path.join(ctx.log_dir, f"{ctx.names.node_name(comp)}.log")
         try:
@@ -268,29 +274,48 @@ def _fork_held(ctx: Context, todo: list[tuple[str, list[str]]]) -> None:
         except OSError:
             return                      # the launcher is gone: creates start the ordinary way
         ctx.held[comp] = Held(proc, argv, log, time.monotonic())
+        up, end = tool_node("held", proc.pid), time.monotonic() + HELD_UP_WITHIN
+        while not ctx.hold_stop.is_set() and time.monotonic() < end and comp in ctx.held and \
+                up not in (n for n, _ in ctx.rt.node.get_node_names_and_namespaces()):
+            time.sleep(0.02)
+        if ctx.hold_stop.is_set():
+            return
 
 
-def _release(ctx: Context, comp: str, argv: list[str]) -> Optional[Held]:
-    """The held process of `comp`, released, if there is one still held for this command."""
-    if ctx.holding is not None:
-        ctx.holding.join(max(0.0, ctx.rt.left()))
+def _release(ctx: Context, comp: str, argv: list[str], log: str) -> Optional[Held]:
+    """The held process of `comp`, released, if there is one still held for this command: the
+    same, or the same but for the names the create chose (`--as X --node N`), which it then
+    takes; its log renamed to `log` (the node's name)."""
+    holding = ctx.holding
+    if holding is not None:           # until it has forked this one (or stopped)
+        ctx.rt.wait(lambda: comp in ctx.held or not holding.is_alive(), ctx.rt.left())
     held = ctx.held.pop(comp, None)
     if held is None:
         return None
+    names, rest = {}, argv
+    if argv[1:2] == ["--as"] and argv[3:4] == ["--node"]:
+        names, rest = {"as": argv[2], "node": argv[4]}, argv[:1] + argv[5:]
     try:
-        if held.argv == argv and held.proc.poll() is None:
-            ctx.launcher.release(held.proc.pid)
-            return held
-        ctx.launcher.cancel(held.proc.pid)
+        if held.argv != rest or held.proc.poll() is not None:
+            ctx.launcher.cancel(held.proc.pid)
+            return None
+        ctx.launcher.release(held.proc.pid, names)
     except OSError:
-        pass                            # it exited while held, or the launcher is gone
-    return None
+        return None                     # it exited while held, or the launcher is gone
+    if held.log != log:
+        try:
+            os.replace(held.log, log)
+            held.log = log
+        except OSError:
+            pass                        # it writes on where it was forked to write
+    return held
 
 
 def end_held(ctx: Context) -> None:
     """Cancel the processes still held at the end of a run (their creates were not reached, or
     adopted a node already there): each exits having made no node."""
     if ctx.holding is not None:
+        ctx.hold_stop.set()
         ctx.holding.join(10.0)
         ctx.holding = None
     if ctx.held:

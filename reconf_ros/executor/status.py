@@ -20,12 +20,13 @@ def parse_status(values: Iterable[Any]) -> Status:
     return {kv.key: kv.value for kv in values}
 
 
-def tool_node(tool: str) -> str:
+def tool_node(tool: str, pid: Optional[int] = None) -> str:
     """The node name of one of reconf's own tools (a plan script's runtime, the manager, discover
-    and drift, the status watcher, the recorder): hidden, as ROS hides a name with a leading
-    underscore, so that no reader of the graph takes it for a component (docs/runtime.md#discover)."""
+    and drift, the status watcher, the recorder, a held process: docs/executor.md#held) in process
+    `pid` (default: this one): hidden, as ROS hides a name with a leading underscore, so that no
+    reader of the graph takes it for a component (docs/runtime.md#discover)."""
     safe = "".join(ch if ch.isalnum() else "_" for ch in tool)
-    return f"{TOOL_PREFIX}{safe}_{os.getpid()}"
+    return f"{TOOL_PREFIX}{safe}_{os.getpid() if pid is None else pid}"
 
 
 def find_node(own: str, declared: str, graph: set[str], statuses: dict[str, Status],

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import json
 import os
 import select
 import signal
@@ -640,25 +641,36 @@ class ComponentNode(LifecycleNode):
         self._changed()
 
 
-def wait_release(fd: int, stop: Optional[dict[str, bool]] = None) -> bool:
-    """A held process's wait (docs/executor.md#held): True once the launcher releases it (a byte on
-    its pipe `fd`), False at the pipe's end (cancelled, or the launcher gone) or once `stop["now"]`."""
+def wait_release(fd: int, components: Sequence[Component], stop: Optional[dict[str, bool]] = None) -> bool:
+    """A held process's wait (docs/executor.md#held): True once the launcher releases it (a line on
+    its pipe `fd`: the names its one component takes, "as" and "node", as `--as` and `--node` give
+    them), False at the pipe's end (cancelled, or the launcher gone) or once `stop["now"]`."""
     try:
-        while not (stop or {}).get("now"):
+        got = b""
+        while not (stop or {}).get("now") and not got.endswith(b"\n"):
             if select.select([fd], [], [], 0.1)[0]:
-                return bool(os.read(fd, 1))
-        return False
+                more = os.read(fd, 4096)
+                if not more:
+                    return False
+                got += more
+        if not got.endswith(b"\n"):
+            return False
     finally:
         os.close(fd)
+    names = json.loads(got)
+    for c in components[:1]:
+        c.name = names.get("as", c.name)
+        c.node_name = names.get("node", c.node_name)
+    return True
 
 
-def _held(fd: int, stop: dict[str, bool]) -> Optional[Any]:
+def _held(fd: int, components: Sequence[Component], stop: dict[str, bool]) -> Optional[Any]:
     """Hold this process, its ROS context initialised, until the launcher releases it: a hidden
     node of reconf's own keeps its DDS participant up, so that discovery is done before the
     component's nodes exist. That node (to destroy once they do), or None when not released."""
     carrier = rclpy.create_node(tool_node("held"), enable_rosout=False, start_parameter_services=False,
                                 use_global_arguments=False)
-    if wait_release(fd, stop):
+    if wait_release(fd, components, stop):
         return carrier
     carrier.destroy_node()
     return None
@@ -691,7 +703,7 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
     signal.signal(signal.SIGINT, on_signal)
     executor = SingleThreadedExecutor()
     nodes: list[ComponentNode] = []
-    carrier = None if hold is None else _held(hold, stop)
+    carrier = None if hold is None else _held(hold, components, stop)
     if hold is not None and carrier is None:        # cancelled: it made no node
         rclpy.shutdown()
         return 0

@@ -21,13 +21,14 @@ Protocol: one JSON object per line on the socket given by `--fd`; each request g
     {"warm": ARGV, "cwd": DIR}          parse the architectures ARGV names -> {"ok": true}
     {"start": ARGV, "log": PATH, "cwd": DIR, "env": {...}}  -> {"pid": N} or {"error": TEXT}
         with "hold": true, the child is held before it makes its nodes (below)
-    {"release": PID}                    a held child goes on and makes its nodes -> {"ok": true}
+    {"release": PID, "names": {...}}    a held child goes on and makes its node, named as given
+                                        ("as": its component, "node": its node) -> {"ok": true}
     {"cancel": PID}                     a held child exits, having made none -> {"ok": true}
     {"poll": PID}                       -> {"status": null (running) or the exit status}
 
 A held child (docs/executor.md#held) initialises ROS and waits on a pipe whose other end the
-launcher keeps (`HOLD_FD_ENV` names it): a byte, and it makes its nodes; the end of the pipe (a
-cancel, or the launcher gone with its client), and it exits having made none.
+launcher keeps (`HOLD_FD_ENV` names it): a line (the names, JSON), and it makes its nodes; the
+end of the pipe (a cancel, or the launcher gone with its client), and it exits having made none.
 """
 from __future__ import annotations
 
@@ -213,14 +214,14 @@ def _fork(req: dict[str, Any], stream: Any, conn: socket.socket, held: dict[int,
     return pid
 
 
-def _unhold(held: dict[int, int], pid: int, go: bool) -> dict[str, Any]:
-    """Release (`go`) or cancel the held child `pid`."""
+def _unhold(held: dict[int, int], pid: int, go: bool, names: dict[str, str]) -> dict[str, Any]:
+    """Release (`go`, with the `names` its node takes) or cancel the held child `pid`."""
     w = held.pop(pid, None)
     if w is None:
         return {"error": f"pid {pid} is not a held child"}
     try:
         if go:
-            os.write(w, b"1")
+            os.write(w, json.dumps(names).encode() + b"\n")    # one write, under PIPE_BUF: whole
     except OSError as e:        # it exited while held
         return {"error": f"pid {pid}: {e}"}
     finally:
@@ -243,7 +244,8 @@ def _answer_each(conn: socket.socket, stream: Any, reap: Any, exited: dict[int, 
                 exited.pop(pid, None)            # a PID used before: not that child's status
                 answer = {"pid": pid}
             elif "release" in req or "cancel" in req:
-                answer = _unhold(held, int(req.get("release", req.get("cancel"))), "release" in req)
+                answer = _unhold(held, int(req.get("release", req.get("cancel"))), "release" in req,
+                                 {str(k): str(v) for k, v in (req.get("names") or {}).items()})
             elif "poll" in req:
                 pid = int(req["poll"])
                 answer = {"status": exited.get(pid)}

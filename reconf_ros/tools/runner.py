@@ -234,7 +234,7 @@ def main(targets: tuple[str, ...], arch: Optional[str], plan_file: Optional[str]
     hold = os.environ.pop(HOLD_FD_ENV, None)      # a held process (docs/executor.md#held)
     if any(c.wraps is not None for c in comps):         # an adapter's node starts its node's process first
         from ..nodes.adapter import run_nodes
-        if hold is not None and not wait_release(int(hold)):
+        if hold is not None and not wait_release(int(hold), comps):
             sys.exit(0)
         sys.exit(run_nodes(comps, **options))
     sys.exit(run_components(comps, hold=None if hold is None else int(hold), **options))

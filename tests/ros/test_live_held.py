@@ -26,8 +26,9 @@ def launcher(live: LiveSystem) -> Iterator[Launcher]:
     la.close()
 
 
-def _held(live: LiveSystem, la: Launcher, name: str) -> Launched:
-    p = la.start([EXE, "--arch", example("chatter.arch"), "talker", "--node", name],
+def _held(live: LiveSystem, la: Launcher, name: str, named: bool = True) -> Launched:
+    """A held talker: its node named `name` by its command, or (not `named`) by its release."""
+    p = la.start([EXE, "--arch", example("chatter.arch"), "talker", *(["--node", name] if named else [])],
                  str(live.dir / f"{name}.log"), env=dict(live.env), hold=True)
     live.pids.add(p.pid)
     return p
@@ -45,13 +46,14 @@ def _gone(pid: int) -> bool:
         return True
 
 
-def test_a_held_process_makes_its_node_only_once_released(live: LiveSystem, launcher: Launcher) -> None:
-    p = _held(live, launcher, "held_talker")
+def test_a_held_process_makes_its_node_only_once_released_under_the_name_given(
+        live: LiveSystem, launcher: Launcher) -> None:
+    p = _held(live, launcher, "held_talker", named=False)
     # a node publishes its status at once and every second after: 2.5 s without one, and none made
-    assert not live.wait(lambda st: "/held_talker" in st, 2.5), live.statuses()
+    assert not live.wait(lambda st: bool(st), 2.5), live.statuses()
     assert p.poll() is None, (live.dir / "held_talker.log").read_text()
     t0 = time.monotonic()
-    launcher.release(p.pid)
+    launcher.release(p.pid, {"node": "held_talker"})       # as a new version's create names it
     assert live.wait(lambda st: _status(live, "held_talker").get("pid") == str(p.pid), 10.0), live.statuses()
     assert _status(live, "held_talker").get("component") == "talker"
     assert time.monotonic() - t0 < 10.0
