@@ -27,7 +27,7 @@ from .observe import (
     wait_statuses,
 )
 from .plan_states import State
-from .processes import end_held, end_orphans, hold, own_launcher, warm
+from .processes import end_held, end_orphans, forkable, hold, own_launcher, warm
 from .remote import HostError
 from .run_report import degraded_line, failed, interrupted, stale, write_report
 from .runtime import Runtime, StepFailed
@@ -103,8 +103,9 @@ class Executor:
 
     def _apply(self, first: int, t0: float) -> int:
         ctx, last = self.ctx, self.ctx.args.to_step
-        warm(ctx, first, last)
-        hold(ctx, first, last)
+        forks = forkable(ctx, first, last)
+        warm(ctx, forks)
+        hold(ctx, forks)
         hood = neighbourhood(ctx)
         refused = self._check_start(first, hood)
         if refused is not None:

@@ -2069,11 +2069,13 @@ def own_launcher(ctx: Context, first: int, last: int) -> None:
             return
 
 
-def warm(ctx: Context, first: int, last: int) -> None:
-    """Let the launcher parse what the steps' new nodes will read, while the live system is
-    checked."""
+def forkable(ctx: Context, first: int, last: int) -> list[tuple[str, list[str]]]:
+    """The creates of steps `first`..`last` the launcher will start, with their commands: a
+    process of this machine whose command is this environment's `reconf-node` (none without a
+    launcher)."""
     if ctx.launcher is None:
-        return
+        return []
+    out = []
     for step in ctx.steps[first - 1:last]:
         if step.action != "create" or on_agent(ctx, step.component):
             continue
@@ -2082,35 +2084,31 @@ def warm(ctx: Context, first: int, last: int) -> None:
         except StepFailed:
             continue                    # the step itself will say so
         if ctx.launcher.can_start(argv):
-            try:
-                ctx.launcher.warm(argv)
-            except OSError:
-                return                  # the launcher is gone: creates start the ordinary way
+            out.append((step.component, argv))
+    return out
 
 
-def hold(ctx: Context, first: int, last: int) -> None:
-    """Fork ahead, held, the process of each create of steps `first`..`last` that the launcher
-    starts (not with `--no-hold`): in a thread of its own, while the live system is checked. A
-    held process initialises ROS and keeps a hidden node of reconf's own, so that by its create
-    its DDS participant has been discovered, and it makes its node only when released, under the
-    name its create chose (a new version's: docs/executor.md#held)."""
-    if ctx.launcher is None or getattr(ctx.args, "no_hold", True):
-        return
-    todo: list[tuple[str, list[str]]] = []
-    for step in ctx.steps[first - 1:last]:
-        comp = step.component
-        if step.action != "create" or on_agent(ctx, comp) or comp in ctx.held:
-            continue
+def warm(ctx: Context, forks: list[tuple[str, list[str]]]) -> None:
+    """Let the launcher parse what the new nodes `forks` (`forkable`) will read, while the live
+    system is checked."""
+    for _, argv in forks:
         try:
-            argv = command(ctx, comp)
-        except StepFailed:
-            continue                    # the step itself will say so
-        if ctx.launcher.can_start(argv):
-            todo.append((comp, argv))
-    if todo:
-        os.makedirs(ctx.log_dir, exist_ok=True)
-        ctx.holding = threading.Thread(target=_fork_held, args=(ctx, todo), name="hold", daemon=True)
-        ctx.holding.start()
+            ctx.launcher.warm(argv)
+        except OSError:
+            return                      # the launcher is gone: creates start the ordinary way
+
+
+def hold(ctx: Context, forks: list[tuple[str, list[str]]]) -> None:
+    """Fork ahead, held, the processes of the creates `forks` (`forkable`; not with `--no-hold`):
+    in a thread of its own, while the live system is checked. A held process initialises ROS and
+    keeps a hidden node of reconf's own, so that by its create its DDS participant has been
+    discovered, and it makes its node only when released, under the name its create chose (a
+    new version's: docs/executor.md#held)."""
+    if not forks or getattr(ctx.args, "no_hold", True):
+        return
+    os.makedirs(ctx.log_dir, exist_ok=True)
+    ctx.holding = threading.Thread(target=_fork_held, args=(ctx, forks), name="hold", daemon=True)
+    ctx.holding.start()
 
 
 HELD_UP_WITHIN = 2.0     # s the next held process waits at most for the last one to be up
@@ -2740,8 +2738,9 @@ class Executor:
 
     def _apply(self, first: int, t0: float) -> int:
         ctx, last = self.ctx, self.ctx.args.to_step
-        warm(ctx, first, last)
-        hold(ctx, first, last)
+        forks = forkable(ctx, first, last)
+        warm(ctx, forks)
+        hold(ctx, forks)
         hood = neighbourhood(ctx)
         refused = self._check_start(first, hood)
         if refused is not None:
