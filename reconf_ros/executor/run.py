@@ -99,7 +99,7 @@ class Executor:
             if self.own_runtime and ctx.launcher is not None:
                 ctx.launcher.close(wait=False)  # its children, the nodes started, stay
             if self.own_runtime:
-                ctx.rt.close()
+                ctx.rt.close(exiting=True)
 
     def _apply(self, first: int, t0: float) -> int:
         ctx, last = self.ctx, self.ctx.args.to_step
