@@ -149,6 +149,9 @@ class AnsweringRuntime(Runtime):
     def lifecycles(self, fqns: Any) -> dict[str, Any]:
         return {f: "active" for f in fqns}
 
+    def read(self, wanted: dict[str, list[str]]) -> tuple[dict[str, Any], dict[str, Any]]:
+        return self.lifecycles(wanted), self.get_many(wanted)
+
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         return {f: NoControlInterface(f"{f} does not implement the control interface") if f == self.lacking
                 else {n: ("normal" if n.startswith("reconf.mode.") else []) for n in names}

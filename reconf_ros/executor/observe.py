@@ -45,8 +45,9 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
     # a node this run saw finalized, or whose process exited, may stay in the graph a while (on
     # another host, seconds): it is absent, and asking it would wait for the timeout
     seen = {c: Observed(c, "absent") for c in comps if names.fqn(c) not in graph or c in ctx.ended}
-    states = ctx.rt.lifecycles(names.fqn(c) for c in comps if c not in seen)
-    wanted: dict[str, list[str]] = {}
+    # the lifecycle state and the parameters of each at once; the parameters of an active one read
+    states, params = ctx.rt.read({names.fqn(c): _control_parameters(ctx, c) for c in comps if c not in seen})
+    active = set()
     for c in comps:
         lc = states.get(names.fqn(c))
         if c in seen or lc is None:
@@ -56,11 +57,10 @@ def observe(ctx: Context, comps: Iterable[str]) -> dict[str, Observed]:
         elif lc != "active":
             seen[c] = Observed(c, "absent" if lc == "finalized" else lc)
         else:
-            wanted[names.fqn(c)] = _control_parameters(ctx, c)
-    params = ctx.rt.get_many(wanted)
+            active.add(c)
     for c in comps:
         values = params.get(names.fqn(c))
-        if values is None:
+        if c not in active or values is None:
             continue
         if isinstance(values, NoControlInterface):  # it answered, without the parameters of this
             seen[c] = Observed(c, "not a reconf node", why=str(values))  # component (another version?)

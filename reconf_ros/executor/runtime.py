@@ -219,14 +219,18 @@ class Runtime:
         return one(self.call_many(srv_type, {name: request}, repeat=False), name)
 
     def call_many(self, srv_type: Any, requests: dict[str, Any], repeat: bool = True) -> dict[str, Any]:
-        """Calls to many services at once: service name -> answer, or the StepFailed that explains
-        why there is none within the timeout. A read-only call (`repeat`) is sent again every
+        """Calls to many services of type `srv_type` at once (see `calls`)."""
+        return self.calls({n: (srv_type, r) for n, r in requests.items()}, repeat)
+
+    def calls(self, requests: dict[str, tuple[Any, Any]], repeat: bool = True) -> dict[str, Any]:
+        """Calls to many services at once, each with its type: service name -> answer, or the
+        StepFailed that explains why there is none within the timeout. A read-only call (`repeat`) is sent again every
         RETRY_AFTER s while unanswered, and the first answer to any of its copies is taken: a
         request that reaches a new service before the service has matched the caller is only
         delivered at the next DDS heartbeat, seconds later, and its answer can be lost the same
         way. A call that changes something is sent once."""
         answers: dict[str, Any] = {}
-        clients = {n: self.client(srv_type, n) for n in requests}
+        clients = {n: self.client(srv_type, n) for n, (srv_type, _) in requests.items()}
         end = time.monotonic() + min(self.timeout, self.left())
         # each request goes as soon as its service is there: one service that never comes (a node
         # just gone) must not hold back the others until the time is up
@@ -236,9 +240,9 @@ class Runtime:
             t = time.monotonic()
             for n, cli in clients.items():
                 if n not in futs and cli.service_is_ready():
-                    futs[n], sent[n] = [cli.call_async(requests[n])], t
+                    futs[n], sent[n] = [cli.call_async(requests[n][1])], t
                 elif repeat and n in futs and t - sent[n] >= RETRY_AFTER and not any(f.done() for f in futs[n]):
-                    futs[n].append(cli.call_async(requests[n]))
+                    futs[n].append(cli.call_async(requests[n][1]))
                     sent[n] = t
             if len(futs) == len(clients) and all(any(f.done() for f in fs) for fs in futs.values()):
                 break
@@ -264,24 +268,37 @@ class Runtime:
         """Lifecycle state labels of many nodes at once (a StepFailed where one did not answer). A
         node that serves its parameters and no lifecycle services is a NoControlInterface at once,
         not a timeout: it is not a reconf node."""
-        fqns = list(fqns)
-        plain = {f for f in fqns if self.node.count_services(f"{f}/get_parameters")
-                 and not self.node.count_services(f"{f}/get_state")}
-        res = self.call_many(self.GetState, {f"{f}/get_state": self.GetState.Request() for f in fqns if f not in plain})
-        out: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
-                               for f in plain}
-        out.update({n[:-len("/get_state")]: r if isinstance(r, StepFailed) else str(r.current_state.label)
-                    for n, r in res.items()})
-        return out
+        return self.read({f: [] for f in fqns}, parameters=False)[0]
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
-        reqs = {}
-        for fqn, names in wanted.items():
-            req = self.GetParameters.Request()
-            req.names = list(names)
-            reqs[f"{fqn}/get_parameters"] = req
-        res = self.call_many(self.GetParameters, reqs)
+        res = self.calls({f"{fqn}/get_parameters": (self.GetParameters, self._ask(names)) for fqn, names in wanted.items()})
+        return self._parameters(wanted, res)
+
+    def read(self, wanted: dict[str, list[str]], parameters: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The lifecycle states (as `lifecycles`) and, with `parameters`, the parameters named (as
+        `get_many`) of many nodes, every request sent at once: a reading is one round of calls, not
+        two. A node's parameters are asked whatever its state; a caller reads them of an active one."""
+        plain = {f for f in wanted if self.node.count_services(f"{f}/get_parameters")
+                 and not self.node.count_services(f"{f}/get_state")}
+        reqs = {f"{f}/get_state": (self.GetState, self.GetState.Request()) for f in wanted if f not in plain}
+        if parameters:
+            reqs.update({f"{f}/get_parameters": (self.GetParameters, self._ask(names)) for f, names in wanted.items()})
+        res = self.calls(reqs)
+        states: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
+                                  for f in plain}
+        states.update({f: r if isinstance(r, StepFailed) else str(r.current_state.label)
+                       for f, r in ((f, res[f"{f}/get_state"]) for f in wanted if f not in plain)})
+        return states, (self._parameters(wanted, res) if parameters else {})
+
+    def _ask(self, names: list[str]) -> Any:
+        req = self.GetParameters.Request()
+        req.names = list(names)
+        return req
+
+    def _parameters(self, wanted: dict[str, list[str]], res: dict[str, Any]) -> dict[str, Any]:
+        """The answers `res` to get_parameters of `wanted` as values: fqn -> {name: value}, or a
+        StepFailed."""
         out: dict[str, Any] = {}
         for fqn, names in wanted.items():
             r = res[f"{fqn}/get_parameters"]
