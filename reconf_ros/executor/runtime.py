@@ -224,8 +224,8 @@ class Runtime:
 
     def calls(self, requests: dict[str, tuple[Any, Any]], repeat: bool = True) -> dict[str, Any]:
         """Calls to many services at once, each with its type: service name -> answer, or the
-        StepFailed that explains why there is none within the timeout. A read-only call (`repeat`) is sent again every
-        RETRY_AFTER s while unanswered, and the first answer to any of its copies is taken: a
+        StepFailed that explains why there is none within the timeout. A read-only call (`repeat`)
+        is sent again every RETRY_AFTER s while unanswered, and the first answer to any of its copies is taken: a
         request that reaches a new service before the service has matched the caller is only
         delivered at the next DDS heartbeat, seconds later, and its answer can be lost the same
         way. A call that changes something is sent once."""
@@ -272,7 +272,8 @@ class Runtime:
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
-        res = self.calls({f"{fqn}/get_parameters": (self.GetParameters, self._ask(names)) for fqn, names in wanted.items()})
+        res = self.calls({f"{fqn}/get_parameters": (self.GetParameters, self._ask(names))
+                          for fqn, names in wanted.items()})
         return self._parameters(wanted, res)
 
     def read(self, wanted: dict[str, list[str]], parameters: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
