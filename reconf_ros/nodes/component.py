@@ -23,7 +23,6 @@ from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
@@ -32,6 +31,7 @@ from ..executor.snapshot import MODEL_PARAM
 from ..executor.status import CREATED_ENV, STATUS_PREFIX, tool_node
 from ..executor.steps import join_list
 from .api import Component, DeclarationError, Functionality, Output, components_to_arch
+from .kept_executor import KeptExecutor
 from .monitor import GAP_FACTOR, Monitor
 
 __all__ = ["ComponentNode", "run_components", "DATA_QOS", "STATUS_QOS"]
@@ -55,6 +55,11 @@ VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliabili
 HEARS_VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                                 durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+# rclpy gives every publisher and subscription two event handlers of its own (incompatible QoS,
+# incompatible type) unless told not to, and its executor walks each handler in Python at every
+# wake-up (docs/runtime.md#cost). A node asks for the events it acts on, and its readers report
+# both kinds of mismatch, so a writer needs none of its own.
+NO_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
 MODES = ("normal", "degraded")
 TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silence a gap
 
@@ -120,7 +125,7 @@ class ComponentNode(LifecycleNode):
         self._internal = False
         self._declare_interface()
         self.add_on_set_parameters_callback(self._on_set)
-        self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS)
+        self.status_pub = self.create_publisher(DiagnosticArray, "/diagnostics", STATUS_QOS, event_callbacks=NO_EVENTS)
         # No polling: a silence timer per rated input, restarted by each arrival, fires only when
         # the input has been silent for its gap limit; changes are flushed through a guard
         # condition; the status is repeated at `status_period` (docs/runtime.md#cost).
@@ -308,32 +313,49 @@ class ComponentNode(LifecycleNode):
                 if (port, k) in self.req_pubs:
                     self.destroy_publisher(self.req_pubs.pop((port, k)))
         for k in sorted(set(wanted) - set(self.attached[port])):
-            if isinstance(p, Output):
-                if p.service:   # listen for requests before the replies' publisher is matched
-                    self.req_subs[(port, k)] = self.create_subscription(
-                        cls, f"{k}/request", functools.partial(self._on_request, port), VOLATILE_QOS)
-                self.matched_out[(port, k)] = 0
-                on_out = functools.partial(self._matched_out, (port, k))
-                self.pubs[(port, k)] = self.create_publisher(
-                    cls, k, qos, event_callbacks=PublisherEventCallbacks(matched=on_out))
-            else:
-                self.monitor.inputs[port].publishers[k] = 0
-                self.matched_in[(port, k)] = [0, 0]
-                self.subs[(port, k)] = self._reader(port, k, qos, 0)
-                if p.service:
-                    self.req_pubs[(port, k)] = self.create_publisher(cls, f"{k}/request", VOLATILE_QOS)
+            self._attach(p, k, cls, qos)
         self.attached[port] = sorted(set(wanted))
         self.get_logger().info(f"{port} attached to {self.attached[port] or 'nothing'}")
         self._changed()
         return None
 
+    def _attach(self, p: Any, k: str, cls: Any, qos: QoSProfile) -> None:
+        """Port `p`'s endpoints on connector `k` (set_attachments)."""
+        port = p.name
+        if isinstance(p, Output):
+            if p.service:   # listen for requests before the replies' publisher is matched
+                self.req_subs[(port, k)] = self.create_subscription(
+                    cls, f"{k}/request", functools.partial(self._on_request, port), VOLATILE_QOS,
+                    event_callbacks=self._mismatch_events((port, f"{k}/request")))
+            self.matched_out[(port, k)] = 0
+            on_out = functools.partial(self._matched_out, (port, k))
+            self.pubs[(port, k)] = self.create_publisher(
+                cls, k, qos, event_callbacks=PublisherEventCallbacks(matched=on_out, use_default_callbacks=False))
+        else:
+            self.monitor.inputs[port].publishers[k] = 0
+            self.matched_in[(port, k)] = [0, 0]
+            self.subs[(port, k)] = self._reader(port, k, qos, 0)
+            if p.service:
+                self.req_pubs[(port, k)] = self.create_publisher(cls, f"{k}/request", VOLATILE_QOS,
+                                                                 event_callbacks=NO_EVENTS)
+
     def _reader(self, port: str, k: str, qos: QoSProfile, which: int) -> Any:
         """A subscription of input `port` on `k`: the main one (`which` 0) or its companion (1)."""
         p = self.component.port(port)
-        events = SubscriptionEventCallbacks(matched=functools.partial(self._matched_in, (port, k), which),
-                                            incompatible_qos=functools.partial(self._incompatible, (port, k)))
+        events = self._mismatch_events((port, k), matched=functools.partial(self._matched_in, (port, k), which))
         return self.create_subscription(p.message_class, k, functools.partial(self._on_message, (port, k)), qos,
                                         event_callbacks=events, raw=self.raw)
+
+    def _mismatch_events(self, key: tuple[str, str], matched: Optional[Callable[[Any], None]] = None
+                         ) -> SubscriptionEventCallbacks:
+        """A reader's events: `matched` if given, and both kinds of mismatch said in the log; none
+        of rclpy's defaults besides (NO_EVENTS)."""
+        return SubscriptionEventCallbacks(matched=matched, incompatible_qos=functools.partial(self._incompatible, key),
+                                          incompatible_type=functools.partial(self._wrong_type, key),
+                                          use_default_callbacks=False)
+
+    def _wrong_type(self, key: tuple[str, str], info: Any) -> None:
+        self.get_logger().warning(f"{key[0]} cannot hear a publisher on {key[1]}: it offers another message type")
 
     def _incompatible(self, key: tuple[str, str], info: Any) -> None:
         """A publisher on the connector that this input's reader cannot match: a companion reader
@@ -701,7 +723,7 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
         stop["now"] = True
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
-    executor = SingleThreadedExecutor()
+    executor = KeptExecutor()
     nodes: list[ComponentNode] = []
     carrier = None if hold is None else _held(hold, components, stop)
     if hold is not None and carrier is None:        # cancelled: it made no node
@@ -728,6 +750,7 @@ def run_components(components: Sequence[Component], *, args: Optional[list[str]]
             if done_at is not None and time.monotonic() - done_at > linger:
                 break
     finally:
+        executor.shutdown(timeout_sec=0)    # lets go of the handles it keeps, so the nodes go at once
         for n in nodes:
             n.destroy_node()
         try:
