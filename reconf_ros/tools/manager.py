@@ -28,6 +28,7 @@ from ..executor.runtime import Runtime
 from ..executor.script import manager_socket, parse
 from ..executor.status import tool_node
 from ..executor.steps import EXIT_FAILED, EXIT_USAGE
+from ..nodes.kept_executor import KeptExecutor
 
 __all__ = ["main", "serve"]
 
@@ -125,7 +126,7 @@ def serve(path: str, namespace: str = "", timeout: float = 5.0, ready: Optional[
     launcher = Launcher() if launch else None
     interrupts = Interrupts()   # SIGINT, SIGTERM: a plan running stops at its step's end, then the manager ends
     interrupts.install()
-    rt = Runtime("manager", namespace, timeout, node_name=tool_node("manager"))
+    rt = Runtime("manager", namespace, timeout, node_name=tool_node("manager"), executor=KeptExecutor)
     print(f"reconf manager: listening at {path} (node {rt.node.get_fully_qualified_name()}, pid {os.getpid()})",
           flush=True)
     if ready:

@@ -829,7 +829,8 @@ class Runtime:
     """The ROS side: lifecycle and parameter services of each component's node, the graph, and
     the nodes' statuses on /diagnostics."""
 
-    def __init__(self, name: str, namespace: str, timeout: float, node_name: str = "") -> None:
+    def __init__(self, name: str, namespace: str, timeout: float, node_name: str = "",
+                 executor: Optional[Callable[[], Any]] = None) -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from lifecycle_msgs.msg import Transition
@@ -857,6 +858,12 @@ class Runtime:
         # ExternalShutdownException): SIGINT and SIGTERM are the run's (context.Interrupts)
         rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(node_name or tool_node(f"plan_{name}"), namespace=self.namespace or None)
+        # one executor, the node added once: rclpy.spin_once(node) adds the node to the global
+        # executor and removes it at every call, and each add wakes it once for nothing. A
+        # long-lived runtime (the manager's) passes one that keeps its wait set (docs/executor.md#manager)
+        from rclpy.executors import SingleThreadedExecutor
+        self.executor = executor() if executor is not None else SingleThreadedExecutor()
+        self.executor.add_node(self.node)
         self.started_at = time.monotonic()               # discovery began here
         self.discovery_round = announcement_period() + DISCOVERY_MARGIN
         self.graph_seen: set[str] = set()
@@ -871,6 +878,7 @@ class Runtime:
         run): leave the node's entities to the deletion of its participant as the process exits,
         which others see at once all the same; destroying some seventy service clients one by one
         took 0.09-0.72 s beside a loaded system (docs/executor.md#discovery)."""
+        self.executor.shutdown(timeout_sec=0)
         if exiting:
             self.node.context.untrack_node(self.node)
         else:
@@ -896,7 +904,7 @@ class Runtime:
         if self.halt.is_set() and threading.current_thread() is not threading.main_thread():
             raise StepFailed("stopped: another step of its batch failed")
         with self.lock:
-            self.rclpy.spin_once(self.node, timeout_sec=seconds)
+            self.executor.spin_once(timeout_sec=seconds)
 
     def spin(self, seconds: float) -> None:
         end = time.monotonic() + seconds
