@@ -221,3 +221,42 @@ def test_a_node_the_run_saw_finalized_is_absent_and_not_asked_again() -> None:
     ctx.ended.add("talker")
     seen = observe(ctx, ["listener", "talker"])
     assert seen["talker"].lifecycle == "absent" and ctx.rt.asked == {"/listener"}
+
+
+def test_a_node_whose_lifecycle_services_are_not_seen_yet_is_asked_once_its_parameters_say_it_is_one() -> None:
+    """Over a lossy link the graph can show a node's parameter services before its lifecycle ones:
+    the reading asks its state once its parameters answer as a reconf node's, and only a node that
+    answers without them is taken for one that is not a reconf node."""
+    pytest.importorskip("rclpy")
+    from lifecycle_msgs.srv import GetState
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters
+
+    from reconf_ros.executor import runtime as real
+
+    class Graph:        # every node's get_parameters seen, no get_state yet
+        def count_services(self, name: str) -> int:
+            return 0 if name.endswith("/get_state") else 1
+
+    asked: list[list[str]] = []
+
+    def calls(requests: dict[str, Any], repeat: bool = True) -> dict[str, Any]:
+        asked.append(sorted(requests))
+        out: dict[str, Any] = {}
+        for name in requests:
+            if name.endswith("/get_state"):
+                out[name] = GetState.Response()
+                out[name].current_state.label = "active"
+            else:           # /talker is a reconf node; /plain answers unset, as an rclcpp node does
+                out[name] = GetParameters.Response()
+                out[name].values = [ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="normal")
+                                    if name.startswith("/talker") else ParameterValue()]
+        return out
+
+    rt = object.__new__(real.Runtime)
+    rt.node, rt.calls = Graph(), calls  # type: ignore[method-assign]
+    rt.GetState, rt.GetParameters, rt.ParameterType = GetState, GetParameters, ParameterType
+    states, params = rt.read({"/talker": ["reconf.mode.talk"], "/plain": ["reconf.mode.talk"]})
+    assert states["/talker"] == "active" and params["/talker"] == {"reconf.mode.talk": "normal"}
+    assert isinstance(states["/plain"], real.NoControlInterface)
+    assert asked == [["/plain/get_parameters", "/talker/get_parameters"], ["/talker/get_state"]]

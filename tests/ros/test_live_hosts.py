@@ -203,7 +203,7 @@ def test_a_plan_on_a_lossy_link_ends_done_or_says_truly_what_it_saw(on_hosts: Ca
     assert "Traceback" not in out and report.get("outcome") in ("done", "violated", "failed"), out[-3000:]
     assert res.returncode == (0 if report["outcome"] == "done" else 1), out[-3000:]
     true, why_not = judge_report(live, report)
-    assert true, why_not
+    assert true, (why_not, out[-4000:])
     if report["outcome"] == "violated":      # what the monitors saw, said as seen
         assert re.search(r"monitor of \w+ saw \d+ violations? of a normal mode's assumption", out), out[-3000:]
 

@@ -1049,11 +1049,23 @@ class Runtime:
         if parameters:
             reqs.update({f"{f}/get_parameters": (self.GetParameters, self._ask(names)) for f, names in wanted.items()})
         res = self.calls(reqs)
+        # the graph can show a node's parameter services before its lifecycle ones (discovery over
+        # a lossy link): a node whose parameters answer as a reconf node's is asked its state
+        late = {f for f in plain if parameters and self._declares(res[f"{f}/get_parameters"])}
+        if late:
+            res.update(self.calls({f"{f}/get_state": (self.GetState, self.GetState.Request()) for f in late}))
+            plain -= late
         states: dict[str, Any] = {f: NoControlInterface(f"{f} serves no lifecycle services: {NOT_A_RECONF_NODE}")
                                   for f in plain}
         states.update({f: r if isinstance(r, StepFailed) else str(r.current_state.label)
                        for f, r in ((f, res[f"{f}/get_state"]) for f in wanted if f not in plain)})
         return states, (self._parameters(wanted, res) if parameters else {})
+
+    def _declares(self, answer: Any) -> bool:
+        """Whether a get_parameters answer has any of the parameters asked (a node that lacks one
+        answers it unset, or leaves it out)."""
+        return not isinstance(answer, StepFailed) and any(
+            v.type != self.ParameterType.PARAMETER_NOT_SET for v in answer.values)
 
     def _ask(self, names: list[str]) -> Any:
         req = self.GetParameters.Request()
