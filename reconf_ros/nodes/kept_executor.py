@@ -55,7 +55,7 @@ class _Kept:
         self.handles: dict[str, list[Any]] = {k: [] for k in KINDS}
         self.waitables: list[tuple[Any, Any]] = []
         self.node_guards: list[Any] = []
-        events = 0
+        inside = NumberOfEntities()      # what the waitables add to the wait set
         for node in nodes:
             for kind, entities in (("subscription", node.subscriptions), ("timer", node.timers),
                                    ("client", node.clients), ("service", node.services),
@@ -69,7 +69,7 @@ class _Kept:
                     self.stack.enter_context(w)
                 except InvalidHandle:
                     continue
-                events += w.get_num_entities().num_events
+                inside += w.get_num_entities()
                 self.waitables.append((w, node))
         own = [g for g in (executor._guard, executor._sigint_gc) if g]
         for g in own:
@@ -79,12 +79,11 @@ class _Kept:
             raise RuntimeError("the executor's context is shut down")
         self.stack.enter_context(context)
         n = {k: len(v) for k, v in self.handles.items()}
-        extra = executor._waitable_entities(self.waitables)
-        self.wait_set = _rclpy.WaitSet(n["subscription"] + extra.num_subscriptions,
-                                       n["guard_condition"] + extra.num_guard_conditions,
-                                       n["timer"] + extra.num_timers + 1,          # + the timeout's
-                                       n["client"] + extra.num_clients, n["service"] + extra.num_services,
-                                       events, context)
+        self.wait_set = _rclpy.WaitSet(n["subscription"] + inside.num_subscriptions,
+                                       n["guard_condition"] + inside.num_guard_conditions,
+                                       n["timer"] + inside.num_timers + 1,          # + the timeout's
+                                       n["client"] + inside.num_clients, n["service"] + inside.num_services,
+                                       inside.num_events, context)
 
     def _enter(self, kind: str, handle: Any, entity: Any, node: Any) -> None:
         try:
@@ -145,15 +144,6 @@ class KeptExecutor(SingleThreadedExecutor):
             self._kept.stack.close()
             self._kept = None
         self._stale = True
-
-    @staticmethod
-    def _waitable_entities(waitables: list[tuple[Any, Any]]) -> NumberOfEntities:
-        total = NumberOfEntities()
-        for w, _ in waitables:
-            n = w.get_num_entities()
-            n.num_events = 0            # counted apart, as the wait set's own argument
-            total += n
-        return total
 
     # --- the wait ---
     def _outstanding(self) -> bool:
