@@ -280,9 +280,7 @@ class Runtime:
 
     def get_many(self, wanted: dict[str, list[str]]) -> dict[str, Any]:
         """Parameters of many nodes at once: fqn -> {name: value}, or a StepFailed."""
-        res = self.calls({f"{fqn}/get_parameters": (self.GetParameters, self._ask(names))
-                          for fqn, names in wanted.items()})
-        return self._parameters(wanted, res)
+        return self._parameters(wanted, self.calls(self._asks(wanted)))
 
     def read(self, wanted: dict[str, list[str]], parameters: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
         """The lifecycle states (as `lifecycles`) and, with `parameters`, the parameters named (as
@@ -292,7 +290,7 @@ class Runtime:
                  and not self.node.count_services(f"{f}/get_state")}
         reqs = {f"{f}/get_state": (self.GetState, self.GetState.Request()) for f in wanted if f not in plain}
         if parameters:
-            reqs.update({f"{f}/get_parameters": (self.GetParameters, self._ask(names)) for f, names in wanted.items()})
+            reqs.update(self._asks(wanted))
         res = self.calls(reqs)
         # the graph can show a node's parameter services before its lifecycle ones (discovery over
         # a lossy link): a node whose parameters answer as a reconf node's is asked its state
@@ -312,10 +310,14 @@ class Runtime:
         return not isinstance(answer, StepFailed) and any(
             v.type != self.ParameterType.PARAMETER_NOT_SET for v in answer.values)
 
-    def _ask(self, names: list[str]) -> Any:
-        req = self.GetParameters.Request()
-        req.names = list(names)
-        return req
+    def _asks(self, wanted: dict[str, list[str]]) -> dict[str, tuple[Any, Any]]:
+        """The get_parameters call of each node of `wanted` (fqn -> names), as `calls` takes them."""
+        asks = {}
+        for fqn, names in wanted.items():
+            req = self.GetParameters.Request()
+            req.names = list(names)
+            asks[f"{fqn}/get_parameters"] = (self.GetParameters, req)
+        return asks
 
     def _parameters(self, wanted: dict[str, list[str]], res: dict[str, Any]) -> dict[str, Any]:
         """The answers `res` to get_parameters of `wanted` as values: fqn -> {name: value}, or a
