@@ -11,6 +11,8 @@ import time
 from typing import Any, Callable
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from checker.planning import plan_replace
 from checker.reports.plan_document import plan_document
@@ -22,6 +24,7 @@ from reconf_ros.executor.run import Executor, counted, in_run
 from reconf_ros.executor.run_report import degraded_line
 from reconf_ros.executor.runtime import NoControlInterface, StepFailed
 from reconf_ros.executor.script import arguments, parse
+from reconf_ros.executor.status import ask_text, parse_ask
 from tests.examples_table import ROOT
 
 
@@ -33,9 +36,13 @@ class Runtime:
 
     def __init__(self, statuses: dict[str, dict[str, str]]) -> None:
         self.statuses = statuses
+        self.asks: list[tuple[float, list[tuple[str, str]]]] = []
 
     def status(self, fqn: str) -> Any:
         return self.statuses.get(fqn)
+
+    def ask(self, since: float, inputs: Any) -> None:
+        self.asks.append((since, list(inputs)))
 
     def wait(self, cond: Callable[[], bool], seconds: float) -> bool:
         return bool(cond())
@@ -64,6 +71,8 @@ def test_a_publisher_that_died_a_moment_ago_vouches_for_nothing() -> None:
         wire_before(ctx, ctx.steps[3], ctx.states[3], ctx.states[4])
     listener["in.in.last.talker_v2"] = f"{now + 0.05:.3f}"       # a message sent after the step began
     wire_before(ctx, ctx.steps[3], ctx.states[3], ctx.states[4])
+    # each wait first asked the listener for the status that shows it, from the step's start
+    assert ctx.rt.asks == [(now, [("/listener", "in")])] * 2
 
 
 def test_a_first_signal_asks_a_second_stops_at_once() -> None:
@@ -260,3 +269,14 @@ def test_a_node_whose_lifecycle_services_are_not_seen_yet_is_asked_once_its_para
     assert states["/talker"] == "active" and params["/talker"] == {"reconf.mode.talk": "normal"}
     assert isinstance(states["/plain"], real.NoControlInterface)
     assert asked == [["/plain/get_parameters", "/talker/get_parameters"], ["/talker/get_state"]]
+
+
+@given(st.floats(min_value=0, max_value=4e9, allow_nan=False),
+       st.lists(st.tuples(st.from_regex(r"(/[a-z][a-z0-9_]{0,8}){1,3}", fullmatch=True),
+                          st.from_regex(r"[a-z][a-z0-9_]{0,8}", fullmatch=True)), max_size=5))
+def test_an_ask_reads_back_as_it_was_written(since: float, inputs: list[tuple[str, str]]) -> None:
+    """What a node reads of an ask is what the executor wrote: the time to a microsecond, every
+    (node, input) pair in order; anything else reads as an ask of no one."""
+    got_since, got = parse_ask(ask_text(since, inputs))
+    assert got == inputs and abs(got_since - since) <= 2e-6
+    assert parse_ask("") == (0.0, []) and parse_ask("soon /listener:in") == (0.0, [])

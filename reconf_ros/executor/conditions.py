@@ -69,19 +69,20 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
     names = {ctx.names.node_name(c) for c in kept}
     k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
     matched = len(_ends(ctx, conn, was, "output"))
-    for reader, port in _ends(ctx, conn, will, "input"):
-        if port not in ctx.model.relying_inputs(reader, will):
-            continue
+    readers = [(r, p) for r, p in _ends(ctx, conn, will, "input") if p in ctx.model.relying_inputs(r, will)]
+    fed = [(r, p) for r, p in readers if not on_demand(ctx, r, p)]
+    if fed:
+        ctx.rt.ask(ctx.began, [(ctx.names.fqn(r), p) for r, p in fed])
+    for reader, port in readers:
         key = f"in.{port}@{k}.publishers"
-        if on_demand(ctx, reader, port):
+        if (reader, port) not in fed:
             # data on demand (an FTM's requests): none may flow now
             if not wait_status(ctx, reader, lambda st: int(st.get(key, "0")) >= matched, wait):
                 st = ctx.rt.status(ctx.names.fqn(reader)) or {}
                 raise StepFailed(f"{reader}.{port} is matched with {st.get(key, 'no')} of the "
                                  f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
                                  "could leave it without one")
-            continue
-        if not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
+        elif not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
             st = ctx.rt.status(ctx.names.fqn(reader)) or {}
             raise StepFailed(f"{reader}.{port} has received nothing on {k} from {', '.join(sorted(names))} since the "
                              f"step began (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); taking "

@@ -10,7 +10,7 @@ import threading
 import time
 from typing import Any, Callable, Iterable, Optional
 
-from .status import STATUS_FRESH, STATUS_PREFIX, TOOL_PREFIX, Status, parse_status, tool_node
+from .status import ASK_TOPIC, STATUS_FRESH, STATUS_PREFIX, TOOL_PREFIX, Status, ask_text, parse_status, tool_node
 
 # A new participant learns of the running ones from their periodic announcements (Fast DDS
 # answers a newcomer's own announcements with nothing sooner): every 3 s by default, every
@@ -117,6 +117,10 @@ class Runtime:
         self.endpoints_at = 0.0                           # when they were last counted
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
+        from std_msgs.msg import String
+        self.String = String
+        self.asker = self.node.create_publisher(String, ASK_TOPIC, QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE))
 
     def close(self, exiting: bool = False) -> None:
         """Destroy the node and shut ROS down. `exiting` (the process ends next, a plan script's
@@ -142,6 +146,13 @@ class Runtime:
 
     def status(self, fqn: str) -> Optional[Status]:
         return self.statuses.get(fqn)
+
+    def ask(self, since: float, inputs: Iterable[tuple[str, str]]) -> None:
+        """Ask each (node fqn, input) for the status that shows it received after `since` (wall
+        clock), rather than wait for its next periodic one (docs/control-interface.md#asked-status). An
+        ask that reaches no one (not matched yet, lost) costs nothing but that wait."""
+        with self.lock:
+            self.asker.publish(self.String(data=ask_text(since, inputs)))
 
     def spin_once(self, seconds: float) -> None:
         """Spin the node once (for at most `seconds`), one thread at a time; a step of a batch

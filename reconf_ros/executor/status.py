@@ -11,6 +11,9 @@ CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to
 HOLD_FD_ENV = "RECONF_HOLD_FD"     # a held node process's end of its pipe to the launcher (docs/executor.md#held)
 STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
+# std_msgs/String "<since> <node fqn>:<input> ...": asks for statuses (docs/control-interface.md#asked-status)
+ASK_TOPIC = "/reconf/ask_status"
+ASK_SPAN = 10.0                    # s after `since` that a node keeps an ask
 
 Status = dict[str, str]            # a node's last status: key -> value
 
@@ -18,6 +21,23 @@ Status = dict[str, str]            # a node's last status: key -> value
 def parse_status(values: Iterable[Any]) -> Status:
     """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
     return {kv.key: kv.value for kv in values}
+
+
+def ask_text(since: float, inputs: Iterable[tuple[str, str]]) -> str:
+    """An ask: each (node fqn, input) publishes its node's status once it has received from a
+    publisher after `since` (wall clock), once per publisher (docs/control-interface.md#asked-status)."""
+    return " ".join([f"{since:.6f}"] + [f"{fqn}:{port}" for fqn, port in inputs])
+
+
+def parse_ask(text: str) -> tuple[float, list[tuple[str, str]]]:
+    """`ask_text`'s (since, [(node fqn, input)]); anything malformed is (0.0, [])."""
+    head, *rest = text.split() or ["x"]
+    try:
+        since = float(head)
+    except ValueError:
+        return 0.0, []
+    pairs = [tuple(w.rsplit(":", 1)) for w in rest if ":" in w]
+    return since, [(f, p) for f, p in pairs]
 
 
 def tool_node(tool: str, pid: Optional[int] = None) -> str:

@@ -26,9 +26,10 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
 
 from ..executor.snapshot import MODEL_PARAM
-from ..executor.status import CREATED_ENV, STATUS_PREFIX, tool_node
+from ..executor.status import ASK_SPAN, ASK_TOPIC, CREATED_ENV, STATUS_PREFIX, parse_ask, tool_node
 from ..executor.steps import join_list
 from .api import Component, DeclarationError, Functionality, Output, components_to_arch
 from .kept_executor import KeptExecutor
@@ -55,11 +56,13 @@ VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliabili
 HEARS_VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                                 durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+ASK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
 # rclpy gives every publisher and subscription two event handlers of its own (incompatible QoS,
 # incompatible type) unless told not to, and its executor walks each handler in Python at every
 # wake-up (docs/runtime.md#cost). A node asks for the events it acts on, and its readers report
 # both kinds of mismatch, so a writer needs none of its own.
 NO_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
+NO_READER_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 MODES = ("normal", "degraded")
 TICK_GRACE = 0.05   # seconds a timer tick may run late before it calls a silence a gap
 
@@ -135,6 +138,9 @@ class ComponentNode(LifecycleNode):
             if limit:
                 self.silence[i.name] = self.create_timer(limit, self._tick)
         self.create_timer(status_period, self._repeat_status)
+        # an executor waiting for an input to receive after a time asks for the status that shows it
+        self.asked: dict[str, tuple[float, set[bytes]]] = {}   # input -> (since, publishers reported)
+        self.create_subscription(String, ASK_TOPIC, self._on_ask, ASK_QOS, event_callbacks=NO_READER_EVENTS)
         self._dirty = False
         self._flush = self.create_guard_condition(self._tick)
         self._changed()
@@ -407,7 +413,7 @@ class ComponentNode(LifecycleNode):
         if port in self.silence:
             self.silence[port].reset()
         self.last[port] = msg
-        if self.monitor.fresh_sources(port, now) != fresh_before:
+        if self.monitor.fresh_sources(port, now) != fresh_before or self._answers_ask(port, now, gid):
             self._changed()
         if self.active:
             for listener in self.component.port(port).listeners:  # type: ignore[attr-defined]
@@ -498,6 +504,26 @@ class ComponentNode(LifecycleNode):
             pubs[(port, k)].publish(msg)
 
     # --- monitor and status ---
+    def _on_ask(self, msg: Any) -> None:
+        """An ask (docs/control-interface.md#asked-status) naming an input of this node: the node publishes
+        its status at the first message on it from each publisher received after the ask's time."""
+        since, inputs = parse_ask(msg.data)
+        me = self.get_fully_qualified_name()
+        for fqn, port in inputs:
+            if fqn == me and port in self.monitor.inputs:
+                self.asked[port] = (since, set())
+
+    def _answers_ask(self, port: str, now: float, gid: bytes) -> bool:
+        """Whether this message, received at `now`, is one an ask waits for (and note it is)."""
+        asked = self.asked.get(port)
+        if asked is None or now <= asked[0] or gid in asked[1]:
+            return False
+        if now - asked[0] > ASK_SPAN:
+            del self.asked[port]
+            return False
+        asked[1].add(gid)
+        return True
+
     def _tick(self) -> None:
         # a silence is judged with the timer's scheduling as grace
         self._check(time.time(), grace=TICK_GRACE)

@@ -521,6 +521,9 @@ CREATED_ENV = "RECONF_CREATED"     # "<model fingerprint> <component>", given to
 HOLD_FD_ENV = "RECONF_HOLD_FD"     # a held node process's end of its pipe to the launcher (docs/executor.md#held)
 STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes repeat theirs every second)
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
+# std_msgs/String "<since> <node fqn>:<input> ...": asks for statuses (docs/control-interface.md#asked-status)
+ASK_TOPIC = "/reconf/ask_status"
+ASK_SPAN = 10.0                    # s after `since` that a node keeps an ask
 
 Status = dict[str, str]            # a node's last status: key -> value
 
@@ -528,6 +531,23 @@ Status = dict[str, str]            # a node's last status: key -> value
 def parse_status(values: Iterable[Any]) -> Status:
     """A DiagnosticStatus's key-values as a dict (the keys are in docs/control-interface.md)."""
     return {kv.key: kv.value for kv in values}
+
+
+def ask_text(since: float, inputs: Iterable[tuple[str, str]]) -> str:
+    """An ask: each (node fqn, input) publishes its node's status once it has received from a
+    publisher after `since` (wall clock), once per publisher (docs/control-interface.md#asked-status)."""
+    return " ".join([f"{since:.6f}"] + [f"{fqn}:{port}" for fqn, port in inputs])
+
+
+def parse_ask(text: str) -> tuple[float, list[tuple[str, str]]]:
+    """`ask_text`'s (since, [(node fqn, input)]); anything malformed is (0.0, [])."""
+    head, *rest = text.split() or ["x"]
+    try:
+        since = float(head)
+    except ValueError:
+        return 0.0, []
+    pairs = [tuple(w.rsplit(":", 1)) for w in rest if ":" in w]
+    return since, [(f, p) for f, p in pairs]
 
 
 def tool_node(tool: str, pid: Optional[int] = None) -> str:
@@ -872,6 +892,10 @@ class Runtime:
         self.endpoints_at = 0.0                           # when they were last counted
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_status, qos)
+        from std_msgs.msg import String
+        self.String = String
+        self.asker = self.node.create_publisher(String, ASK_TOPIC, QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE))
 
     def close(self, exiting: bool = False) -> None:
         """Destroy the node and shut ROS down. `exiting` (the process ends next, a plan script's
@@ -897,6 +921,13 @@ class Runtime:
 
     def status(self, fqn: str) -> Optional[Status]:
         return self.statuses.get(fqn)
+
+    def ask(self, since: float, inputs: Iterable[tuple[str, str]]) -> None:
+        """Ask each (node fqn, input) for the status that shows it received after `since` (wall
+        clock), rather than wait for its next periodic one (docs/control-interface.md#asked-status). An
+        ask that reaches no one (not matched yet, lost) costs nothing but that wait."""
+        with self.lock:
+            self.asker.publish(self.String(data=ask_text(since, inputs)))
 
     def spin_once(self, seconds: float) -> None:
         """Spin the node once (for at most `seconds`), one thread at a time; a step of a batch
@@ -1682,19 +1713,20 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
     names = {ctx.names.node_name(c) for c in kept}
     k, wait = ctx.names.connector(conn), ctx.args.wire_timeout
     matched = len(_ends(ctx, conn, was, "output"))
-    for reader, port in _ends(ctx, conn, will, "input"):
-        if port not in ctx.model.relying_inputs(reader, will):
-            continue
+    readers = [(r, p) for r, p in _ends(ctx, conn, will, "input") if p in ctx.model.relying_inputs(r, will)]
+    fed = [(r, p) for r, p in readers if not on_demand(ctx, r, p)]
+    if fed:
+        ctx.rt.ask(ctx.began, [(ctx.names.fqn(r), p) for r, p in fed])
+    for reader, port in readers:
         key = f"in.{port}@{k}.publishers"
-        if on_demand(ctx, reader, port):
+        if (reader, port) not in fed:
             # data on demand (an FTM's requests): none may flow now
             if not wait_status(ctx, reader, lambda st: int(st.get(key, "0")) >= matched, wait):
                 st = ctx.rt.status(ctx.names.fqn(reader)) or {}
                 raise StepFailed(f"{reader}.{port} is matched with {st.get(key, 'no')} of the "
                                  f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
                                  "could leave it without one")
-            continue
-        if not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
+        elif not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
             st = ctx.rt.status(ctx.names.fqn(reader)) or {}
             raise StepFailed(f"{reader}.{port} has received nothing on {k} from {', '.join(sorted(names))} since the "
                              f"step began (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); taking "
