@@ -51,9 +51,9 @@ class Runtime:
         return sorted(self.statuses)
 
 
-def context(statuses: dict[str, dict[str, str]]) -> Context:
+def context(statuses: dict[str, dict[str, str]], strategy: str = "default") -> Context:
     system = load([os.path.join(ROOT, "examples", "chatter.arch")])
-    plan = plan_replace(system, "talker", "talker_v2")
+    plan = plan_replace(system, "talker", "talker_v2", strategy=strategy)
     doc = plan_document("replace talker", system, plan, {}, model=True)
     args = arguments(doc).parse_args(["--wire-timeout", "0.1"])
     return Context(doc, args, out=open(os.devnull, "w"), err=open(os.devnull, "w"), rt=Runtime(statuses))
@@ -73,6 +73,25 @@ def test_a_publisher_that_died_a_moment_ago_vouches_for_nothing() -> None:
     wire_before(ctx, ctx.steps[3], ctx.states[3], ctx.states[4])
     # each wait first asked the listener for the status that shows it, from the step's start
     assert ctx.rt.asks == [(now, [("/listener", "in")])] * 2
+
+
+def test_an_upgrade_waits_for_an_input_received_since_the_step_began() -> None:
+    """Step 7 of the paper's replace upgrades listener.listen. Its status says "met", but from
+    before the step: a node calls a silence a gap only when its timer next looks, so "met" may
+    be a silence old. The step waits for a status that shows a message since it began."""
+    now = time.time()
+    listener = {"wire.listen": "met", "in.in.last.talker_v2": f"{now - 0.18:.3f}"}
+    ctx = context({"/listener": listener}, strategy="paper")
+    assert (ctx.steps[6].action, ctx.steps[6].component) == ("upgrade", "listener")
+    ctx.began = now
+    with pytest.raises(StepFailed, match="nothing received on in since the step began"):
+        wire_before(ctx, ctx.steps[6], ctx.states[6], ctx.states[7])
+    assert ctx.rt.asks == [(now, [("/listener", "in")])]
+    listener["in.in.last.talker_v2"] = f"{now + 0.05:.3f}"
+    wire_before(ctx, ctx.steps[6], ctx.states[6], ctx.states[7])
+    listener["wire.listen"] = "not met: in: nothing received"      # a fresh message, a verdict not met
+    with pytest.raises(StepFailed, match="its assumptions are not met on the wire"):
+        wire_before(ctx, ctx.steps[6], ctx.states[6], ctx.states[7])
 
 
 def test_a_first_signal_asks_a_second_stops_at_once() -> None:

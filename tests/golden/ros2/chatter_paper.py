@@ -1696,15 +1696,51 @@ def wire_before(ctx: Context, step: Step, was: State, will: State) -> None:
     """What the wire must show before the step: an upgraded functionality's assumptions met;
     a connector that loses a publisher still delivering from the ones that remain."""
     if step.action == "upgrade":
-        f = step.functionality
-        if not wait_status(ctx, step.component, meets(f), ctx.args.wire_timeout):
-            st = ctx.rt.status(ctx.names.fqn(step.component)) or {}
-            raise StepFailed(f"{step.component}.{f}: its assumptions are not met on the wire "
-                             f"({st.get(f'wire.{f}', 'no status from the node')})")
+        _assumptions_hold(ctx, step)
     for conn in ctx.model.conns:
         kept = ctx.model.satisfying(will, conn)
         if kept and not set(kept) >= set(ctx.model.satisfying(was, conn)):
             _readers_keep_data(ctx, step, conn, kept, was, will)
+
+
+def _assumptions_hold(ctx: Context, step: Step) -> None:
+    """The upgraded functionality's assumptions met, in a status that shows each input it relies
+    on at a rate received since the step began: a verdict of "met" can be a silence old, since a
+    node calls a silence a gap only when its timer next looks (after up to twice the limit)."""
+    comp, f = step.component, step.functionality
+    fed = _rated_inputs(ctx, comp, f)
+    if fed:
+        ctx.rt.ask(ctx.began, [(ctx.names.fqn(comp), p) for p in fed])
+    if wait_status(ctx, comp, lambda st: meets(f)(st) and all(_received_since(st, p, ctx.began) for p in fed),
+                   ctx.args.wire_timeout):
+        return
+    st = ctx.rt.status(ctx.names.fqn(comp)) or {}
+    silent = [p for p in fed if not _received_since(st, p, ctx.began)]
+    raise StepFailed(f"{comp}.{f}: its assumptions are not met on the wire "
+                     f"({st.get(f'wire.{f}', 'no status from the node')})" + (
+                         f"; nothing received on {', '.join(silent)} since the step began" if st and silent else ""))
+
+
+def _rated_inputs(ctx: Context, comp: str, func: str) -> list[str]:
+    """The inputs `comp`'s functionality `func` relies on in its normal mode for data at a rate
+    (not an FTM's requests and results, which come on demand)."""
+    out = set()
+    for f in ctx.model.comps[comp]["functionalities"]:
+        if f["name"] != func:
+            continue
+        for a in f["normal"]["assumptions"]:
+            for pname in f["ports"]:
+                p = ctx.model.port(comp, pname)
+                if p is not None and p["kind"] == "input" and rate(a) is not None and \
+                        satisfies(p["assumption"], a) and not on_demand(ctx, comp, pname):
+                    out.add(pname)
+    return sorted(out)
+
+
+def _received_since(st: Status, port: str, since: float) -> bool:
+    """Whether the status shows `port` received from anyone after `since` (wall clock)."""
+    head = f"in.{port}.last."
+    return any(float(v or 0) > since for k, v in st.items() if k.startswith(head))
 
 
 def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was: State, will: State) -> None:
