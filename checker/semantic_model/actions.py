@@ -687,17 +687,17 @@ def apply(system: System, config: Configuration, action: Action) -> Configuratio
 
 KINDS: tuple[Kind, ...] = (
     ActionKind[Remove](cls=Remove, precondition=_remove, effect=_after_remove, change_field="removed",
-                       params=("component",), seconds=0.09),
+                       params=("component",), seconds=0.03),
     ActionKind[Create](cls=Create, precondition=_create, effect=_after_create, change_field="created",
-                       params=("component",), seconds=0.5),
+                       params=("component",), seconds=0.11),
     ActionKind[Detach](cls=Detach, precondition=_detach, effect=_after_detach, change_field="detached",
-                       params=("connector", "port"), seconds=0.11),
+                       params=("connector", "port"), seconds=0.01),
     ActionKind[Attach](cls=Attach, precondition=_attach, effect=_after_attach, change_field="attached",
-                       params=("connector", "port"), seconds=0.07),
+                       params=("connector", "port"), seconds=0.06),
     ActionKind[Degrade](cls=Degrade, precondition=_degrade, effect=_after_degrade, change_field="degraded",
-                        params=("functionality",), seconds=0.05),
+                        params=("functionality",), seconds=0.01),
     ActionKind[Upgrade](cls=Upgrade, precondition=_upgrade, effect=_after_upgrade, change_field="upgraded",
-                        params=("functionality",), seconds=0.04),
+                        params=("functionality",), seconds=0.03),
 )
 """Every action, in the order the Alloy modules declare them."""
 

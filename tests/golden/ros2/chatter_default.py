@@ -3342,9 +3342,9 @@ DOC = json.loads(r"""{
   "notes": [],
   "renames": {},
   "seconds": {
-   "durations": {"components": [], "kinds": {"attach": 0.07, "create": 0.5, "degrade": 0.05, "detach": 0.11, "remove": 0.09, "upgrade": 0.04}, "sources": ["measured defaults"]},
+   "durations": {"components": [], "kinds": {"attach": 0.06, "create": 0.11, "degrade": 0.01, "detach": 0.01, "remove": 0.03, "upgrade": 0.03}, "sources": ["measured defaults"]},
    "functionalities": [],
-   "plan": 0.81,
+   "plan": 0.24,
    "weighted": 0
   },
   "start": {

@@ -3345,10 +3345,10 @@ DOC = json.loads(r"""{
   "notes": [],
   "renames": {},
   "seconds": {
-   "durations": {"components": [], "kinds": {"attach": 0.07, "create": 0.5, "degrade": 0.05, "detach": 0.11, "remove": 0.09, "upgrade": 0.04}, "sources": ["measured defaults"]},
-   "functionalities": [{"component": "listener", "functionality": "listen", "seconds": 0.85}],
-   "plan": 0.9,
-   "weighted": 0.85
+   "durations": {"components": [], "kinds": {"attach": 0.06, "create": 0.11, "degrade": 0.01, "detach": 0.01, "remove": 0.03, "upgrade": 0.03}, "sources": ["measured defaults"]},
+   "functionalities": [{"component": "listener", "functionality": "listen", "seconds": 0.27}],
+   "plan": 0.28,
+   "weighted": 0.27
   },
   "start": {
    "components": ["listener", "talker"],
