@@ -10,7 +10,17 @@ import threading
 import time
 from typing import Any, Callable, Iterable, Optional
 
-from .status import ASK_TOPIC, STATUS_FRESH, STATUS_PREFIX, TOOL_PREFIX, Status, ask_text, parse_status, tool_node
+from .status import (
+    ASK_DEPTH,
+    ASK_TOPIC,
+    STATUS_FRESH,
+    STATUS_PREFIX,
+    TOOL_PREFIX,
+    Status,
+    ask_text,
+    parse_status,
+    tool_node,
+)
 
 # A new participant learns of the running ones from their periodic announcements (Fast DDS
 # answers a newcomer's own announcements with nothing sooner): every 3 s by default, every
@@ -120,7 +130,7 @@ class Runtime:
         from std_msgs.msg import String
         self.String = String
         self.asker = self.node.create_publisher(String, ASK_TOPIC, QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE))
+            history=HistoryPolicy.KEEP_LAST, depth=ASK_DEPTH, reliability=ReliabilityPolicy.RELIABLE))
 
     def close(self, exiting: bool = False) -> None:
         """Destroy the node and shut ROS down. `exiting` (the process ends next, a plan script's

@@ -13,6 +13,7 @@ STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes 
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
 # std_msgs/String "<since> <node fqn>:<input> ...": asks for statuses (docs/control-interface.md#asked-status)
 ASK_TOPIC = "/reconf/ask_status"
+ASK_DEPTH = 10                     # its QoS: reliable, volatile, keep last ASK_DEPTH
 ASK_SPAN = 10.0                    # s after `since` that a node keeps an ask
 
 Status = dict[str, str]            # a node's last status: key -> value

@@ -29,7 +29,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile
 from std_msgs.msg import String
 
 from ..executor.snapshot import MODEL_PARAM
-from ..executor.status import ASK_SPAN, ASK_TOPIC, CREATED_ENV, STATUS_PREFIX, parse_ask, tool_node
+from ..executor.status import ASK_DEPTH, ASK_SPAN, ASK_TOPIC, CREATED_ENV, STATUS_PREFIX, parse_ask, tool_node
 from ..executor.steps import join_list
 from .api import Component, DeclarationError, Functionality, Output, components_to_arch
 from .kept_executor import KeptExecutor
@@ -56,7 +56,7 @@ VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliabili
 HEARS_VOLATILE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
                                 durability=DurabilityPolicy.VOLATILE)
 STATUS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
-ASK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
+ASK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=ASK_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
 # rclpy gives every publisher and subscription two event handlers of its own (incompatible QoS,
 # incompatible type) unless told not to, and its executor walks each handler in Python at every
 # wake-up (docs/runtime.md#cost). A node asks for the events it acts on, and its readers report

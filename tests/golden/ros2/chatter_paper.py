@@ -523,6 +523,7 @@ STATUS_FRESH = 2.5                 # s a status counts as a sign of life (nodes 
 TOOL_PREFIX = "_reconf_"           # reconf's own nodes: hidden (a leading underscore), never a component
 # std_msgs/String "<since> <node fqn>:<input> ...": asks for statuses (docs/control-interface.md#asked-status)
 ASK_TOPIC = "/reconf/ask_status"
+ASK_DEPTH = 10                     # its QoS: reliable, volatile, keep last ASK_DEPTH
 ASK_SPAN = 10.0                    # s after `since` that a node keeps an ask
 
 Status = dict[str, str]            # a node's last status: key -> value
@@ -895,7 +896,7 @@ class Runtime:
         from std_msgs.msg import String
         self.String = String
         self.asker = self.node.create_publisher(String, ASK_TOPIC, QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE))
+            history=HistoryPolicy.KEEP_LAST, depth=ASK_DEPTH, reliability=ReliabilityPolicy.RELIABLE))
 
     def close(self, exiting: bool = False) -> None:
         """Destroy the node and shut ROS down. `exiting` (the process ends next, a plan script's
