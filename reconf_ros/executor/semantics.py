@@ -105,16 +105,19 @@ class Model:
 
     def relying_inputs(self, comp: str, state: State) -> list[str]:
         """Inputs of `comp` that a functionality in its normal mode (in `state`) relies on."""
-        out = set()
-        for f in self.comps[comp]["functionalities"]:
-            if (comp, f["name"]) in state.degraded:
-                continue
-            for a in f["normal"]["assumptions"]:
-                for pname in f["ports"]:
-                    p = self.port(comp, pname)
-                    if p is not None and p["kind"] == "input" and satisfies(p["assumption"], a):
-                        out.add(pname)
-        return sorted(out)
+        return sorted({p for f in self.comps[comp]["functionalities"] if (comp, f["name"]) not in state.degraded
+                       for p, _ in self.relied_on(comp, f)})
+
+    def relied_on(self, comp: str, f: FunctionalityDoc) -> list[tuple[str, PredicateDoc]]:
+        """The inputs of `comp` that functionality `f`'s normal assumptions rely on, each with the
+        assumption it meets."""
+        out = []
+        for a in f["normal"]["assumptions"]:
+            for pname in f["ports"]:
+                p = self.port(comp, pname)
+                if p is not None and p["kind"] == "input" and satisfies(p["assumption"], a):
+                    out.append((pname, a))
+        return out
 
     def refusal(self, state: State, step: Step) -> Optional[str]:
         """Why `step` cannot run in `state` at all (the structural part of its preconditions)."""

@@ -37,8 +37,7 @@ def parse_ask(text: str) -> tuple[float, list[tuple[str, str]]]:
         since = float(head)
     except ValueError:
         return 0.0, []
-    pairs = [tuple(w.rsplit(":", 1)) for w in rest if ":" in w]
-    return since, [(f, p) for f, p in pairs]
+    return since, [(f, p) for f, sep, p in (w.rpartition(":") for w in rest) if sep]
 
 
 def tool_node(tool: str, pid: Optional[int] = None) -> str:

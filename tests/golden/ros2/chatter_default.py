@@ -432,16 +432,19 @@ class Model:
 
     def relying_inputs(self, comp: str, state: State) -> list[str]:
         """Inputs of `comp` that a functionality in its normal mode (in `state`) relies on."""
-        out = set()
-        for f in self.comps[comp]["functionalities"]:
-            if (comp, f["name"]) in state.degraded:
-                continue
-            for a in f["normal"]["assumptions"]:
-                for pname in f["ports"]:
-                    p = self.port(comp, pname)
-                    if p is not None and p["kind"] == "input" and satisfies(p["assumption"], a):
-                        out.add(pname)
-        return sorted(out)
+        return sorted({p for f in self.comps[comp]["functionalities"] if (comp, f["name"]) not in state.degraded
+                       for p, _ in self.relied_on(comp, f)})
+
+    def relied_on(self, comp: str, f: FunctionalityDoc) -> list[tuple[str, PredicateDoc]]:
+        """The inputs of `comp` that functionality `f`'s normal assumptions rely on, each with the
+        assumption it meets."""
+        out = []
+        for a in f["normal"]["assumptions"]:
+            for pname in f["ports"]:
+                p = self.port(comp, pname)
+                if p is not None and p["kind"] == "input" and satisfies(p["assumption"], a):
+                    out.append((pname, a))
+        return out
 
     def refusal(self, state: State, step: Step) -> Optional[str]:
         """Why `step` cannot run in `state` at all (the structural part of its preconditions)."""
@@ -547,8 +550,7 @@ def parse_ask(text: str) -> tuple[float, list[tuple[str, str]]]:
         since = float(head)
     except ValueError:
         return 0.0, []
-    pairs = [tuple(w.rsplit(":", 1)) for w in rest if ":" in w]
-    return since, [(f, p) for f, p in pairs]
+    return since, [(f, p) for f, sep, p in (w.rpartition(":") for w in rest) if sep]
 
 
 def tool_node(tool: str, pid: Optional[int] = None) -> str:
@@ -1710,13 +1712,12 @@ def _assumptions_hold(ctx: Context, step: Step) -> None:
     node calls a silence a gap only when its timer next looks (after up to twice the limit)."""
     comp, f = step.component, step.functionality
     fed = _rated_inputs(ctx, comp, f)
-    if fed:
-        ctx.rt.ask(ctx.began, [(ctx.names.fqn(comp), p) for p in fed])
-    if wait_status(ctx, comp, lambda st: meets(f)(st) and all(_received_since(st, p, ctx.began) for p in fed),
+    _ask(ctx, [(comp, p) for p in fed])
+    if wait_status(ctx, comp, lambda st: meets(f)(st) and all(_heard_since(st, p, ctx.began) for p in fed),
                    ctx.args.wire_timeout):
         return
     st = ctx.rt.status(ctx.names.fqn(comp)) or {}
-    silent = [p for p in fed if not _received_since(st, p, ctx.began)]
+    silent = [p for p in fed if not _heard_since(st, p, ctx.began)]
     raise StepFailed(f"{comp}.{f}: its assumptions are not met on the wire "
                      f"({st.get(f'wire.{f}', 'no status from the node')})" + (
                          f"; nothing received on {', '.join(silent)} since the step began" if st and silent else ""))
@@ -1725,23 +1726,15 @@ def _assumptions_hold(ctx: Context, step: Step) -> None:
 def _rated_inputs(ctx: Context, comp: str, func: str) -> list[str]:
     """The inputs `comp`'s functionality `func` relies on in its normal mode for data at a rate
     (not an FTM's requests and results, which come on demand)."""
-    out = set()
-    for f in ctx.model.comps[comp]["functionalities"]:
-        if f["name"] != func:
-            continue
-        for a in f["normal"]["assumptions"]:
-            for pname in f["ports"]:
-                p = ctx.model.port(comp, pname)
-                if p is not None and p["kind"] == "input" and rate(a) is not None and \
-                        satisfies(p["assumption"], a) and not on_demand(ctx, comp, pname):
-                    out.add(pname)
-    return sorted(out)
+    return sorted({p for f in ctx.model.comps[comp]["functionalities"] if f["name"] == func
+                   for p, a in ctx.model.relied_on(comp, f) if rate(a) is not None and not on_demand(ctx, comp, p)})
 
 
-def _received_since(st: Status, port: str, since: float) -> bool:
-    """Whether the status shows `port` received from anyone after `since` (wall clock)."""
-    head = f"in.{port}.last."
-    return any(float(v or 0) > since for k, v in st.items() if k.startswith(head))
+def _ask(ctx: Context, inputs: list[tuple[str, str]]) -> None:
+    """Ask the nodes of these (component, input) pairs for the status that shows a reception
+    since the step began (docs/control-interface.md#asked-status)."""
+    if inputs:
+        ctx.rt.ask(ctx.began, [(ctx.names.fqn(c), p) for c, p in inputs])
 
 
 def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was: State, will: State) -> None:
@@ -1752,8 +1745,7 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
     matched = len(_ends(ctx, conn, was, "output"))
     readers = [(r, p) for r, p in _ends(ctx, conn, will, "input") if p in ctx.model.relying_inputs(r, will)]
     fed = [(r, p) for r, p in readers if not on_demand(ctx, r, p)]
-    if fed:
-        ctx.rt.ask(ctx.began, [(ctx.names.fqn(r), p) for r, p in fed])
+    _ask(ctx, fed)
     for reader, port in readers:
         key = f"in.{port}@{k}.publishers"
         if (reader, port) not in fed:
@@ -1763,17 +1755,20 @@ def _readers_keep_data(ctx: Context, step: Step, conn: str, kept: list[str], was
                 raise StepFailed(f"{reader}.{port} is matched with {st.get(key, 'no')} of the "
                                  f"{plural(matched, 'publisher')} of {k}; taking {step.component}'s away "
                                  "could leave it without one")
-        elif not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, names, ctx.began)), wait):
+        elif not wait_status(ctx, reader, lambda st: bool(_heard_since(st, port, ctx.began, names)), wait):
             st = ctx.rt.status(ctx.names.fqn(reader)) or {}
             raise StepFailed(f"{reader}.{port} has received nothing on {k} from {', '.join(sorted(names))} since the "
                              f"step began (fresh sources: {st.get(f'in.{port}.fresh') or 'none'}); taking "
                              f"{step.component}'s away would leave it without data")
 
 
-def _heard_since(st: Status, port: str, nodes: set[str], since: float) -> list[str]:
-    """The `nodes` whose messages `port` received after `since` (wall clock), as the status
-    shows: a publisher that died a moment ago vouches for nothing with what it sent before."""
-    return [n for n in sorted(nodes) if float(st.get(f"in.{port}.last.{n}") or 0) > since]
+def _heard_since(st: Status, port: str, since: float, nodes: Optional[set[str]] = None) -> list[str]:
+    """The nodes (of `nodes`, or any) whose messages `port` received after `since` (wall clock),
+    as the status shows: a publisher that died a moment ago vouches for nothing with what it sent
+    before."""
+    head = f"in.{port}.last."
+    return sorted(k[len(head):] for k, v in st.items()
+                  if k.startswith(head) and float(v or 0) > since and (nodes is None or k[len(head):] in nodes))
 
 
 def wire_after(ctx: Context, step: Step, will: State) -> None:
