@@ -2,8 +2,11 @@
 every process a test starts (or a plan script it runs starts) is ended by its PID."""
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from pathlib import Path
-from typing import Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import pytest
 
@@ -33,6 +36,17 @@ def live(tmp_path: Path) -> Iterator[LiveSystem]:
 
 def example(name: str) -> str:
     return str(ROOT / "examples" / name)
+
+
+def run_script(live: LiveSystem, script: str, timeout: float) -> dict[str, Any]:
+    """Run a Python `script` in `live`'s domain (its process ended by PID with the system) and
+    return what it printed last, as JSON; a failed script fails the test with its stderr."""
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=live.env)
+    live.pids.add(proc.pid)
+    out, err = proc.communicate(timeout=timeout)
+    assert proc.returncode == 0, err[-2000:]
+    return dict(json.loads(out.strip().splitlines()[-1]))
 
 
 @pytest.fixture

@@ -4,11 +4,9 @@ without waiting for its periodic status; unasked, it says nothing new until that
 nodes' status period is 30 s here, so only an answer to an ask can show a reception after it."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-
 from reconf_ros.tools.livetest import LiveSystem
+
+from .conftest import run_script
 
 SCRIPT = r"""import json, time
 import rclpy
@@ -65,12 +63,7 @@ print(json.dumps(seen))
 
 
 def test_a_node_asked_for_an_input_s_status_answers_at_its_next_message(live: LiveSystem) -> None:
-    proc = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=live.env)
-    live.pids.add(proc.pid)
-    out, err = proc.communicate(timeout=90)
-    assert proc.returncode == 0, err[-2000:]
-    seen = json.loads(out.strip().splitlines()[-1])
+    seen = run_script(live, SCRIPT, timeout=90)
     assert seen["heard"] and seen["matched"], seen
     assert seen["unasked"] == 0, seen                  # the periodic status (30 s) shows nothing new
     for answer in seen["answers"]:

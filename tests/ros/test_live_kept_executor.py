@@ -4,11 +4,9 @@ entities made or destroyed in a callback are waited on, or no longer, from the n
 coroutine that awaits is resumed, and after `shutdown` the nodes' destruction is not held back."""
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-
 from reconf_ros.tools.livetest import LiveSystem
+
+from .conftest import run_script
 
 SCRIPT = r"""import json, time
 import rclpy
@@ -81,12 +79,7 @@ print(json.dumps(seen))
 
 
 def test_the_kept_executor_runs_every_kind_of_callback(live: LiveSystem) -> None:
-    proc = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=live.env)
-    live.pids.add(proc.pid)
-    out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 0, err[-2000:]
-    seen = json.loads(out.strip().splitlines()[-1])
+    seen = run_script(live, SCRIPT, timeout=60)
     assert seen["timer"] >= 5
     assert seen["matched"] == 1                                     # a publisher's event
     assert seen["info"] and all(with_info for _, with_info in seen["info"]), seen["info"][:3]   # message info
